@@ -1,0 +1,84 @@
+// pf: the PointForward command line. Parses the subcommand and hands the rest
+// of the words to it; see `pf help`.
+#include <cstdio>
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include "absl/strings/str_cat.h"
+#include "client/commands.h"
+#include "common/logging.h"
+
+namespace pf {
+
+int ExitCodeFor(const absl::Status& status) {
+  switch (status.code()) {
+    case absl::StatusCode::kOk:
+      return kExitOk;
+    case absl::StatusCode::kInvalidArgument:
+    case absl::StatusCode::kNotFound:
+    case absl::StatusCode::kOutOfRange:
+    case absl::StatusCode::kFailedPrecondition:
+    case absl::StatusCode::kAlreadyExists:
+      return kExitBadInput;
+    case absl::StatusCode::kUnavailable:
+      return kExitUnreachable;
+    default:
+      return kExitFailed;
+  }
+}
+
+int ReportError(const std::string& command, const absl::Status& status) {
+  std::fprintf(stderr, "pf %s: %s\n", command.c_str(), std::string(status.message()).c_str());
+  return ExitCodeFor(status);
+}
+
+namespace {
+
+constexpr char kUsage[] = R"(pf: the PointForward render service command line
+
+usage: pf <command> [args]
+
+commands:
+  synth --out DIR [--seed N] [--cameras N] [--frames N] [--width W --height H]
+        write a procedural driving clip with ground truth
+  synth render --clip DIR --cameras VIEWS.json --out DIR2
+        ray-cast true images and depths of a synth clip at any views
+  validate CLIP.json [--allow-outside-paths]
+        check a clip manifest; one summary line, or every problem
+  import waymo SEGMENT.tfrecord --out DIR [--cameras A,B] [--start-us T --duration-us D]
+  import dgp SCENE_DIR --out DIR [--cameras A,B]
+        turn a driving log into a clip
+  scene info SCENE | scene export SCENE --ply OUT.ply
+        inspect or export a Gaussian scene
+  render SCENE --cameras VIEWS.json --out DIR [--outputs rgb,alpha,depth,features,instance]
+        render EXR files and PNG previews of a scene
+  bench raster [--gaussians N] [--width W --height H] [--channels C] [--repeat R]
+        time the rasterizer; prints JSON
+  help  this text
+
+Exit codes: 0 done, 1 failed, 2 bad input, 3 server unreachable.
+Set PF_LOG_LEVEL=debug for more logging, PF_THREADS=N to size the thread pool.
+)";
+
+}  // namespace
+}  // namespace pf
+
+int main(int argc, char** argv) {
+  pf::InitLogging();
+  if (argc < 2 || std::strcmp(argv[1], "help") == 0 || std::strcmp(argv[1], "--help") == 0 ||
+      std::strcmp(argv[1], "-h") == 0) {
+    std::fputs(pf::kUsage, argc < 2 ? stderr : stdout);
+    return argc < 2 ? pf::kExitBadInput : pf::kExitOk;
+  }
+  const std::string command = argv[1];
+  const std::vector<std::string> args(argv + 2, argv + argc);
+  if (command == "validate") return pf::RunValidate(args);
+  if (command == "synth") return pf::RunSynth(args);
+  if (command == "import") return pf::RunImport(args);
+  if (command == "scene") return pf::RunScene(args);
+  if (command == "render") return pf::RunRender(args);
+  if (command == "bench") return pf::RunBench(args);
+  std::fprintf(stderr, "pf: unknown command '%s' (see pf help)\n", command.c_str());
+  return pf::kExitBadInput;
+}

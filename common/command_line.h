@@ -1,0 +1,49 @@
+// A small command-line parser for `pf` subcommands and the daemons.
+//
+//   ASSIGN_OR_RETURN(CommandLine cl, CommandLine::Parse(args, {"out", "seed"}, {"wait"}));
+//   ASSIGN_OR_RETURN(int seed, cl.GetInt("seed", 1));
+//
+// Accepts "--name value", "--name=value", boolean "--name", and positional
+// words; "--" ends the flags. Unknown flags are INVALID_ARGUMENT naming them.
+#ifndef POINTFORWARD_COMMON_COMMAND_LINE_H_
+#define POINTFORWARD_COMMON_COMMAND_LINE_H_
+
+#include <cstdint>
+#include <map>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+
+namespace pf {
+
+class CommandLine {
+ public:
+  // Parses `words` (without the program and subcommand names). `value_flags`
+  // take a value; `bool_flags` take none.
+  static absl::StatusOr<CommandLine> Parse(const std::vector<std::string>& words,
+                                           const std::set<std::string>& value_flags,
+                                           const std::set<std::string>& bool_flags = {});
+
+  const std::vector<std::string>& positional() const { return positional_; }
+  // Returns true if flag `name` was given.
+  bool Has(const std::string& name) const;
+  // Returns the value of `name`, or `fallback` when absent.
+  std::string Get(const std::string& name, const std::string& fallback = "") const;
+  // Returns the value of `name` as an integer / double; INVALID_ARGUMENT naming
+  // the flag if it is not one.
+  absl::StatusOr<int64_t> GetInt(const std::string& name, int64_t fallback) const;
+  absl::StatusOr<double> GetDouble(const std::string& name, double fallback) const;
+  // Returns the value split at commas, empty items dropped.
+  std::vector<std::string> GetList(const std::string& name) const;
+
+ private:
+  std::vector<std::string> positional_;
+  std::map<std::string, std::string> values_;
+};
+
+}  // namespace pf
+
+#endif  // POINTFORWARD_COMMON_COMMAND_LINE_H_

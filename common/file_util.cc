@@ -1,0 +1,113 @@
+// File helpers.
+#include "common/file_util.h"
+
+#include <unistd.h>
+
+#include <atomic>
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "absl/strings/str_cat.h"
+
+namespace pf {
+namespace fs = std::filesystem;
+
+absl::StatusOr<std::string> ReadFileToString(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) {
+    std::error_code ec;
+    if (!fs::exists(path, ec)) return absl::NotFoundError(absl::StrCat(path, ": file not found"));
+    return absl::PermissionDeniedError(absl::StrCat(path, ": cannot open: ", std::strerror(errno)));
+  }
+  std::ostringstream buffer;
+  buffer << in.rdbuf();
+  if (in.bad()) return absl::DataLossError(absl::StrCat(path, ": read error"));
+  return std::move(buffer).str();
+}
+
+std::string TempPathFor(const std::string& path) {
+  static std::atomic<int> counter{0};
+  const fs::path p(path);
+  return (p.parent_path() /
+          absl::StrCat(".pf-tmp-", ::getpid(), "-", counter++, "-", p.filename().string()))
+      .string();
+}
+
+absl::Status CommitTempFile(const std::string& temp_path, const std::string& path) {
+  std::error_code ec;
+  fs::rename(temp_path, path, ec);
+  if (ec) {
+    fs::remove(temp_path, ec);
+    return absl::InternalError(absl::StrCat(path, ": rename failed: ", ec.message()));
+  }
+  return absl::OkStatus();
+}
+
+absl::Status MakeDirs(const std::string& dir) {
+  if (dir.empty()) return absl::OkStatus();
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec) return absl::InternalError(absl::StrCat(dir, ": cannot create directory: ", ec.message()));
+  return absl::OkStatus();
+}
+
+absl::Status WriteFileAtomic(const std::string& path, std::string_view contents) {
+  const fs::path parent = fs::path(path).parent_path();
+  if (!parent.empty()) {
+    if (absl::Status s = MakeDirs(parent.string()); !s.ok()) return s;
+  }
+  const std::string temp = TempPathFor(path);
+  {
+    std::ofstream out(temp, std::ios::binary | std::ios::trunc);
+    if (!out) return absl::InternalError(absl::StrCat(path, ": cannot write: ", std::strerror(errno)));
+    out.write(contents.data(), static_cast<std::streamsize>(contents.size()));
+    out.flush();
+    if (!out) {
+      out.close();
+      std::error_code ec;
+      fs::remove(temp, ec);
+      return absl::InternalError(absl::StrCat(path, ": write failed (disk full?)"));
+    }
+  }
+  return CommitTempFile(temp, path);
+}
+
+absl::StatusOr<std::string> ResolvePath(const std::string& root, const std::string& relative,
+                                        PathPolicy policy) {
+  if (relative.empty()) return absl::InvalidArgumentError("path is empty");
+  if (relative.find('\0') != std::string::npos) {
+    return absl::InvalidArgumentError("path contains a NUL character");
+  }
+  const fs::path rel(relative);
+  if (rel.is_absolute()) {
+    if (policy == PathPolicy::kAllowOutside) return rel.lexically_normal().string();
+    return absl::InvalidArgumentError(
+        absl::StrCat("'", relative, "' is absolute; paths must be relative to the clip directory"));
+  }
+  const fs::path root_abs = fs::absolute(root).lexically_normal();
+  const fs::path joined = (root_abs / rel).lexically_normal();
+  if (policy == PathPolicy::kAllowOutside) return joined.string();
+  const fs::path inside = joined.lexically_relative(root_abs);
+  if (inside.empty() || *inside.begin() == "..") {
+    return absl::InvalidArgumentError(
+        absl::StrCat("'", relative, "' escapes the clip directory"));
+  }
+  // Symlinks: compare the real locations where the file exists.
+  std::error_code ec;
+  const fs::path real_root = fs::weakly_canonical(root_abs, ec);
+  const fs::path real = fs::weakly_canonical(joined, ec);
+  if (!ec) {
+    const fs::path real_inside = real.lexically_relative(real_root);
+    if (real_inside.empty() || *real_inside.begin() == "..") {
+      return absl::InvalidArgumentError(
+          absl::StrCat("'", relative, "' escapes the clip directory through a symbolic link"));
+    }
+  }
+  return joined.string();
+}
+
+}  // namespace pf

@@ -1,0 +1,53 @@
+// File helpers: whole-file reads, atomic writes, and resolving user-given
+// relative paths under a root without letting them escape it.
+#ifndef POINTFORWARD_COMMON_FILE_UTIL_H_
+#define POINTFORWARD_COMMON_FILE_UTIL_H_
+
+#include <string>
+#include <string_view>
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+
+namespace pf {
+
+// Returns the whole content of `path`; NOT_FOUND or another error naming the
+// path.
+absl::StatusOr<std::string> ReadFileToString(const std::string& path);
+
+// Writes `contents` to `path` through a temporary file in the same directory
+// and a rename, so a reader sees either the old file or the whole new one.
+// Creates missing parent directories.
+absl::Status WriteFileAtomic(const std::string& path, std::string_view contents);
+
+// Returns a temporary name beside `path` for writers that must produce the
+// file themselves (libraries that take a path); rename it over `path` with
+// CommitTempFile() when complete. The name keeps `path`'s file name at its
+// end, so libraries that pick a format by extension still do.
+std::string TempPathFor(const std::string& path);
+
+// Renames `temp_path` to `path`; removes `temp_path` and returns an error
+// naming `path` if that fails.
+absl::Status CommitTempFile(const std::string& temp_path, const std::string& path);
+
+// Creates `dir` and its parents if missing.
+absl::Status MakeDirs(const std::string& dir);
+
+// How ResolvePath treats paths outside the root.
+enum class PathPolicy {
+  kUnderRootOnly,  // Absolute paths and "..", symlinks out of root: rejected.
+  kAllowOutside,   // Absolute paths allowed; relative ones are joined to root.
+};
+
+// Resolves `relative` (as written in a manifest) against `root` and returns
+// the lexically normalised path. With kUnderRootOnly, an empty path, an
+// absolute path, a path whose ".." components climb above `root`, or an
+// existing path whose symlinks resolve outside `root` is INVALID_ARGUMENT
+// ("escapes the clip directory", "is absolute").
+absl::StatusOr<std::string> ResolvePath(const std::string& root,
+                                        const std::string& relative,
+                                        PathPolicy policy);
+
+}  // namespace pf
+
+#endif  // POINTFORWARD_COMMON_FILE_UTIL_H_

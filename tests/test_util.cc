@@ -1,0 +1,113 @@
+// Test helpers.
+#include "tests/test_util.h"
+
+#include <fcntl.h>
+#include <poll.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <mutex>
+
+extern char** environ;
+
+namespace pf::testing {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::mutex g_dirs_mutex;
+std::vector<std::string>* g_dirs = nullptr;
+
+void RemoveTempDirs() {
+  std::lock_guard<std::mutex> lock(g_dirs_mutex);
+  if (g_dirs == nullptr || std::getenv("PF_KEEP_TEST_DIRS") != nullptr) return;
+  for (const std::string& dir : *g_dirs) {
+    std::error_code ec;
+    fs::remove_all(dir, ec);
+  }
+}
+
+std::string EnvOr(const char* name, const std::string& fallback) {
+  const char* value = std::getenv(name);
+  return value != nullptr && *value != '\0' ? value : fallback;
+}
+
+}  // namespace
+
+std::string MakeTempDir(const std::string& prefix) {
+  std::string pattern = (fs::path(EnvOr("TMPDIR", "/tmp")) / (prefix + "_XXXXXX")).string();
+  if (::mkdtemp(pattern.data()) == nullptr) std::abort();
+  std::lock_guard<std::mutex> lock(g_dirs_mutex);
+  if (g_dirs == nullptr) {
+    g_dirs = new std::vector<std::string>();
+    std::atexit(RemoveTempDirs);
+  }
+  g_dirs->push_back(pattern);
+  return pattern;
+}
+
+std::optional<std::string> DataDir(const std::string& subdir) {
+  const std::string root = EnvOr("PF_DATA_DIR", "");
+  if (root.empty()) return std::nullopt;
+  const fs::path path = subdir.empty() ? fs::path(root) : fs::path(root) / subdir;
+  std::error_code ec;
+  if (!fs::exists(path, ec)) return std::nullopt;
+  return path.string();
+}
+
+std::string BinPath(const std::string& name) {
+  return (fs::path(EnvOr("PF_BIN_DIR", "build/bin")) / name).string();
+}
+
+std::string SourceDir() { return EnvOr("PF_SOURCE_DIR", "."); }
+
+CommandResult RunCommand(const std::vector<std::string>& argv) {
+  CommandResult result;
+  int out_pipe[2], err_pipe[2];
+  if (::pipe2(out_pipe, O_CLOEXEC) != 0 || ::pipe2(err_pipe, O_CLOEXEC) != 0) return result;
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_adddup2(&actions, out_pipe[1], 1);
+  posix_spawn_file_actions_adddup2(&actions, err_pipe[1], 2);
+  std::vector<char*> args;
+  for (const std::string& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+  args.push_back(nullptr);
+  pid_t pid;
+  const int rc = ::posix_spawn(&pid, args[0], &actions, nullptr, args.data(), environ);
+  posix_spawn_file_actions_destroy(&actions);
+  ::close(out_pipe[1]);
+  ::close(err_pipe[1]);
+  if (rc != 0) {
+    ::close(out_pipe[0]);
+    ::close(err_pipe[0]);
+    result.err = "cannot start " + argv[0];
+    return result;
+  }
+  pollfd fds[2] = {{out_pipe[0], POLLIN, 0}, {err_pipe[0], POLLIN, 0}};
+  std::string* sinks[2] = {&result.out, &result.err};
+  int open_fds = 2;
+  char buffer[65536];
+  while (open_fds > 0) {
+    if (::poll(fds, 2, -1) < 0) break;
+    for (int i = 0; i < 2; ++i) {
+      if (fds[i].fd < 0 || fds[i].revents == 0) continue;
+      const ssize_t got = ::read(fds[i].fd, buffer, sizeof(buffer));
+      if (got <= 0) {
+        ::close(fds[i].fd);
+        fds[i].fd = -1;
+        --open_fds;
+      } else {
+        sinks[i]->append(buffer, static_cast<size_t>(got));
+      }
+    }
+  }
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+  return result;
+}
+
+}  // namespace pf::testing

@@ -1,0 +1,58 @@
+// Tests for image and depth-map reading and writing.
+#include "worker/engine/image/image_io.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+namespace pf {
+namespace {
+
+TEST(ImageIo, PngRoundTripKeepsSizeAndEightBitValues) {
+  ImageF image(5, 3, 3);
+  for (int y = 0; y < 3; ++y)
+    for (int x = 0; x < 5; ++x)
+      for (int c = 0; c < 3; ++c) image.at(x, y, c) = ((x * 3 + y * 5 + c * 7) % 256) / 255.f;
+  const std::string path = ::testing::TempDir() + "/rt.png";
+  ASSERT_TRUE(WritePng(path, image).ok());
+  auto info = ReadImageInfo(path);
+  ASSERT_TRUE(info.ok()) << info.status();
+  EXPECT_EQ(info->width, 5);
+  EXPECT_EQ(info->height, 3);
+  EXPECT_EQ(info->format, "png");
+  auto back = ReadImage(path, 3);
+  ASSERT_TRUE(back.ok()) << back.status();
+  for (size_t i = 0; i < image.pixels.size(); ++i) {
+    ASSERT_NEAR(back->pixels[i], image.pixels[i], 0.5f / 255.f) << i;
+  }
+}
+
+TEST(ImageIo, DepthExrAndPng16RoundTrip) {
+  ImageF depth(4, 2, 1);
+  for (int i = 0; i < 8; ++i) depth.pixels[i] = i == 3 ? 0.f : 1.5f + 10.25f * i;
+  const std::string exr = ::testing::TempDir() + "/d.exr";
+  const std::string png = ::testing::TempDir() + "/d.png";
+  ASSERT_TRUE(WriteDepthExr(exr, depth).ok());
+  ASSERT_TRUE(WriteDepthPng16(png, depth).ok());
+  auto from_exr = ReadDepth(exr);
+  auto from_png = ReadDepth(png);
+  ASSERT_TRUE(from_exr.ok()) << from_exr.status();
+  ASSERT_TRUE(from_png.ok()) << from_png.status();
+  for (int i = 0; i < 8; ++i) {
+    EXPECT_FLOAT_EQ(from_exr->pixels[i], depth.pixels[i]);
+    EXPECT_NEAR(from_png->pixels[i], depth.pixels[i], 0.5f / 256.f);
+  }
+}
+
+TEST(ImageIo, EightBitPngIsNotADepthMapAndMissingFileIsNotFound) {
+  ImageF grey(2, 2, 1);
+  const std::string path = ::testing::TempDir() + "/grey.png";
+  ASSERT_TRUE(WritePng(path, grey).ok());
+  auto depth = ReadDepth(path);
+  ASSERT_FALSE(depth.ok());
+  EXPECT_NE(depth.status().message().find("16-bit PNG"), std::string::npos);
+  EXPECT_EQ(ReadImageInfo(path + ".nope").status().code(), absl::StatusCode::kNotFound);
+}
+
+}  // namespace
+}  // namespace pf
