@@ -1,0 +1,164 @@
+// Camera models.
+#include "worker/engine/camera/camera_model.h"
+
+#include <cmath>
+
+#include "absl/strings/str_cat.h"
+#include "pointforward/v1/clip.pb.h"
+
+namespace pf {
+
+CameraModel::CameraModel(int width, int height, double fx, double fy, double cx, double cy)
+    : width_(width), height_(height), fx_(fx), fy_(fy), cx_(cx), cy_(cy) {}
+
+void CameraModel::SetOpenCv(double k1, double k2, double p1, double p2, double k3) {
+  kind_ = Kind::kOpenCv;
+  k1_ = k1, k2_ = k2, p1_ = p1, p2_ = p2, k3_ = k3, k4_ = 0;
+  UpdateValidRadius();
+}
+
+void CameraModel::SetFisheye(double k1, double k2, double k3, double k4) {
+  kind_ = Kind::kFisheye;
+  k1_ = k1, k2_ = k2, k3_ = k3, k4_ = k4, p1_ = 0, p2_ = 0;
+  UpdateValidRadius();
+}
+
+void CameraModel::UpdateValidRadius() {
+  // Walk outwards until the distorted radius stops growing with the
+  // undistorted one (or up to a radius far beyond any real lens).
+  max_radius_ = 1e6;
+  constexpr double kStep = 1e-3, kLimit = 20.0;
+  double prev = 0;
+  for (double r = kStep; r < kLimit; r += kStep) {
+    double xd, yd;
+    Distort(r, 0, &xd, &yd);
+    // Include the tangential terms' worst direction by also checking y.
+    double xd2, yd2;
+    Distort(0, r, &xd2, &yd2);
+    const double rd = std::min(std::hypot(xd, yd), std::hypot(xd2, yd2));
+    if (rd <= prev) {
+      max_radius_ = r - kStep;
+      return;
+    }
+    prev = rd;
+  }
+}
+
+void CameraModel::Distort(double xn, double yn, double* xd, double* yd) const {
+  switch (kind_) {
+    case Kind::kPinhole:
+      *xd = xn;
+      *yd = yn;
+      return;
+    case Kind::kOpenCv: {
+      const double r2 = xn * xn + yn * yn;
+      const double radial = 1 + r2 * (k1_ + r2 * (k2_ + r2 * k3_));
+      *xd = xn * radial + 2 * p1_ * xn * yn + p2_ * (r2 + 2 * xn * xn);
+      *yd = yn * radial + p1_ * (r2 + 2 * yn * yn) + 2 * p2_ * xn * yn;
+      return;
+    }
+    case Kind::kFisheye: {
+      const double r = std::sqrt(xn * xn + yn * yn);
+      if (r < 1e-12) {
+        *xd = xn;
+        *yd = yn;
+        return;
+      }
+      const double theta = std::atan(r);
+      const double t2 = theta * theta;
+      const double theta_d = theta * (1 + t2 * (k1_ + t2 * (k2_ + t2 * (k3_ + t2 * k4_))));
+      *xd = xn * theta_d / r;
+      *yd = yn * theta_d / r;
+      return;
+    }
+  }
+}
+
+bool CameraModel::Undistort(double xd, double yd, double* xn, double* yn) const {
+  if (kind_ == Kind::kPinhole) {
+    *xn = xd;
+    *yn = yd;
+    return true;
+  }
+  // Newton's method on Distort(x) - target, with a numeric Jacobian.
+  double x = xd, y = yd;
+  for (int iter = 0; iter < 50; ++iter) {
+    double fx, fy;
+    Distort(x, y, &fx, &fy);
+    const double ex = fx - xd, ey = fy - yd;
+    if (std::abs(ex) < 1e-12 && std::abs(ey) < 1e-12) break;
+    constexpr double h = 1e-7;
+    double fxx, fyx, fxy, fyy;
+    Distort(x + h, y, &fxx, &fyx);
+    Distort(x, y + h, &fxy, &fyy);
+    const double j00 = (fxx - fx) / h, j10 = (fyx - fy) / h;
+    const double j01 = (fxy - fx) / h, j11 = (fyy - fy) / h;
+    const double det = j00 * j11 - j01 * j10;
+    if (std::abs(det) < 1e-15) return false;
+    x -= (j11 * ex - j01 * ey) / det;
+    y -= (-j10 * ex + j00 * ey) / det;
+    if (!std::isfinite(x) || !std::isfinite(y)) return false;
+  }
+  double cx, cy;
+  Distort(x, y, &cx, &cy);
+  if (std::hypot(cx - xd, cy - yd) > 1e-6) return false;
+  if (std::hypot(x, y) > max_radius_) return false;
+  *xn = x;
+  *yn = y;
+  return true;
+}
+
+bool CameraModel::Project(const Vec3& p, double* u, double* v) const {
+  if (p.z <= 1e-6) return false;
+  const double xn = p.x / p.z, yn = p.y / p.z;
+  if (kind_ != Kind::kPinhole && xn * xn + yn * yn > max_radius_ * max_radius_) return false;
+  double xd, yd;
+  Distort(xn, yn, &xd, &yd);
+  *u = fx_ * xd + cx_;
+  *v = fy_ * yd + cy_;
+  return true;
+}
+
+bool CameraModel::Unproject(double u, double v, Vec3* ray) const {
+  double xn, yn;
+  if (!Undistort((u - cx_) / fx_, (v - cy_) / fy_, &xn, &yn)) return false;
+  *ray = {xn, yn, 1.0};
+  return true;
+}
+
+absl::StatusOr<CameraModel> CameraModelFromProto(const pointforward::v1::Camera& camera) {
+  const std::string where = absl::StrCat("camera '", camera.id(), "'");
+  if (camera.width() <= 0 || camera.height() <= 0) {
+    return absl::InvalidArgumentError(absl::StrCat(where, ": width and height must be positive"));
+  }
+  const auto& k = camera.intrinsics();
+  for (double value : {k.fx(), k.fy(), k.cx(), k.cy()}) {
+    if (!std::isfinite(value)) {
+      return absl::InvalidArgumentError(absl::StrCat(where, ".intrinsics: non-finite number"));
+    }
+  }
+  if (k.fx() <= 0 || k.fy() <= 0) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(where, ".intrinsics: focal length must be positive"));
+  }
+  CameraModel model(camera.width(), camera.height(), k.fx(), k.fy(), k.cx(), k.cy());
+  const auto& d = camera.distortion();
+  for (double value : {d.k1(), d.k2(), d.p1(), d.p2(), d.k3(), d.k4()}) {
+    if (!std::isfinite(value)) {
+      return absl::InvalidArgumentError(absl::StrCat(where, ".distortion: non-finite number"));
+    }
+  }
+  switch (d.model()) {
+    case pointforward::v1::Distortion::OPENCV:
+      model.SetOpenCv(d.k1(), d.k2(), d.p1(), d.p2(), d.k3());
+      break;
+    case pointforward::v1::Distortion::FISHEYE:
+      model.SetFisheye(d.k1(), d.k2(), d.k3(), d.k4());
+      break;
+    default:
+      break;
+  }
+  return model;
+}
+
+}  // namespace pf

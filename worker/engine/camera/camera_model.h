@@ -1,0 +1,81 @@
+// Camera models: pinhole, OpenCV (k1, k2, p1, p2, k3) and equidistant fisheye
+// (k1..k4), with projection of camera-frame points to pixels and back.
+//
+// Pixel coordinates are continuous with the image spanning [0, W] x [0, H]:
+// pixel (i, j) has its centre at (i + 0.5, j + 0.5), and u = fx * x' + cx
+// where (x', y') are the distorted normalised coordinates. Importers of data
+// whose calibration puts pixel centres on integers add 0.5 to cx and cy.
+// Camera axes are OpenCV's: x right, y down, z forward.
+#ifndef POINTFORWARD_WORKER_ENGINE_CAMERA_CAMERA_MODEL_H_
+#define POINTFORWARD_WORKER_ENGINE_CAMERA_CAMERA_MODEL_H_
+
+#include <string>
+
+#include "absl/status/statusor.h"
+#include "common/geometry.h"
+
+namespace pointforward::v1 {
+class Camera;
+}
+
+namespace pf {
+
+class CameraModel {
+ public:
+  enum class Kind { kPinhole, kOpenCv, kFisheye };
+
+  CameraModel() = default;
+  // A pinhole camera.
+  CameraModel(int width, int height, double fx, double fy, double cx, double cy);
+
+  // Sets OpenCV distortion coefficients (Brown-Conrady).
+  void SetOpenCv(double k1, double k2, double p1, double p2, double k3);
+  // Sets equidistant fisheye coefficients.
+  void SetFisheye(double k1, double k2, double k3, double k4);
+
+  Kind kind() const { return kind_; }
+  int width() const { return width_; }
+  int height() const { return height_; }
+  double fx() const { return fx_; }
+  double fy() const { return fy_; }
+  double cx() const { return cx_; }
+  double cy() const { return cy_; }
+  bool has_distortion() const { return kind_ != Kind::kPinhole; }
+
+  // Maps undistorted normalised coordinates (x/z, y/z) to distorted ones.
+  // For the fisheye model the input is also (x/z, y/z) with z > 0.
+  void Distort(double xn, double yn, double* xd, double* yd) const;
+  // Inverts Distort() by iteration; false when it does not converge or the
+  // point lies beyond the model's valid radius.
+  bool Undistort(double xd, double yd, double* xn, double* yn) const;
+
+  // Projects camera-frame point `p` to continuous pixel coordinates. Returns
+  // false when the point is behind the camera (z <= 1e-6) or outside the
+  // radius where the distortion polynomial is monotonic (where it would fold
+  // far-away points back into the image). The pixel may lie outside the image.
+  bool Project(const Vec3& p, double* u, double* v) const;
+
+  // Returns the camera-frame ray through continuous pixel (u, v), scaled so
+  // that z = 1; false if the pixel cannot be undistorted.
+  bool Unproject(double u, double v, Vec3* ray) const;
+
+  // The largest undistorted normalised radius Project() accepts.
+  double max_normalized_radius() const { return max_radius_; }
+
+ private:
+  void UpdateValidRadius();
+
+  Kind kind_ = Kind::kPinhole;
+  int width_ = 0, height_ = 0;
+  double fx_ = 1, fy_ = 1, cx_ = 0, cy_ = 0;
+  double k1_ = 0, k2_ = 0, p1_ = 0, p2_ = 0, k3_ = 0, k4_ = 0;
+  double max_radius_ = 1e6;
+};
+
+// Builds a CameraModel from a manifest camera. INVALID_ARGUMENT (naming the
+// field) for a non-positive size or focal length or non-finite numbers.
+absl::StatusOr<CameraModel> CameraModelFromProto(const pointforward::v1::Camera& camera);
+
+}  // namespace pf
+
+#endif  // POINTFORWARD_WORKER_ENGINE_CAMERA_CAMERA_MODEL_H_
