@@ -32,6 +32,8 @@ int RunImport(const std::vector<std::string>& args);    // pf import waymo|dgp
 int RunScene(const std::vector<std::string>& args);     // pf scene info|export
 int RunRender(const std::vector<std::string>& args);    // pf render
 int RunBench(const std::vector<std::string>& args);     // pf bench raster
+int RunReconstruct(const std::vector<std::string>& args);  // pf reconstruct
+int RunEval(const std::vector<std::string>& args);         // pf eval
 
 }  // namespace pf
 

@@ -41,20 +41,29 @@ usage: pf <command> [args]
 
 commands:
   synth --out DIR [--seed N] [--cameras N] [--frames N] [--width W --height H]
+        [--antialias N]
         write a procedural driving clip with ground truth
   synth render --clip DIR --cameras VIEWS.json --out DIR2
         ray-cast true images and depths of a synth clip at any views
   validate CLIP.json [--allow-outside-paths]
         check a clip manifest; one summary line, or every problem
   import waymo SEGMENT.tfrecord --out DIR [--cameras A,B] [--start-us T --duration-us D]
-  import dgp SCENE_DIR --out DIR [--cameras A,B]
+              [--roles paper|all-context]
+  import dgp SCENE_DIR --out DIR [--cameras A,B] [--start-us T --duration-us D]
+              [--roles paper|all-context]
         turn a driving log into a clip
-  scene info SCENE | scene export SCENE --ply OUT.ply
+  scene info SCENE | scene export SCENE --ply OUT.ply [--time-us T]
         inspect or export a Gaussian scene
   render SCENE --cameras VIEWS.json --out DIR [--outputs rgb,alpha,depth,features,instance]
         render EXR files and PNG previews of a scene
-  bench raster [--gaussians N] [--width W --height H] [--channels C] [--repeat R]
+  bench raster [--gaussians N] [--width W --height H] [--channels C] [--repeat R] [--seed S]
         time the rasterizer; prints JSON
+  reconstruct CLIP.json --out SCENE [--model analytic|pixel-aligned] [--ns N --nd N]
+        [--fusion softmax|average|no-depth] [--no-lifespan] [--refine N] [--splat-sigma S]
+        [--device cpu]
+        build a Gaussian scene from the clip's CONTEXT frames
+  eval CLIP.json --out DIR [--model ...] [same flags as reconstruct]
+        reconstruct, render the TARGET frames, write DIR/report.json and contact sheets
   help  this text
 
 Exit codes: 0 done, 1 failed, 2 bad input, 3 server unreachable.
@@ -79,6 +88,8 @@ int main(int argc, char** argv) {
   if (command == "scene") return pf::RunScene(args);
   if (command == "render") return pf::RunRender(args);
   if (command == "bench") return pf::RunBench(args);
+  if (command == "reconstruct") return pf::RunReconstruct(args);
+  if (command == "eval") return pf::RunEval(args);
   std::fprintf(stderr, "pf: unknown command '%s' (see pf help)\n", command.c_str());
   return pf::kExitBadInput;
 }

@@ -1,11 +1,94 @@
-// pf render: placeholder until its issue lands; replaced by the real command.
+// pf render SCENE --cameras VIEWS.json --out DIR
+//           [--outputs rgb,alpha,depth,features,instance]
+// Renders every view of VIEWS.json (pointforward.v1.RenderViews) of SCENE
+// (our scene file or a 3DGS .ply) into DIR: <view>.exr, <view>.png and a
+// manifest.json. Progress per view goes to stderr, a summary to stdout.
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include "absl/strings/str_cat.h"
 #include "client/commands.h"
+#include "common/command_line.h"
+#include "common/file_util.h"
+#include "common/status_macros.h"
+#include "worker/engine/render/rasterizer.h"
+#include "worker/engine/render/render_outputs.h"
+#include "worker/engine/render/scene_source.h"
+#include "worker/engine/render/views.h"
 
 namespace pf {
+namespace {
+
+constexpr char kUsage[] =
+    "usage: pf render SCENE --cameras VIEWS.json --out DIR "
+    "[--outputs rgb,alpha,depth,features,instance]";
+
+absl::Status Run(const CommandLine& cl) {
+  if (cl.positional().size() != 1 || !cl.Has("cameras") || !cl.Has("out")) {
+    return absl::InvalidArgumentError(kUsage);
+  }
+  ASSIGN_OR_RETURN(const OutputChannels channels, ParseOutputChannels(cl.GetList("outputs")));
+  const auto start = std::chrono::steady_clock::now();
+  ASSIGN_OR_RETURN(OpenedScene opened, OpenScene(cl.positional()[0]));
+  ASSIGN_OR_RETURN(const RenderRequest request, LoadRenderViews(cl.Get("cameras"), opened.scene));
+  const std::string out_dir = cl.Get("out");
+  RETURN_IF_ERROR(MakeDirs(out_dir));
+  std::fprintf(stderr, "pf render: %zu gaussians (%s), %zu views, %zu edits\n", opened.scene.size(),
+               opened.format.c_str(), request.views.size(), request.edits.size());
+
+  const SceneLabel label{opened.scene_id, opened.model};
+  RenderOptions options;
+  options.features = channels.features;
+  options.depth = channels.depth;
+  options.instance = channels.instance;
+  std::vector<ManifestEntry> entries;
+  double render_ms_total = 0;
+  for (size_t i = 0; i < request.views.size(); ++i) {
+    const RenderView& view = request.views[i];
+    const auto render_start = std::chrono::steady_clock::now();
+    absl::StatusOr<RenderBuffers> buffers =
+        Render(opened.scene, view.camera, view.timestamp_us, request.edits, options);
+    if (!buffers.ok()) return StatusWithContext(buffers.status(), absl::StrCat("views[", i, "]"));
+    const double render_ms =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - render_start)
+            .count();
+    render_ms_total += render_ms;
+
+    ManifestEntry entry;
+    entry.exr = view.name + ".exr";
+    entry.png = view.name + ".png";
+    entry.view = &view;
+    entry.channels = ExrChannelNames(channels, opened.scene.num_channels);
+    entry.width = buffers->width;
+    entry.height = buffers->height;
+    entry.render_ms = render_ms;
+    RETURN_IF_ERROR(
+        WriteRenderExr(absl::StrCat(out_dir, "/", entry.exr), *buffers, channels, view, label));
+    RETURN_IF_ERROR(WritePreviewPng(absl::StrCat(out_dir, "/", entry.png), *buffers));
+    std::fprintf(stderr, "[%zu/%zu] %s: %dx%d at %lld us, %.1f ms -> %s\n", i + 1,
+                 request.views.size(), view.name.c_str(), buffers->width, buffers->height,
+                 static_cast<long long>(view.timestamp_us), render_ms, entry.exr.c_str());
+    entries.push_back(std::move(entry));
+  }
+  RETURN_IF_ERROR(WriteManifest(absl::StrCat(out_dir, "/manifest.json"), label, entries));
+  const double total_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  std::printf("rendered %zu views of %s to %s (manifest.json): render %.1f ms, total %.1f ms\n",
+              entries.size(), cl.positional()[0].c_str(), out_dir.c_str(), render_ms_total,
+              total_ms);
+  return absl::OkStatus();
+}
+
+}  // namespace
 
 int RunRender(const std::vector<std::string>& args) {
-  (void)args;
-  return ReportError("render", absl::UnimplementedError("not built yet"));
+  absl::StatusOr<CommandLine> cl = CommandLine::Parse(args, {"cameras", "out", "outputs"});
+  if (!cl.ok()) return ReportError("render", cl.status());
+  const absl::Status status = Run(*cl);
+  return status.ok() ? kExitOk : ReportError("render", status);
 }
 
 }  // namespace pf

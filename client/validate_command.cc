@@ -1,11 +1,45 @@
-// pf validate: placeholder until its issue lands; replaced by the real command.
+// pf validate CLIP.json [--allow-outside-paths]: checks a clip manifest and the
+// files it references. Prints one summary line on stdout and exits 0 when the
+// clip is valid; otherwise prints every problem as "FIELD: MESSAGE", one per
+// line on stdout, and exits 2.
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include "absl/strings/str_cat.h"
 #include "client/commands.h"
+#include "common/command_line.h"
+#include "worker/engine/clip/clip_validator.h"
 
 namespace pf {
 
 int RunValidate(const std::vector<std::string>& args) {
-  (void)args;
-  return ReportError("validate", absl::UnimplementedError("not built yet"));
+  absl::StatusOr<CommandLine> cl = CommandLine::Parse(args, {}, {"allow-outside-paths"});
+  if (!cl.ok()) return ReportError("validate", cl.status());
+  if (cl->positional().size() != 1) {
+    return ReportError("validate", absl::InvalidArgumentError(
+                                       "usage: pf validate CLIP.json [--allow-outside-paths]"));
+  }
+  const std::string& path = cl->positional()[0];
+  ValidateOptions options;
+  options.allow_outside_paths = cl->Has("allow-outside-paths");
+
+  const ClipReport report = ValidateClipFile(path, options);
+  if (report.ok()) {
+    std::printf("valid: %s\n", report.summary.ToString().c_str());
+    return kExitOk;
+  }
+  for (const ClipProblem& problem : report.problems) {
+    // Problems about the whole document (malformed JSON) carry no field: name
+    // the file instead, unless the message already starts with it.
+    std::string line = problem.ToString();
+    if (problem.field.empty() && line.rfind(path, 0) != 0) line = absl::StrCat(path, ": ", line);
+    std::printf("%s\n", line.c_str());
+  }
+  std::fflush(stdout);
+  std::fprintf(stderr, "pf validate: %zu problem%s in %s\n", report.problems.size(),
+               report.problems.size() == 1 ? "" : "s", path.c_str());
+  return kExitBadInput;
 }
 
 }  // namespace pf

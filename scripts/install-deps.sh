@@ -10,7 +10,7 @@ PACKAGES=(
   build-essential cmake ninja-build ccache pkg-config clang-format
   # Libraries.
   libabsl-dev libprotobuf-dev protobuf-compiler libspdlog-dev libgtest-dev
-  libopenimageio-dev libopenexr-dev libopencv-core-dev
+  libopenimageio-dev libopenexr-dev libopencv-core-dev nlohmann-json3-dev zlib1g-dev
   # Tools the tests use.
   openimageio-tools python3
 )

@@ -50,7 +50,7 @@ std::string MakeTempDir(const std::string& prefix) {
 }
 
 std::optional<std::string> DataDir(const std::string& subdir) {
-  const std::string root = EnvOr("PF_DATA_DIR", "");
+  const std::string root = EnvOr("PF_DATA_DIR", PF_DEFAULT_DATA_DIR);
   if (root.empty()) return std::nullopt;
   const fs::path path = subdir.empty() ? fs::path(root) : fs::path(root) / subdir;
   std::error_code ec;
@@ -59,10 +59,10 @@ std::optional<std::string> DataDir(const std::string& subdir) {
 }
 
 std::string BinPath(const std::string& name) {
-  return (fs::path(EnvOr("PF_BIN_DIR", "build/bin")) / name).string();
+  return (fs::path(EnvOr("PF_BIN_DIR", PF_DEFAULT_BIN_DIR)) / name).string();
 }
 
-std::string SourceDir() { return EnvOr("PF_SOURCE_DIR", "."); }
+std::string SourceDir() { return EnvOr("PF_SOURCE_DIR", PF_DEFAULT_SOURCE_DIR); }
 
 CommandResult RunCommand(const std::vector<std::string>& argv) {
   CommandResult result;

@@ -1,0 +1,152 @@
+// End-to-end tests of `pf reconstruct` and `pf eval`: the real binary on a
+// small synth clip (192 x 144, 8 frames), checking the figures of
+// report.json, the scene file and the contact sheets, and the errors of bad
+// flags.
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "gtest/gtest.h"
+#include "tests/test_util.h"
+#include "worker/engine/render/scene_file.h"
+
+namespace pf {
+namespace {
+
+namespace fs = std::filesystem;
+using testing::CommandResult;
+using testing::RunCommand;
+
+std::string Pf() {
+  const char* bin_dir = std::getenv("PF_BIN_DIR");
+  return bin_dir != nullptr && *bin_dir != '\0' ? testing::BinPath("pf")
+                                                : PF_RECON_BIN_DIR "/pf";
+}
+
+nlohmann::json ReadJson(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream text;
+  text << in.rdbuf();
+  return nlohmann::json::parse(text.str());
+}
+
+// One small synth clip and the evals of both models, shared by the tests.
+class ReconCli : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = new std::string(testing::MakeTempDir("recon_cli"));
+    const CommandResult synth =
+        RunCommand({Pf(), "synth", "--out", *dir_ + "/clip", "--width", "192", "--height", "144",
+                    "--frames", "8"});
+    ASSERT_EQ(synth.exit_code, 0) << synth.err;
+    for (const char* model : {"analytic", "pixel-aligned"}) {
+      const std::string out = *dir_ + "/eval_" + model;
+      const CommandResult eval = RunCommand({Pf(), "eval", Clip(), "--out", out, "--model", model});
+      ASSERT_EQ(eval.exit_code, 0) << eval.out << eval.err;
+    }
+  }
+  static void TearDownTestSuite() {
+    delete dir_;
+    dir_ = nullptr;
+  }
+  static std::string Clip() { return *dir_ + "/clip/clip.json"; }
+  static nlohmann::json Report(const std::string& model) {
+    return ReadJson(*dir_ + "/eval_" + model + "/report.json");
+  }
+  static std::string* dir_;
+};
+
+std::string* ReconCli::dir_ = nullptr;
+
+TEST_F(ReconCli, EvalReportHasEveryTargetFrameWithFigures) {
+  const nlohmann::json report = Report("analytic");
+  EXPECT_EQ(report["model"], "analytic");
+  EXPECT_EQ(report["contextViews"], 6);  // 3 cameras at 0 and 0.5 s.
+  EXPECT_EQ(report["instances"].get<int>(), 4);
+  ASSERT_EQ(report["frames"].size(), 18u);  // 3 cameras x 6 other times.
+  for (const nlohmann::json& frame : report["frames"]) {
+    EXPECT_TRUE(frame["psnr"].is_number());
+    EXPECT_GT(frame["ssim"].get<double>(), 0.0);
+    EXPECT_LE(frame["ssim"].get<double>(), 1.0);
+    EXPECT_TRUE(frame["depthRmse"].is_number());  // Synth targets have depth maps.
+    EXPECT_TRUE(fs::exists(*dir_ + "/eval_analytic/" + frame["contactSheet"].get<std::string>()));
+  }
+  const nlohmann::json& mean = report["mean"];
+  // Floors measured on this clip (docs/QUALITY.md), with a margin: a broken
+  // pose, colour or canonical frame drops PSNR far below them.
+  EXPECT_GT(mean["psnr"].get<double>(), 18.0);
+  EXPECT_GT(mean["ssim"].get<double>(), 0.45);
+  EXPECT_GT(mean["dynamicPsnr"].get<double>(), 16.0);
+  EXPECT_LT(mean["depthRmse"].get<double>(), 12.0);
+  EXPECT_GT(report["dynamicGaussians"].get<int64_t>(), 0);
+  EXPECT_GT(report["farGaussians"].get<int64_t>(), 0);
+}
+
+TEST_F(ReconCli, AnalyticUsesAtMostAQuarterOfThePixelAlignedGaussians) {
+  const nlohmann::json analytic = Report("analytic");
+  const nlohmann::json pixel = Report("pixel-aligned");
+  EXPECT_EQ(pixel["model"], "pixel-aligned");
+  const int64_t a = analytic["gaussians"], p = pixel["gaussians"];
+  // Pixel-aligned: one per valid context pixel (6 x 192 x 144 at most).
+  EXPECT_LE(p, 6 * 192 * 144);
+  EXPECT_GT(p, 6 * 192 * 144 * 9 / 10);
+  EXPECT_LE(4 * a, p);
+  EXPECT_GT(pixel["mean"]["psnr"].get<double>(), 18.0);
+}
+
+TEST_F(ReconCli, ReconstructWritesALoadableSceneAndASummary) {
+  const std::string scene_path = *dir_ + "/scene.pfscene";
+  const CommandResult result =
+      RunCommand({Pf(), "reconstruct", Clip(), "--out", scene_path, "--ns", "2000", "--nd", "300"});
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_NE(result.out.find("gaussians:"), std::string::npos) << result.out;
+  EXPECT_NE(result.out.find("N_s 2000, N_d 300"), std::string::npos) << result.out;
+  EXPECT_NE(result.err.find("fuse done"), std::string::npos) << result.err;  // Progress.
+  absl::StatusOr<SceneFile> file = ReadSceneFile(scene_path);
+  ASSERT_TRUE(file.ok()) << file.status();
+  const GaussianScene& scene = file->scene;
+  EXPECT_EQ(file->metadata.at("model"), "analytic");
+  EXPECT_EQ(scene.instances.size(), 4u);
+  size_t dynamic = 0;
+  for (uint32_t owner : scene.owners) dynamic += owner != 0;
+  EXPECT_GT(dynamic, 0u);
+  EXPECT_LE(dynamic, 4u * 300);  // N_d per instance.
+  EXPECT_LE(scene.size() - dynamic, 6u * 2000);  // N_s per view.
+}
+
+TEST_F(ReconCli, AblationFlagsAreRecordedInTheReport) {
+  const std::string out = *dir_ + "/eval_ablation";
+  const CommandResult result = RunCommand(
+      {Pf(), "eval", Clip(), "--out", out, "--fusion", "average", "--no-lifespan"});
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  const nlohmann::json report = ReadJson(out + "/report.json");
+  EXPECT_EQ(report["fusion"], "average");
+  EXPECT_EQ(report["lifespan"], false);
+}
+
+TEST_F(ReconCli, BadFlagsAreBadInputNamingTheFlag) {
+  const CommandResult model =
+      RunCommand({Pf(), "reconstruct", Clip(), "--out", *dir_ + "/x", "--model", "nerf"});
+  EXPECT_EQ(model.exit_code, 2);
+  EXPECT_NE(model.err.find("--model"), std::string::npos) << model.err;
+  const CommandResult ns = RunCommand({Pf(), "reconstruct", Clip(), "--out", *dir_ + "/x", "--ns", "0"});
+  EXPECT_EQ(ns.exit_code, 2);
+  EXPECT_NE(ns.err.find("--ns"), std::string::npos) << ns.err;
+  const CommandResult device =
+      RunCommand({Pf(), "eval", Clip(), "--out", *dir_ + "/x", "--device", "cuda:0"});
+  EXPECT_EQ(device.exit_code, 2);
+  EXPECT_NE(device.err.find("--device"), std::string::npos) << device.err;
+  const CommandResult missing = RunCommand({Pf(), "reconstruct", *dir_ + "/nope.json", "--out", *dir_ + "/x"});
+  EXPECT_EQ(missing.exit_code, 2);
+  const CommandResult usage = RunCommand({Pf(), "eval", Clip()});
+  EXPECT_EQ(usage.exit_code, 2);
+  EXPECT_NE(usage.err.find("usage"), std::string::npos) << usage.err;
+}
+
+}  // namespace
+}  // namespace pf

@@ -1,0 +1,73 @@
+// The inputs of a reconstruction: the CONTEXT frames of a clip with their
+// camera model, pose, time, colour and (optional) depth map, and the clip's
+// box tracks in the form the Gaussian scene stores them.
+//
+//   ASSIGN_OR_RETURN(LoadedClip loaded, LoadClip(path));
+//   ASSIGN_OR_RETURN(std::vector<ContextView> views, LoadContextViews(loaded));
+//
+// Frames with role ROLE_UNSPECIFIED count as CONTEXT (clip.proto). Paths are
+// resolved inside the clip directory (ResolveClipPath).
+#ifndef POINTFORWARD_WORKER_ENGINE_RECON_CONTEXT_VIEWS_H_
+#define POINTFORWARD_WORKER_ENGINE_RECON_CONTEXT_VIEWS_H_
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "common/geometry.h"
+#include "worker/engine/camera/camera_model.h"
+#include "worker/engine/clip/clip_io.h"
+#include "worker/engine/image/image_io.h"
+#include "worker/engine/render/gaussian_scene.h"
+
+namespace pf {
+
+// One image of the clip, decoded.
+struct ContextView {
+  int frame_index = -1;  // Index into clip.frames.
+  std::string camera_id;
+  CameraModel camera;
+  Rigid world_from_camera;
+  int64_t timestamp_us = 0;
+  ImageF rgb;    // [H, W, 3] in [0, 1].
+  ImageF depth;  // [H, W, 1] metres along z, 0 unknown; empty (width 0) when the frame has none.
+
+  int width() const { return camera.width(); }
+  int height() const { return camera.height(); }
+};
+
+// Which frames LoadViews() reads.
+enum class FrameSelection { kContext, kTarget };
+
+struct LoadViewsOptions {
+  bool read_depth = true;         // Read the frames' depth maps when they name one.
+  bool allow_outside_paths = false;
+};
+
+// Decodes the frames of `loaded` with the selected role, in manifest order.
+// INVALID_ARGUMENT naming the field (`frames[3].image: ...`) for an unknown
+// camera, a pose that is not 16 numbers, or an image/depth map whose size is
+// not the camera's; NOT_FOUND for a missing file.
+absl::StatusOr<std::vector<ContextView>> LoadViews(const LoadedClip& loaded,
+                                                   FrameSelection selection,
+                                                   const LoadViewsOptions& options = {});
+
+// LoadViews(loaded, FrameSelection::kContext, options).
+absl::StatusOr<std::vector<ContextView>> LoadContextViews(const LoadedClip& loaded,
+                                                          const LoadViewsOptions& options = {});
+
+// Returns the clip's box tracks, boxes sorted by time, in the order of
+// clip.instances. INVALID_ARGUMENT naming the field for a box whose centre,
+// size or rotation has the wrong number of values, a zero quaternion, or two
+// boxes of one instance at the same time. Instances without boxes are kept
+// (they never own a point).
+absl::StatusOr<std::vector<InstanceTrack>> TracksFromClip(const pointforward::v1::Clip& clip);
+
+// Returns the earliest frame timestamp of the clip (0 when it has none); the
+// reconstruction's scene time origin.
+int64_t ClipTimeOrigin(const pointforward::v1::Clip& clip);
+
+}  // namespace pf
+
+#endif  // POINTFORWARD_WORKER_ENGINE_RECON_CONTEXT_VIEWS_H_

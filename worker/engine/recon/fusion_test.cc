@@ -1,0 +1,142 @@
+// Tests of analytic fusion: the consistent view wins, masks and occlusion
+// exclude views, lifespans, instances re-posed to each view's time.
+#include "worker/engine/recon/fusion.h"
+
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+namespace pf {
+namespace {
+
+constexpr int kW = 16, kH = 12;
+
+// A view from the origin along +z with a constant colour and depth.
+struct FlatView {
+  ContextView view;
+  ViewDepth depth;
+  std::vector<uint8_t> mask;
+
+  FlatView(float r, float g, float b, float d, int64_t t = 0) {
+    view.camera = CameraModel(kW, kH, 10, 10, 8, 6);
+    view.timestamp_us = t;
+    view.rgb = ImageF(kW, kH, 3);
+    for (int y = 0; y < kH; ++y)
+      for (int x = 0; x < kW; ++x) {
+        view.rgb.at(x, y, 0) = r;
+        view.rgb.at(x, y, 1) = g;
+        view.rgb.at(x, y, 2) = b;
+      }
+    depth.width = kW;
+    depth.height = kH;
+    depth.depth.assign(kW * kH, d);
+    depth.source.assign(kW * kH, 0);
+    mask.assign(kW * kH, 0);
+  }
+  FusionView fusion() const { return {&view, &depth, &mask}; }
+};
+
+// One static query at (0, 0, 10) seen from view 0 (pixel (8, 6)).
+QuerySet OneQuery(uint32_t owner = 0) {
+  QuerySet q;
+  q.positions = {0, 0, 10};
+  q.rgb = {1, 0, 0};
+  q.plucker = {0, 0, 1, 0, 0, 0};
+  q.normals = {0, 0, -1};
+  q.rays = {0, 0, 1};
+  q.depths = {10};
+  q.footprints = {1};
+  q.views = {0};
+  q.pixels = {6 * kW + 8};
+  q.owners = {owner};
+  q.far = {0};
+  return q;
+}
+
+TEST(Fusion, WeightsPreferTheConsistentView) {
+  const FlatView source(1, 0, 0, 10);       // d = 0
+  const FlatView close(0, 1, 0, 10.05f);    // |d| = 0.005
+  const FlatView off(0, 0, 1, 10.25f);      // |d| = 0.025, still within tolerance
+  const FlatView occluder(1, 1, 1, 5);      // Something in front: not an observation.
+  const std::vector<FusionView> views = {source.fusion(), close.fusion(), off.fusion(),
+                                         occluder.fusion()};
+  FusionOptions options;  // tau = 0.01
+  const FusedQueries f = FuseQueries(OneQuery(), views, {}, options);
+  // Relative d is (z - D) / z with z = 10.
+  const double w1 = std::exp(-0.005 / 0.01), w2 = std::exp(-0.025 / 0.01);
+  const double sum = 1 + w1 + w2;
+  EXPECT_NEAR(f.rgb[0], 1 / sum, 1e-5);
+  EXPECT_NEAR(f.rgb[1], w1 / sum, 1e-5);
+  EXPECT_NEAR(f.rgb[2], w2 / sum, 1e-5);
+  EXPECT_GT(f.rgb[1], f.rgb[2]);  // The more consistent view weighs more.
+  EXPECT_EQ(f.observations[0], 3);
+  EXPECT_FLOAT_EQ(f.agreement[0], 1.f);
+  EXPECT_TRUE(std::isinf(f.lifespans[0]));  // Nothing contradicts it.
+
+  options.weights = FusionWeights::kPlainAverage;
+  const FusedQueries plain = FuseQueries(OneQuery(), views, {}, options);
+  EXPECT_NEAR(plain.rgb[0], 1.0 / 3, 1e-5);
+  EXPECT_NEAR(plain.rgb[2], 1.0 / 3, 1e-5);
+
+  options.weights = FusionWeights::kNoDepth;  // The occluder's white leaks in.
+  const FusedQueries blind = FuseQueries(OneQuery(), views, {}, options);
+  EXPECT_NEAR(blind.rgb[0], 2.0 / 4, 1e-5);
+  EXPECT_NEAR(blind.rgb[1], 2.0 / 4, 1e-5);
+}
+
+TEST(Fusion, StaticQueriesIgnoreMaskedPixels) {
+  const FlatView source(1, 0, 0, 10);
+  FlatView masked(0, 1, 0, 10);
+  masked.mask.assign(kW * kH, 1);
+  const FusedQueries f = FuseQueries(OneQuery(), {source.fusion(), masked.fusion()}, {}, {});
+  EXPECT_NEAR(f.rgb[0], 1.f, 1e-6);
+  EXPECT_NEAR(f.rgb[1], 0.f, 1e-6);
+  EXPECT_EQ(f.observations[0], 1);
+}
+
+TEST(Fusion, SeeingPastAPointShortensItsLifespan) {
+  const FlatView source(1, 0, 0, 10, 0);
+  const FlatView later_same(1, 0, 0, 10, 300000);
+  const FlatView through(0, 0, 1, 20, 1000000);  // At 1 s the view sees 10 m further.
+  const std::vector<FusionView> views = {source.fusion(), later_same.fusion(), through.fusion()};
+  const FusedQueries f = FuseQueries(OneQuery(), views, {}, {});
+  EXPECT_NEAR(f.lifespans[0], 0.3f, 1e-6);  // Seen 0.3 s away from its own time.
+  EXPECT_NEAR(f.agreement[0], 2.f / 3, 1e-6);
+  FusionOptions no_lifespan;
+  no_lifespan.lifespan = false;
+  EXPECT_TRUE(std::isinf(FuseQueries(OneQuery(), views, {}, no_lifespan).lifespans[0]));
+}
+
+TEST(Fusion, InstanceQueriesAreReposedToEachViewsTime) {
+  // The car's box moves 1 m along +x between t = 0 and t = 1 s. A canonical
+  // point at (0, 0, 10) is at (1, 0, 10) at t = 1 s: pixel u = 8 + 10 * 0.1
+  // = 9, where the later view is green; its pixels x < 8 are blue (had the
+  // point not moved, u = 8 would mix blue and green).
+  InstanceTrack car;
+  car.boxes = {{0, {0, 0, 10}, {2, 2, 2}, Quat{}}, {1000000, {1, 0, 10}, {2, 2, 2}, Quat{}}};
+  const FlatView source(1, 0, 0, 10, 0);
+  FlatView later(0, 1, 0, 10, 1000000);
+  for (int y = 0; y < kH; ++y)
+    for (int x = 0; x < 8; ++x) {
+      later.view.rgb.at(x, y, 1) = 0;
+      later.view.rgb.at(x, y, 2) = 1;
+    }
+  later.mask.assign(kW * kH, 1);  // Masks do not apply to instance queries.
+  const FusedQueries f =
+      FuseQueries(OneQuery(/*owner=*/1), {source.fusion(), later.fusion()}, {car}, {});
+  EXPECT_EQ(f.observations[0], 2);
+  EXPECT_NEAR(f.rgb[0], 0.5, 1e-5);
+  EXPECT_NEAR(f.rgb[1], 0.5, 1e-5);
+  EXPECT_NEAR(f.rgb[2], 0.0, 1e-5);
+  EXPECT_TRUE(std::isinf(f.lifespans[0]));
+}
+
+TEST(Fusion, UnfusedKeepsOwnColour) {
+  const FusedQueries f = UnfusedQueries(OneQuery());
+  EXPECT_FLOAT_EQ(f.rgb[0], 1.f);
+  EXPECT_FLOAT_EQ(f.agreement[0], 1.f);
+  EXPECT_TRUE(std::isinf(f.lifespans[0]));
+}
+
+}  // namespace
+}  // namespace pf

@@ -1,0 +1,78 @@
+// Parsing reconstruction flags.
+#include "worker/engine/recon/recon_flags.h"
+
+#include "absl/strings/str_cat.h"
+#include "common/status_macros.h"
+
+namespace pf {
+
+const std::set<std::string>& ReconValueFlags() {
+  static const std::set<std::string> flags = {"model", "ns", "nd", "fusion", "device", "splat-sigma", "refine"};
+  return flags;
+}
+
+const std::set<std::string>& ReconBoolFlags() {
+  static const std::set<std::string> flags = {"no-lifespan"};
+  return flags;
+}
+
+const char* FusionWeightsName(FusionWeights weights) {
+  switch (weights) {
+    case FusionWeights::kDepthSoftmax:
+      return "softmax";
+    case FusionWeights::kPlainAverage:
+      return "average";
+    case FusionWeights::kNoDepth:
+      return "no-depth";
+  }
+  return "?";
+}
+
+absl::StatusOr<ReconOptions> ReconOptionsFromFlags(const CommandLine& cl) {
+  ReconOptions options;
+  ASSIGN_OR_RETURN(options.model, ParseReconModel(cl.Get("model", "analytic")));
+  ASSIGN_OR_RETURN(options.static_per_view, cl.GetInt("ns", 0));
+  ASSIGN_OR_RETURN(options.dynamic_per_instance, cl.GetInt("nd", 0));
+  if (cl.Has("ns") && options.static_per_view <= 0) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("--ns: must be a positive number of queries per view, got ", cl.Get("ns")));
+  }
+  if (cl.Has("nd") && options.dynamic_per_instance <= 0) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "--nd: must be a positive number of queries per instance, got ", cl.Get("nd")));
+  }
+  const std::string fusion = cl.Get("fusion", "softmax");
+  if (fusion == "softmax") {
+    options.fusion.weights = FusionWeights::kDepthSoftmax;
+  } else if (fusion == "average") {
+    options.fusion.weights = FusionWeights::kPlainAverage;
+  } else if (fusion == "no-depth") {
+    options.fusion.weights = FusionWeights::kNoDepth;
+  } else {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "--fusion: unknown weighting '", fusion, "' (expected softmax, average or no-depth)"));
+  }
+  options.fusion.lifespan = !cl.Has("no-lifespan");
+  ASSIGN_OR_RETURN(options.decoder.tangent_sigma,
+                   cl.GetDouble("splat-sigma", options.decoder.tangent_sigma));
+  if (!(options.decoder.tangent_sigma > 0.05 && options.decoder.tangent_sigma <= 4)) {
+    return absl::InvalidArgumentError(absl::StrCat("--splat-sigma: must be in (0.05, 4], got ",
+                                                   cl.Get("splat-sigma")));
+  }
+  ASSIGN_OR_RETURN(const int64_t refine, cl.GetInt("refine", options.refinement.iterations));
+  if (refine < 0 || refine > 20) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("--refine: must be in [0, 20] iterations, got ", cl.Get("refine")));
+  }
+  options.refinement.iterations = static_cast<int>(refine);
+  const std::string device = cl.Get("device", "cpu");
+  if (device != "cpu") {
+    return absl::FailedPreconditionError(absl::StrCat(
+        "--device: '", device,
+        "' is not available: this build runs the analytic models on the CPU only (the LibTorch "
+        "path is not built yet)"));
+  }
+  return options;
+}
+
+}  // namespace pf

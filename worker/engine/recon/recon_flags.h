@@ -1,0 +1,39 @@
+// The command-line flags of `pf reconstruct` and `pf eval` that shape a
+// reconstruction, parsed into ReconOptions in one place:
+//
+//   --model analytic|pixel-aligned   (default analytic)
+//   --ns N  --nd N                   N_s per view, N_d per instance
+//                                    (default 100K / 10K scaled to the image size)
+//   --fusion softmax|average|no-depth  fusion weights (ablations; default softmax)
+//   --no-lifespan                    every Gaussian lives forever (ablation)
+//   --refine N                       colour refinement iterations (default 2; 0 off)
+//   --splat-sigma S                  Gaussian std-dev per query spacing (default 0.6)
+//   --device cpu                     where batched work runs; only cpu for now
+#ifndef POINTFORWARD_WORKER_ENGINE_RECON_RECON_FLAGS_H_
+#define POINTFORWARD_WORKER_ENGINE_RECON_RECON_FLAGS_H_
+
+#include <set>
+#include <string>
+
+#include "absl/status/statusor.h"
+#include "common/command_line.h"
+#include "worker/engine/recon/reconstruction.h"
+
+namespace pf {
+
+// Flags that take a value / no value, to pass to CommandLine::Parse.
+const std::set<std::string>& ReconValueFlags();
+const std::set<std::string>& ReconBoolFlags();
+
+// Returns the options the flags of `cl` ask for. INVALID_ARGUMENT naming the
+// flag for an unknown model or fusion, a budget that is not a positive
+// integer; FAILED_PRECONDITION for a --device other than cpu (the LibTorch
+// path is not built yet).
+absl::StatusOr<ReconOptions> ReconOptionsFromFlags(const CommandLine& cl);
+
+// Returns the name of a fusion weighting as --fusion spells it.
+const char* FusionWeightsName(FusionWeights weights);
+
+}  // namespace pf
+
+#endif  // POINTFORWARD_WORKER_ENGINE_RECON_RECON_FLAGS_H_

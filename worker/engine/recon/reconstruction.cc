@@ -1,0 +1,197 @@
+// The reconstruction pipeline, stage by stage.
+#include "worker/engine/recon/reconstruction.h"
+
+// The generated protobuf header first (see image_io.h).
+#include "pointforward/v1/clip.pb.h"
+
+#include <algorithm>
+#include <chrono>
+
+#include "absl/strings/str_cat.h"
+#include "common/status_macros.h"
+#include "worker/engine/recon/query_lifting.h"
+#include "worker/engine/recon/scene_graph.h"
+
+namespace pf {
+namespace {
+
+// Times stages and reports progress.
+class StageClock {
+ public:
+  StageClock(ReconStats* stats, const std::function<void(const std::string&)>& progress)
+      : stats_(stats), progress_(progress), start_(Now()), last_(start_) {}
+
+  // Closes the running stage as `name`.
+  void Done(const std::string& name, const std::string& detail = "") {
+    const double now = Now();
+    stats_->stage_seconds.emplace_back(name, now - last_);
+    if (progress_) progress_(absl::StrCat(name, " done in ", now - last_, " s", detail));
+    last_ = now;
+  }
+  void Progress(const std::string& line) const {
+    if (progress_) progress_(line);
+  }
+  double Total() const { return Now() - start_; }
+
+ private:
+  static double Now() {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch())
+        .count();
+  }
+  ReconStats* stats_;
+  const std::function<void(const std::string&)>& progress_;
+  double start_, last_;
+};
+
+}  // namespace
+
+absl::StatusOr<ReconModel> ParseReconModel(const std::string& name) {
+  if (name == "analytic") return ReconModel::kAnalytic;
+  if (name == "pixel-aligned") return ReconModel::kPixelAligned;
+  return absl::InvalidArgumentError(
+      absl::StrCat("--model: unknown model '", name, "' (expected analytic or pixel-aligned)"));
+}
+
+const char* ReconModelName(ReconModel model) {
+  return model == ReconModel::kAnalytic ? "analytic" : "pixel-aligned";
+}
+
+absl::StatusOr<ReconInputs> LoadReconInputs(const LoadedClip& loaded, bool allow_outside_paths) {
+  ReconInputs inputs;
+  LoadViewsOptions view_options;
+  view_options.allow_outside_paths = allow_outside_paths;
+  ASSIGN_OR_RETURN(inputs.views, LoadContextViews(loaded, view_options));
+  if (inputs.views.empty()) {
+    return absl::InvalidArgumentError("frames: the clip has no CONTEXT frame to reconstruct from");
+  }
+  ASSIGN_OR_RETURN(std::vector<InstanceTrack> tracks, TracksFromClip(loaded.clip));
+  for (InstanceTrack& track : tracks)
+    if (!track.boxes.empty()) inputs.tracks.push_back(std::move(track));
+  // LiDAR only matters for views without a depth map.
+  const bool need_lidar = std::any_of(inputs.views.begin(), inputs.views.end(),
+                                      [](const ContextView& v) { return v.depth.width == 0; });
+  if (need_lidar) {
+    ASSIGN_OR_RETURN(inputs.sweeps, LoadLidarSweeps(loaded, allow_outside_paths));
+  }
+  inputs.time_origin_us = ClipTimeOrigin(loaded.clip);
+  return inputs;
+}
+
+absl::StatusOr<ReconResult> ReconstructInputs(const ReconInputs& inputs,
+                                              const ReconOptions& options) {
+  if (inputs.views.empty()) return absl::InvalidArgumentError("no context views");
+  ReconResult result;
+  ReconStats& stats = result.stats;
+  StageClock clock(&stats, options.progress);
+  const std::vector<ContextView>& views = inputs.views;
+  const std::vector<InstanceTrack>& tracks = inputs.tracks;
+  const size_t num_views = views.size();
+  stats.views = static_cast<int>(num_views);
+  stats.instances = static_cast<int>(tracks.size());
+  stats.static_per_view =
+      options.static_per_view > 0
+          ? options.static_per_view
+          : ScaledBudget(kDefaultStaticPerView, views[0].width(), views[0].height());
+  stats.dynamic_per_instance =
+      options.dynamic_per_instance > 0
+          ? options.dynamic_per_instance
+          : ScaledBudget(kDefaultDynamicPerInstance, views[0].width(), views[0].height());
+
+  // 1. Depth: measured (map or LiDAR), then the far layer.
+  std::vector<ImageF> measured(num_views);
+  std::vector<float> max_depths(num_views, 0.f);
+  std::vector<bool> from_lidar(num_views, false);
+  for (size_t v = 0; v < num_views; ++v) {
+    bool lidar = false;
+    measured[v] = MeasuredDepth(views[v], inputs.sweeps, tracks, options.completion, &lidar);
+    from_lidar[v] = lidar;
+    stats.lidar_views += lidar ? 1 : 0;
+    for (float d : measured[v].pixels) max_depths[v] = std::max(max_depths[v], d);
+  }
+  const FarLayer far = FarLayerFor(views, max_depths);
+  std::vector<ViewDepth> depths(num_views);
+  for (size_t v = 0; v < num_views; ++v) {
+    depths[v] = WithFarLayer(measured[v], from_lidar[v], views[v], far);
+    measured[v] = ImageF();
+  }
+  clock.Done("depth", absl::StrCat(" (", stats.lidar_views, " of ", num_views,
+                                   " views from LiDAR, far layer radius ", far.radius, " m)"));
+
+  // 2. Lifting.
+  std::vector<LiftedView> lifted(num_views);
+  for (size_t v = 0; v < num_views; ++v) lifted[v] = LiftView(views[v], depths[v]);
+  clock.Done("lift");
+
+  // 3. Scene graph: box membership of lifted points and dynamic masks.
+  std::vector<std::vector<uint32_t>> owners(num_views);
+  std::vector<std::vector<uint8_t>> masks(num_views);
+  for (size_t v = 0; v < num_views; ++v) {
+    owners[v] = PixelOwners(lifted[v], depths[v], tracks, views[v].timestamp_us);
+    masks[v] = DynamicMask(views[v].camera, views[v].world_from_camera, tracks,
+                           views[v].timestamp_us, kMembershipMargin.grow);
+  }
+  clock.Done("scene_graph");
+
+  // 4. Sampling.
+  SamplingOptions sampling;
+  sampling.static_per_view = stats.static_per_view;
+  sampling.dynamic_per_instance = stats.dynamic_per_instance;
+  sampling.far_stride = options.far_stride;
+  sampling.skip_covered = options.skip_covered;
+  sampling.dense = options.model == ReconModel::kPixelAligned;
+  std::vector<SamplingView> sampling_views(num_views);
+  for (size_t v = 0; v < num_views; ++v)
+    sampling_views[v] = {&views[v], &depths[v], &lifted[v], &owners[v]};
+  const QuerySet queries = SampleQueries(sampling_views, tracks, sampling);
+  lifted.clear();
+  clock.Done("sample", absl::StrCat(" (", queries.size(), " queries)"));
+
+  // 5. Fusion.
+  FusedQueries fused;
+  if (options.model == ReconModel::kAnalytic) {
+    std::vector<FusionView> fusion_views(num_views);
+    for (size_t v = 0; v < num_views; ++v)
+      fusion_views[v] = {&views[v], &depths[v], &masks[v]};
+    fused = FuseQueries(queries, fusion_views, tracks, options.fusion);
+  } else {
+    fused = UnfusedQueries(queries);
+  }
+  clock.Done("fuse");
+
+  // 6. Decoding.
+  std::vector<int64_t> times(num_views);
+  for (size_t v = 0; v < num_views; ++v) times[v] = views[v].timestamp_us;
+  result.scene =
+      DecodeGaussians(queries, fused, times, inputs.time_origin_us, tracks, options.decoder);
+  for (size_t i = 0; i < queries.size(); ++i) {
+    if (queries.owners[i] == 0) {
+      ++stats.static_gaussians;
+      stats.far_gaussians += queries.far[i];
+    } else {
+      ++stats.dynamic_gaussians;
+    }
+  }
+  clock.Done("decode");
+
+  // 7. Colour refinement against the context images.
+  if (options.refinement.iterations > 0) {
+    RETURN_IF_ERROR(RefineColours(views, queries, options.refinement, &result.scene));
+    clock.Done("refine");
+  }
+  stats.total_seconds = clock.Total();
+  return result;
+}
+
+absl::StatusOr<ReconResult> Reconstruct(const LoadedClip& loaded, const ReconOptions& options) {
+  const auto start = std::chrono::steady_clock::now();
+  if (options.progress) options.progress("loading context frames");
+  ASSIGN_OR_RETURN(ReconInputs inputs, LoadReconInputs(loaded, options.allow_outside_paths));
+  const double load_seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  ASSIGN_OR_RETURN(ReconResult result, ReconstructInputs(inputs, options));
+  result.stats.stage_seconds.insert(result.stats.stage_seconds.begin(), {"load", load_seconds});
+  result.stats.total_seconds += load_seconds;
+  return result;
+}
+
+}  // namespace pf

@@ -1,0 +1,101 @@
+// The reconstruction pipeline: a clip's CONTEXT frames to a GaussianScene,
+// step by step as DESIGN.md section 3 lists them (depth, lifting, scene
+// graph, sparse sampling, fusion, decoding), with the time of each stage.
+//
+// Two models share the steps:
+// - analytic: sparse queries (N_s per view, N_d per instance), fused across
+//   all context views (fusion.h), decoded to surface discs;
+// - pixel-aligned: one Gaussian per valid context pixel, its own colour, no
+//   fusion; the same depth, scene graph (instances in canonical frames),
+//   scale and rotation rules (the baseline the paper contrasts with).
+// The learned model of DESIGN.md (LibTorch MLPs and decoder) is not built
+// yet; its seams are FuseQueries (phi, phi_c, phi_v) and DecodeGaussians.
+//
+//   ASSIGN_OR_RETURN(LoadedClip loaded, LoadClip(path));
+//   ASSIGN_OR_RETURN(ReconResult result, Reconstruct(loaded, {}));
+#ifndef POINTFORWARD_WORKER_ENGINE_RECON_RECONSTRUCTION_H_
+#define POINTFORWARD_WORKER_ENGINE_RECON_RECONSTRUCTION_H_
+
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "worker/engine/clip/clip_io.h"
+#include "worker/engine/recon/colour_refinement.h"
+#include "worker/engine/recon/context_views.h"
+#include "worker/engine/recon/fusion.h"
+#include "worker/engine/recon/gaussian_decoder.h"
+#include "worker/engine/recon/sparse_sampling.h"
+#include "worker/engine/recon/view_depth.h"
+#include "worker/engine/render/gaussian_scene.h"
+
+namespace pf {
+
+enum class ReconModel { kAnalytic, kPixelAligned };
+
+// Parses "analytic" or "pixel-aligned"; INVALID_ARGUMENT naming the others.
+absl::StatusOr<ReconModel> ParseReconModel(const std::string& name);
+const char* ReconModelName(ReconModel model);
+
+struct ReconOptions {
+  ReconModel model = ReconModel::kAnalytic;
+  // N_s and N_d; <= 0 means the paper's 100K / 10K scaled to the first
+  // context image's size relative to 768 x 576.
+  int64_t static_per_view = 0;
+  int64_t dynamic_per_instance = 0;
+  FusionOptions fusion;
+  DecoderOptions decoder;
+  RefinementOptions refinement;  // iterations = 0: no refinement.
+  CompletionOptions completion;
+  int far_stride = 3;
+  bool skip_covered = true;
+  bool allow_outside_paths = false;
+  // Called with a line of progress at each stage ("depth 3/12"); may be null.
+  std::function<void(const std::string&)> progress;
+};
+
+struct ReconStats {
+  int views = 0;
+  int instances = 0;
+  int64_t static_per_view = 0;       // N_s used.
+  int64_t dynamic_per_instance = 0;  // N_d used.
+  int64_t static_gaussians = 0;      // Owner 0, far layer included.
+  int64_t far_gaussians = 0;
+  int64_t dynamic_gaussians = 0;
+  int lidar_views = 0;               // Views whose depth came from LiDAR.
+  std::vector<std::pair<std::string, double>> stage_seconds;  // In order.
+  double total_seconds = 0;
+};
+
+struct ReconResult {
+  GaussianScene scene;
+  ReconStats stats;
+};
+
+// Everything a reconstruction reads, decoded.
+struct ReconInputs {
+  std::vector<ContextView> views;
+  std::vector<LidarSweepData> sweeps;
+  std::vector<InstanceTrack> tracks;  // Only tracks with boxes.
+  int64_t time_origin_us = 0;
+};
+
+// Loads the CONTEXT frames, LiDAR sweeps and tracks of `loaded`.
+// INVALID_ARGUMENT when the clip has no CONTEXT frame; errors of the loaders
+// otherwise.
+absl::StatusOr<ReconInputs> LoadReconInputs(const LoadedClip& loaded, bool allow_outside_paths);
+
+// Reconstructs decoded inputs. INVALID_ARGUMENT for no views or non-positive
+// budgets given explicitly.
+absl::StatusOr<ReconResult> ReconstructInputs(const ReconInputs& inputs,
+                                              const ReconOptions& options);
+
+// LoadReconInputs then ReconstructInputs; the load is the first stage.
+absl::StatusOr<ReconResult> Reconstruct(const LoadedClip& loaded, const ReconOptions& options);
+
+}  // namespace pf
+
+#endif  // POINTFORWARD_WORKER_ENGINE_RECON_RECONSTRUCTION_H_

@@ -1,0 +1,285 @@
+// Stratified, coverage-aware choice of static and dynamic queries.
+#include "worker/engine/recon/sparse_sampling.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "absl/container/flat_hash_map.h"
+#include "absl/container/flat_hash_set.h"
+#include "common/thread_pool.h"
+#include "worker/engine/recon/scene_graph.h"
+
+namespace pf {
+namespace {
+
+// A candidate query before it is written to the set.
+struct Candidate {
+  int view;
+  int pixel;
+  Vec3 position;   // World or canonical.
+  float footprint;
+};
+
+// Returns a hash of three integers mapped to [0, 1).
+double Hash01(uint64_t a, uint64_t b, uint64_t c) {
+  uint64_t h = a * 0x9E3779B97F4A7C15ull ^ (b + 0x632BE59BD9B4E5ull) * 0xBF58476D1CE4E5B9ull ^
+               (c + 1) * 0x94D049BB133111EBull;
+  h ^= h >> 31;
+  h *= 0xD6E8FEB86659FD93ull;
+  h ^= h >> 32;
+  return double(h >> 11) * (1.0 / 9007199254740992.0);
+}
+
+// Returns a key of the voxel of side `side` that holds `p`, tagged with
+// `level` so grids of different sides do not collide.
+uint64_t VoxelKey(const Vec3& p, double side, uint32_t level) {
+  auto q = [&](double v) {
+    const int64_t i = static_cast<int64_t>(std::floor(v / side)) + (int64_t(1) << 18);
+    return static_cast<uint64_t>(std::clamp<int64_t>(i, 0, (int64_t(1) << 19) - 1));
+  };
+  return (uint64_t(level & 63) << 57) | (q(p.x) << 38) | (q(p.y) << 19) | q(p.z);
+}
+
+// Returns the power-of-two level of a footprint (1 cm at level 20): the
+// smallest voxel side >= the footprint, so a voxel of a covered surface
+// nearly always holds a sample.
+uint32_t FootprintLevel(double footprint) {
+  const int level = static_cast<int>(std::ceil(std::log2(std::max(footprint, 1e-6) / 0.01))) + 20;
+  return static_cast<uint32_t>(std::clamp(level, 0, 63));
+}
+
+double LevelSide(uint32_t level) { return 0.01 * std::pow(2.0, int(level) - 20); }
+
+double FocalLength(const CameraModel& camera) { return 0.5 * (camera.fx() + camera.fy()); }
+
+// Writes `c` to `out` with the frame change `to_frame` (identity for static).
+void Emit(const Candidate& c, const SamplingView& sv, uint32_t owner, const Rigid& to_frame,
+          QuerySet* out) {
+  const ContextView& view = *sv.view;
+  const size_t i = static_cast<size_t>(c.pixel);
+  const int x = c.pixel % view.width(), y = c.pixel / view.width();
+  const Vec3 world{sv.lifted->points[3 * i], sv.lifted->points[3 * i + 1],
+                   sv.lifted->points[3 * i + 2]};
+  const Vec3 origin = view.world_from_camera.translation;
+  const Vec3 ray_world = Normalized(world - origin);
+  const Vec3 normal_world{sv.lifted->normals[3 * i], sv.lifted->normals[3 * i + 1],
+                          sv.lifted->normals[3 * i + 2]};
+  const Vec3 normal = to_frame.rotation * normal_world;
+  const Vec3 ray = to_frame.rotation * ray_world;
+  const std::array<float, 6> plucker = PluckerRay(origin, ray_world);
+  out->positions.insert(out->positions.end(),
+                        {float(c.position.x), float(c.position.y), float(c.position.z)});
+  out->rgb.insert(out->rgb.end(), {view.rgb.at(x, y, 0), view.rgb.at(x, y, 1), view.rgb.at(x, y, 2)});
+  out->plucker.insert(out->plucker.end(), plucker.begin(), plucker.end());
+  out->normals.insert(out->normals.end(), {float(normal.x), float(normal.y), float(normal.z)});
+  out->rays.insert(out->rays.end(), {float(ray.x), float(ray.y), float(ray.z)});
+  out->depths.push_back(sv.depth->depth[i]);
+  out->footprints.push_back(c.footprint);
+  out->views.push_back(c.view);
+  out->pixels.push_back(c.pixel);
+  out->owners.push_back(owner);
+  out->far.push_back(sv.depth->is_far(i) ? 1 : 0);
+}
+
+// Keeps, per voxel of side `side`, the candidate nearest the voxel centre;
+// returns their indices in candidate order.
+std::vector<size_t> ThinByVoxel(const std::vector<Candidate>& candidates, double side) {
+  absl::flat_hash_map<uint64_t, size_t> best;
+  best.reserve(candidates.size());
+  auto off_centre = [&](const Vec3& p) {
+    const Vec3 c{(std::floor(p.x / side) + 0.5) * side, (std::floor(p.y / side) + 0.5) * side,
+                 (std::floor(p.z / side) + 0.5) * side};
+    const Vec3 d = p - c;
+    return Dot(d, d);
+  };
+  for (size_t i = 0; i < candidates.size(); ++i) {
+    auto [it, inserted] = best.try_emplace(VoxelKey(candidates[i].position, side, 0), i);
+    if (!inserted && off_centre(candidates[i].position) < off_centre(candidates[it->second].position))
+      it->second = i;
+  }
+  std::vector<size_t> kept;
+  kept.reserve(best.size());
+  for (const auto& [key, index] : best) kept.push_back(index);
+  std::sort(kept.begin(), kept.end());
+  return kept;
+}
+
+size_t CountVoxels(const std::vector<Candidate>& candidates, double side) {
+  absl::flat_hash_set<uint64_t> keys;
+  keys.reserve(candidates.size());
+  for (const Candidate& c : candidates) keys.insert(VoxelKey(c.position, side, 0));
+  return keys.size();
+}
+
+}  // namespace
+
+int64_t ScaledBudget(int64_t at_768x576, int width, int height) {
+  const double scale = double(width) * height / (768.0 * 576.0);
+  return std::max<int64_t>(1, static_cast<int64_t>(std::llround(double(at_768x576) * scale)));
+}
+
+std::vector<uint32_t> PixelOwners(const LiftedView& lifted, const ViewDepth& depth,
+                                  const std::vector<InstanceTrack>& tracks, int64_t timestamp_us) {
+  const size_t n = static_cast<size_t>(lifted.width) * lifted.height;
+  std::vector<uint32_t> owners(n, 0);
+  if (tracks.empty()) return owners;
+  const BoxesAt boxes(tracks, timestamp_us);
+  DefaultThreadPool().ParallelFor(0, static_cast<int64_t>(n), 8192, [&](int64_t b, int64_t e) {
+    for (int64_t i = b; i < e; ++i) {
+      if (!lifted.valid[i] || depth.is_far(i)) continue;
+      owners[i] = boxes.Owner(
+          {lifted.points[3 * i], lifted.points[3 * i + 1], lifted.points[3 * i + 2]},
+          kMembershipMargin);
+    }
+  });
+  return owners;
+}
+
+namespace {
+
+// Per-view facts for finding the view that sees a point in most detail.
+struct ViewResolution {
+  Rigid camera_from_world;
+  double focal = 1;
+  double stride = 1;
+};
+
+// Returns true if a view other than `self` sees world point `p`
+// (depth-consistent, in the image) with a footprint smaller than
+// `footprint` / `ratio`.
+bool FinerViewSees(const Vec3& p, double footprint, size_t self, double ratio,
+                   const std::vector<SamplingView>& views,
+                   const std::vector<ViewResolution>& resolution) {
+  for (size_t u = 0; u < views.size(); ++u) {
+    if (u == self) continue;
+    const Vec3 pc = resolution[u].camera_from_world * p;
+    if (pc.z <= 0 || pc.z / resolution[u].focal * resolution[u].stride * ratio >= footprint) {
+      continue;
+    }
+    double x, y;
+    if (!views[u].view->camera.Project(pc, &x, &y)) continue;
+    const int px = static_cast<int>(std::floor(x)), py = static_cast<int>(std::floor(y));
+    if (px < 0 || py < 0 || px >= views[u].depth->width || py >= views[u].depth->height) continue;
+    const size_t j = static_cast<size_t>(py) * views[u].depth->width + px;
+    if (views[u].depth->is_far(j) || (*views[u].owners)[j] != 0) continue;
+    if (std::abs(views[u].depth->depth[j] - pc.z) <= 0.03 * pc.z) return true;
+  }
+  return false;
+}
+
+double StaticStride(const SamplingView& sv, const SamplingOptions& options) {
+  if (options.dense) return 1.0;
+  const double pixels = double(sv.view->width()) * sv.view->height();
+  return std::max(1.0, std::sqrt(pixels / double(std::max<int64_t>(1, options.static_per_view))));
+}
+
+}  // namespace
+
+QuerySet SampleQueries(const std::vector<SamplingView>& views,
+                       const std::vector<InstanceTrack>& tracks, const SamplingOptions& options) {
+  QuerySet out;
+  const Rigid identity;
+  std::vector<ViewResolution> resolution(views.size());
+  for (size_t v = 0; v < views.size(); ++v) {
+    resolution[v] = {views[v].view->world_from_camera.Inverse(),
+                     FocalLength(views[v].view->camera), StaticStride(views[v], options)};
+  }
+  const bool prefer_finer = !options.dense && options.finer_view_ratio > 0;
+  // Static queries, view by view.
+  absl::flat_hash_set<uint64_t> covered;
+  for (size_t v = 0; v < views.size(); ++v) {
+    const SamplingView& sv = views[v];
+    const int w = sv.view->width(), h = sv.view->height();
+    const double stride = resolution[v].stride;
+    const int cells_x = static_cast<int>(std::ceil(w / stride));
+    const int cells_y = static_cast<int>(std::ceil(h / stride));
+    const double focal = FocalLength(sv.view->camera);
+    const int far_stride = options.dense ? 1 : std::max(1, options.far_stride);
+    std::vector<uint64_t> new_keys;
+    for (int cy = 0; cy < cells_y; ++cy) {
+      for (int cx = 0; cx < cells_x; ++cx) {
+        int x = cx, y = cy;
+        if (!options.dense) {
+          x = std::min(w - 1, static_cast<int>((cx + Hash01(cx, cy, 2 * v)) * stride));
+          y = std::min(h - 1, static_cast<int>((cy + Hash01(cx, cy, 2 * v + 1)) * stride));
+        }
+        const size_t i = static_cast<size_t>(y) * w + x;
+        if (!sv.lifted->valid[i] || (*sv.owners)[i] != 0) continue;
+        double footprint = sv.depth->depth[i] / focal * stride;
+        if (sv.depth->is_far(i)) {
+          if (cx % far_stride != 0 || cy % far_stride != 0) continue;
+          footprint *= far_stride;
+        }
+        const Vec3 p{sv.lifted->points[3 * i], sv.lifted->points[3 * i + 1],
+                     sv.lifted->points[3 * i + 2]};
+        if (prefer_finer && !sv.depth->is_far(i) &&
+            FinerViewSees(p, footprint, v, options.finer_view_ratio, views, resolution)) {
+          continue;
+        }
+        if (options.skip_covered && !options.dense) {
+          const uint32_t level = FootprintLevel(footprint);
+          const uint64_t key = VoxelKey(p, LevelSide(level), level);
+          if (covered.contains(key)) continue;
+          new_keys.push_back(key);
+        }
+        Emit({static_cast<int>(v), static_cast<int>(i), p, float(footprint)}, sv, 0, identity,
+             &out);
+      }
+    }
+    covered.insert(new_keys.begin(), new_keys.end());
+  }
+
+  // Dynamic queries, instance by instance, in canonical frames.
+  for (size_t k = 0; k < tracks.size(); ++k) {
+    if (tracks[k].boxes.empty()) continue;
+    const uint32_t owner = static_cast<uint32_t>(k + 1);
+    std::vector<Candidate> candidates;
+    std::vector<Rigid> to_canonical(views.size());
+    for (size_t v = 0; v < views.size(); ++v) {
+      const SamplingView& sv = views[v];
+      to_canonical[v] = CanonicalFromWorld(tracks[k], sv.view->timestamp_us);
+      const double focal = FocalLength(sv.view->camera);
+      const size_t n = sv.owners->size();
+      for (size_t i = 0; i < n; ++i) {
+        if ((*sv.owners)[i] != owner) continue;
+        const Vec3 p{sv.lifted->points[3 * i], sv.lifted->points[3 * i + 1],
+                     sv.lifted->points[3 * i + 2]};
+        candidates.push_back({static_cast<int>(v), static_cast<int>(i), to_canonical[v] * p,
+                              float(sv.depth->depth[i] / focal)});
+      }
+    }
+    if (candidates.empty()) continue;
+    std::vector<size_t> kept;
+    double side = 0;
+    if (options.dense) {
+      kept.resize(candidates.size());
+      for (size_t i = 0; i < kept.size(); ++i) kept[i] = i;
+    } else {
+      // Smallest voxel side (bisection) that leaves at most N_d voxels.
+      std::vector<float> fps;
+      for (const Candidate& c : candidates) fps.push_back(c.footprint);
+      std::nth_element(fps.begin(), fps.begin() + fps.size() / 2, fps.end());
+      double lo = 0.5 * fps[fps.size() / 2], hi = lo;
+      const size_t budget = static_cast<size_t>(std::max<int64_t>(1, options.dynamic_per_instance));
+      if (CountVoxels(candidates, lo) <= budget) {
+        side = lo;
+      } else {
+        while (CountVoxels(candidates, hi) > budget) hi *= 2;
+        for (int iter = 0; iter < 12; ++iter) {
+          const double mid = 0.5 * (lo + hi);
+          (CountVoxels(candidates, mid) > budget ? lo : hi) = mid;
+        }
+        side = hi;
+      }
+      kept = ThinByVoxel(candidates, side);
+    }
+    for (size_t index : kept) {
+      Candidate c = candidates[index];
+      c.footprint = std::max(c.footprint, float(side));
+      Emit(c, views[c.view], owner, to_canonical[c.view], &out);
+    }
+  }
+  return out;
+}
+
+}  // namespace pf

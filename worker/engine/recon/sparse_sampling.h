@@ -1,0 +1,72 @@
+// Sparse sampling (paper section 3.1): N_s static queries per view and N_d
+// per instance, spread to cover the scene without redundancy.
+//
+// Static: each view's image is cut into a grid of cells of side
+// s = sqrt(W H / N_s) pixels and one pixel per cell is taken, jittered inside
+// the cell by a hash of its position (stratified, so every part of the image
+// is covered and no regular pattern aliases); far-layer pixels take one cell
+// in far_stride x far_stride. A point that another view sees (depth
+// consistent within 3 %) with a footprint smaller by more than
+// `finer_view_ratio` is left to that view, so every surface is sampled by
+// the view that sees it in most detail. A point whose voxel (side: its footprint
+// rounded up to a power of two) was already filled by an earlier view is
+// skipped, so surfaces seen by several views are not sampled again. Dynamic
+// pixels are left to the instances.
+//
+// Dynamic: every pixel of every view that lies in instance k's box, moved to
+// the canonical frame, thinned by a uniform voxel grid whose side is found by
+// bisection so that at most N_d points remain (one per voxel).
+//
+// Dense mode (the pixel-aligned model): every valid pixel is a query.
+#ifndef POINTFORWARD_WORKER_ENGINE_RECON_SPARSE_SAMPLING_H_
+#define POINTFORWARD_WORKER_ENGINE_RECON_SPARSE_SAMPLING_H_
+
+#include <cstdint>
+#include <vector>
+
+#include "worker/engine/recon/context_views.h"
+#include "worker/engine/recon/query_lifting.h"
+#include "worker/engine/recon/query_set.h"
+#include "worker/engine/recon/view_depth.h"
+#include "worker/engine/render/gaussian_scene.h"
+
+namespace pf {
+
+// The paper's budgets, for 768 x 576 images.
+inline constexpr int64_t kDefaultStaticPerView = 100000;
+inline constexpr int64_t kDefaultDynamicPerInstance = 10000;
+
+struct SamplingOptions {
+  int64_t static_per_view = kDefaultStaticPerView;          // N_s
+  int64_t dynamic_per_instance = kDefaultDynamicPerInstance;  // N_d
+  int far_stride = 3;          // Far-layer cells taken: one in far_stride^2.
+  bool skip_covered = true;    // Skip static points whose voxel an earlier view filled.
+  double finer_view_ratio = 1.2;  // Leave points to views this much finer; <= 0: off.
+  bool dense = false;          // Every valid pixel, no thinning (pixel-aligned).
+};
+
+// Returns the budget `at_768x576` scaled by the pixel count relative to
+// 768 x 576 (at least 1).
+int64_t ScaledBudget(int64_t at_768x576, int width, int height);
+
+// One view's inputs to sampling.
+struct SamplingView {
+  const ContextView* view = nullptr;
+  const ViewDepth* depth = nullptr;
+  const LiftedView* lifted = nullptr;
+  const std::vector<uint32_t>* owners = nullptr;  // [H, W] box membership at the view's time
+};
+
+// Returns the queries of `views` as described above. `tracks` give the
+// canonical frames of the owners.
+QuerySet SampleQueries(const std::vector<SamplingView>& views,
+                       const std::vector<InstanceTrack>& tracks, const SamplingOptions& options);
+
+// Returns the owner of every lifted pixel of a view: box membership of its
+// point at `timestamp_us` with kMembershipMargin (scene_graph.h); far-layer and invalid pixels are 0.
+std::vector<uint32_t> PixelOwners(const LiftedView& lifted, const ViewDepth& depth,
+                                  const std::vector<InstanceTrack>& tracks, int64_t timestamp_us);
+
+}  // namespace pf
+
+#endif  // POINTFORWARD_WORKER_ENGINE_RECON_SPARSE_SAMPLING_H_

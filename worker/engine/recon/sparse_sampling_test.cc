@@ -1,0 +1,162 @@
+// Tests of sparse sampling: coverage without duplicates, skipping what
+// earlier views covered, instance budgets.
+#include "worker/engine/recon/sparse_sampling.h"
+
+#include <cmath>
+#include <set>
+
+#include <gtest/gtest.h>
+
+#include "worker/engine/recon/scene_graph.h"
+
+namespace pf {
+namespace {
+
+// A view of the plane z = 10 facing the camera, with its depth and lift.
+struct PlaneView {
+  ContextView view;
+  ViewDepth depth;
+  LiftedView lifted;
+  std::vector<uint32_t> owners;
+
+  PlaneView(int w, int h, const Rigid& pose, int64_t t = 0) {
+    view.camera = CameraModel(w, h, w, w, 0.5 * w, 0.5 * h);
+    view.world_from_camera = pose;
+    view.timestamp_us = t;
+    view.rgb = ImageF(w, h, 3);
+    depth.width = w;
+    depth.height = h;
+    depth.depth.assign(size_t(w) * h, 10.f);
+    depth.source.assign(size_t(w) * h, 0);
+    lifted = LiftView(view, depth);
+    owners.assign(size_t(w) * h, 0);
+  }
+  SamplingView sampling() const { return {&view, &depth, &lifted, &owners}; }
+};
+
+TEST(SparseSampling, ScaledBudgetFollowsPixelCount) {
+  EXPECT_EQ(ScaledBudget(100000, 768, 576), 100000);
+  EXPECT_EQ(ScaledBudget(100000, 384, 288), 25000);
+  EXPECT_EQ(ScaledBudget(10, 1, 1), 1);
+}
+
+TEST(SparseSampling, StaticSamplesCoverEveryCellWithoutDuplicates) {
+  const PlaneView plane(192, 144, Rigid{});
+  SamplingOptions options;
+  options.static_per_view = 1728;  // Stride sqrt(192 * 144 / 1728) = 4 px.
+  const QuerySet q = SampleQueries({plane.sampling()}, {}, options);
+  EXPECT_EQ(q.size(), 1728u);  // One per cell on a fully valid view.
+  std::set<int> pixels(q.pixels.begin(), q.pixels.end());
+  EXPECT_EQ(pixels.size(), q.size());  // No pixel twice.
+  // Every 8 x 8 block of the image holds samples (4 cells of 4 x 4).
+  std::vector<int> per_block((192 / 8) * (144 / 8), 0);
+  for (int p : q.pixels) ++per_block[(p / 192 / 8) * (192 / 8) + (p % 192) / 8];
+  for (int count : per_block) EXPECT_EQ(count, 4);
+  // Not the first N pixels, nor a regular grid: jittered inside the cells.
+  std::set<int> x_in_cell;
+  for (int p : q.pixels) x_in_cell.insert((p % 192) % 4);
+  EXPECT_EQ(x_in_cell.size(), 4u);
+  // Footprint = depth / f * stride = 10 / 192 * 4.
+  EXPECT_NEAR(q.footprints[0], 10.0 / 192 * 4, 1e-6);
+}
+
+TEST(SparseSampling, SecondViewOfTheSameSurfaceAddsLittle) {
+  const PlaneView a(192, 144, Rigid{});
+  const PlaneView b(192, 144, Rigid{});  // Same view again.
+  SamplingOptions options;
+  options.static_per_view = 1728;
+  const QuerySet once = SampleQueries({a.sampling()}, {}, options);
+  const QuerySet twice = SampleQueries({a.sampling(), b.sampling()}, {}, options);
+  EXPECT_LT(twice.size(), once.size() * 5 / 4);
+  options.skip_covered = false;
+  EXPECT_EQ(SampleQueries({a.sampling(), b.sampling()}, {}, options).size(), 2 * once.size());
+}
+
+TEST(SparseSampling, DenseModeTakesEveryValidPixel) {
+  PlaneView plane(32, 24, Rigid{});
+  plane.lifted.valid[5] = 0;
+  SamplingOptions options;
+  options.dense = true;
+  const QuerySet q = SampleQueries({plane.sampling()}, {}, options);
+  EXPECT_EQ(q.size(), 32u * 24 - 1);
+  EXPECT_NEAR(q.footprints[0], 10.0 / 32, 1e-6);
+}
+
+TEST(SparseSampling, InstanceQueriesAreCanonicalAndWithinBudget) {
+  PlaneView plane(192, 144, Rigid{}, /*t=*/1000000);
+  // An instance whose box at t = 1 s is centred on the plane; its first box
+  // (t = 0) is 5 m to the left.
+  InstanceTrack car;
+  car.boxes = {{0, {-5, 0, 10}, {4, 4, 1}, Quat{}}, {1000000, {0, 0, 10}, {4, 4, 1}, Quat{}}};
+  const std::vector<InstanceTrack> tracks = {car};
+  plane.owners = PixelOwners(plane.lifted, plane.depth, tracks, 1000000);
+  int dynamic_pixels = 0;
+  for (uint32_t o : plane.owners) dynamic_pixels += o == 1;
+  // The box grown by kMembershipMargin spans x, y in [-2.15, 2.15] at z = 10:
+  // 4.3 / 10 * 192 = 82.6 px square.
+  EXPECT_NEAR(dynamic_pixels, 82.6 * 82.6, 180);
+  SamplingOptions options;
+  options.static_per_view = 1000;
+  options.dynamic_per_instance = 500;
+  const QuerySet q = SampleQueries({plane.sampling()}, tracks, options);
+  int dynamic = 0;
+  for (size_t i = 0; i < q.size(); ++i) {
+    if (q.owners[i] == 0) continue;
+    ++dynamic;
+    // Canonical = world moved 5 m to -x.
+    EXPECT_GE(q.positions[3 * i], -7.16f);
+    EXPECT_LE(q.positions[3 * i], -2.84f);
+    EXPECT_NEAR(q.positions[3 * i + 2], 10.f, 1e-4);
+  }
+  EXPECT_LE(dynamic, 500);
+  EXPECT_GE(dynamic, 250);  // The bisection lands near the budget.
+  for (size_t i = 0; i < q.size(); ++i)
+    if (q.owners[i] == 0) EXPECT_EQ(plane.owners[q.pixels[i]], 0u);
+}
+
+}  // namespace
+}  // namespace pf
+
+namespace pf {
+namespace {
+
+TEST(SparseSampling, SurfacesAreLeftToTheViewThatSeesThemClosest) {
+  // Both look along +z at the plane z = 10; `far_view` stands 10 m further
+  // back, so it sees the near view's whole area (x in [-5, 5], y in
+  // [-3.75, 3.75]) at half the resolution, and more around it.
+  const PlaneView near_view(192, 144, Rigid{});
+  Rigid back;
+  back.translation = {0, 0, -10};
+  PlaneView far_view(192, 144, back);
+  for (float& d : far_view.depth.depth) d = 20.f;
+  far_view.lifted = LiftView(far_view.view, far_view.depth);
+  SamplingOptions options;
+  options.static_per_view = 1728;
+  // The far view first: without the rule it would claim the shared area.
+  const QuerySet q = SampleQueries({far_view.sampling(), near_view.sampling()}, {}, options);
+  int far_inside = 0, far_outside = 0, near_count = 0;
+  for (size_t i = 0; i < q.size(); ++i) {
+    const float x = q.positions[3 * i], y = q.positions[3 * i + 1];
+    if (q.views[i] == 1) {
+      ++near_count;
+    } else if (std::abs(x) < 4.8f && std::abs(y) < 3.6f) {
+      ++far_inside;
+    } else {
+      ++far_outside;
+    }
+  }
+  EXPECT_EQ(near_count, 1728);
+  EXPECT_EQ(far_inside, 0);
+  EXPECT_GT(far_outside, 1728 / 2);  // 3/4 of the far view is outside the near one.
+  options.finer_view_ratio = 0;  // Off: the far view keeps its samples there.
+  const QuerySet plain = SampleQueries({far_view.sampling(), near_view.sampling()}, {}, options);
+  int plain_inside = 0;
+  for (size_t i = 0; i < plain.size(); ++i)
+    if (plain.views[i] == 0 && std::abs(plain.positions[3 * i]) < 4.8f &&
+        std::abs(plain.positions[3 * i + 1]) < 3.6f)
+      ++plain_inside;
+  EXPECT_GT(plain_inside, 300);
+}
+
+}  // namespace
+}  // namespace pf

@@ -1,0 +1,249 @@
+// Depth per context image: depth maps, LiDAR projection and completion, and
+// the far layer.
+#include "worker/engine/recon/view_depth.h"
+
+// The generated protobuf header first (see image_io.h).
+#include "pointforward/v1/clip.pb.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <limits>
+
+#include "absl/strings/str_cat.h"
+#include "common/thread_pool.h"
+#include "worker/engine/clip/clip_validator.h"
+#include "worker/engine/recon/scene_graph.h"
+#include "worker/engine/render/rasterizer.h"
+
+namespace pf {
+
+absl::StatusOr<std::vector<LidarSweepData>> LoadLidarSweeps(const LoadedClip& loaded,
+                                                            bool allow_outside_paths) {
+  std::vector<LidarSweepData> sweeps;
+  for (int i = 0; i < loaded.clip.lidar_size(); ++i) {
+    const auto& sweep = loaded.clip.lidar(i);
+    const std::string where = absl::StrCat("lidar[", i, "]");
+    if (sweep.world_from_sensor_size() != 16) {
+      return absl::InvalidArgumentError(absl::StrCat(where, ".worldFromSensor: has ",
+                                                     sweep.world_from_sensor_size(),
+                                                     " numbers, expected 16"));
+    }
+    absl::StatusOr<std::string> path =
+        ResolveClipPath(loaded, sweep.points(), allow_outside_paths);
+    if (!path.ok()) {
+      return absl::Status(path.status().code(),
+                          absl::StrCat(where, ".points: ", std::string(path.status().message())));
+    }
+    std::ifstream in(*path, std::ios::binary | std::ios::ate);
+    if (!in) return absl::NotFoundError(absl::StrCat(where, ".points: cannot open ", *path));
+    const std::streamoff bytes = in.tellg();
+    if (bytes < 0 || bytes % 16 != 0) {
+      return absl::InvalidArgumentError(absl::StrCat(where, ".points: ", *path, " has ", bytes,
+                                                     " bytes, not a multiple of 16"));
+    }
+    std::vector<float> records(static_cast<size_t>(bytes / 4));
+    in.seekg(0);
+    if (!in.read(reinterpret_cast<char*>(records.data()), bytes)) {
+      return absl::DataLossError(absl::StrCat(where, ".points: short read of ", *path));
+    }
+    const Rigid world_from_sensor = Rigid::FromRowMajor(sweep.world_from_sensor().data());
+    LidarSweepData data;
+    data.timestamp_us = sweep.timestamp_us();
+    const size_t n = records.size() / 4;
+    data.points.reserve(n * 3);
+    for (size_t p = 0; p < n; ++p) {
+      const Vec3 local{records[4 * p], records[4 * p + 1], records[4 * p + 2]};
+      if (!std::isfinite(local.x) || !std::isfinite(local.y) || !std::isfinite(local.z)) continue;
+      const Vec3 w = world_from_sensor * local;
+      data.points.insert(data.points.end(), {float(w.x), float(w.y), float(w.z)});
+    }
+    sweeps.push_back(std::move(data));
+  }
+  return sweeps;
+}
+
+int NearestSweep(const std::vector<LidarSweepData>& sweeps, int64_t timestamp_us) {
+  int best = -1;
+  int64_t best_gap = std::numeric_limits<int64_t>::max();
+  for (size_t i = 0; i < sweeps.size(); ++i) {
+    const int64_t gap = std::abs(sweeps[i].timestamp_us - timestamp_us);
+    if (gap < best_gap) {
+      best_gap = gap;
+      best = static_cast<int>(i);
+    }
+  }
+  return best;
+}
+
+std::vector<float> PointsAtTime(const LidarSweepData& sweep,
+                                const std::vector<InstanceTrack>& tracks, int64_t timestamp_us) {
+  std::vector<float> out = sweep.points;
+  if (tracks.empty() || sweep.timestamp_us == timestamp_us) return out;
+  const BoxesAt boxes(tracks, sweep.timestamp_us);
+  // world(t) <- canonical <- world(sweep) per track.
+  std::vector<Rigid> moves(tracks.size());
+  for (size_t k = 0; k < tracks.size(); ++k) {
+    if (!boxes.valid(k)) continue;
+    moves[k] = InstancePoseAt(tracks[k].boxes, timestamp_us) *
+               InstancePoseAt(tracks[k].boxes, sweep.timestamp_us).Inverse();
+  }
+  const int64_t n = static_cast<int64_t>(out.size() / 3);
+  DefaultThreadPool().ParallelFor(0, n, 4096, [&](int64_t b, int64_t e) {
+    for (int64_t i = b; i < e; ++i) {
+      const Vec3 p{out[3 * i], out[3 * i + 1], out[3 * i + 2]};
+      const uint32_t owner = boxes.Owner(p, kMembershipMargin);
+      if (owner == 0) continue;
+      const Vec3 q = moves[owner - 1] * p;
+      out[3 * i] = float(q.x);
+      out[3 * i + 1] = float(q.y);
+      out[3 * i + 2] = float(q.z);
+    }
+  });
+  return out;
+}
+
+ImageF ProjectPoints(const std::vector<float>& points, const CameraModel& camera,
+                     const Rigid& world_from_camera) {
+  ImageF depth(camera.width(), camera.height(), 1);
+  const Rigid camera_from_world = world_from_camera.Inverse();
+  const size_t n = points.size() / 3;
+  for (size_t i = 0; i < n; ++i) {
+    const Vec3 pc = camera_from_world * Vec3{points[3 * i], points[3 * i + 1], points[3 * i + 2]};
+    double u, v;
+    if (!camera.Project(pc, &u, &v)) continue;
+    const int x = static_cast<int>(std::floor(u)), y = static_cast<int>(std::floor(v));
+    if (x < 0 || y < 0 || x >= depth.width || y >= depth.height) continue;
+    float& d = depth.at(x, y);
+    if (d == 0.f || pc.z < d) d = static_cast<float>(pc.z);
+  }
+  return depth;
+}
+
+ImageF CompleteDepth(const ImageF& sparse, const CompletionOptions& options) {
+  const int w = sparse.width, h = sparse.height;
+  const int cell = std::max(1, options.max_distance_px);
+  const int gw = (w + cell - 1) / cell, gh = (h + cell - 1) / cell;
+  // Measured pixels bucketed by grid cell (counting sort).
+  std::vector<int> start(static_cast<size_t>(gw) * gh + 1, 0);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      if (sparse.at(x, y) > 0.f) ++start[(y / cell) * gw + x / cell + 1];
+  for (size_t i = 1; i < start.size(); ++i) start[i] += start[i - 1];
+  std::vector<int> fill = start;
+  std::vector<int> samples(static_cast<size_t>(start.back()));
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      if (sparse.at(x, y) > 0.f) samples[fill[(y / cell) * gw + x / cell]++] = y * w + x;
+
+  ImageF dense = sparse;
+  const double max_d2 = double(options.max_distance_px) * options.max_distance_px;
+  DefaultThreadPool().ParallelFor(0, h, 4, [&](int64_t y0, int64_t y1) {
+    for (int64_t y = y0; y < y1; ++y) {
+      const int cy = static_cast<int>(y) / cell;
+      for (int x = 0; x < w; ++x) {
+        if (sparse.at(x, y) > 0.f) continue;
+        const int cx = x / cell;
+        double nearest = std::numeric_limits<double>::infinity();
+        for (int gy = std::max(0, cy - 1); gy <= std::min(gh - 1, cy + 1); ++gy)
+          for (int gx = std::max(0, cx - 1); gx <= std::min(gw - 1, cx + 1); ++gx)
+            for (int s = start[gy * gw + gx]; s < start[gy * gw + gx + 1]; ++s) {
+              const int sx = samples[s] % w, sy = samples[s] / w;
+              const double d2 = double(sx - x) * (sx - x) + double(sy - y) * (sy - y);
+              nearest = std::min(nearest, d2);
+            }
+        if (nearest > max_d2) continue;
+        const double limit = std::pow(std::sqrt(nearest) + 1.5, 2);
+        float best = std::numeric_limits<float>::infinity();
+        for (int gy = std::max(0, cy - 1); gy <= std::min(gh - 1, cy + 1); ++gy)
+          for (int gx = std::max(0, cx - 1); gx <= std::min(gw - 1, cx + 1); ++gx)
+            for (int s = start[gy * gw + gx]; s < start[gy * gw + gx + 1]; ++s) {
+              const int sx = samples[s] % w, sy = samples[s] / w;
+              const double d2 = double(sx - x) * (sx - x) + double(sy - y) * (sy - y);
+              if (d2 <= limit) best = std::min(best, sparse.at(sx, sy));
+            }
+        dense.at(x, static_cast<int>(y)) = best;
+      }
+    }
+  });
+  return dense;
+}
+
+double FarDepth(const FarLayer& far, const CameraModel& camera, const Rigid& world_from_camera,
+                double u, double v) {
+  Vec3 ray;
+  if (!camera.Unproject(u, v, &ray)) return 0.0;
+  // Solve |o + s d - c| = R for s > 0 with d the world ray (z-scaled).
+  const Vec3 d = world_from_camera.rotation * ray;
+  const Vec3 oc = world_from_camera.translation - far.center;
+  const double a = Dot(d, d), b = 2 * Dot(oc, d), c = Dot(oc, oc) - far.radius * far.radius;
+  const double disc = b * b - 4 * a * c;
+  if (disc < 0) return 0.0;
+  const double s = (-b + std::sqrt(disc)) / (2 * a);
+  return s > 0 ? s : 0.0;  // ray has z = 1, so s is the z depth.
+}
+
+FarLayer FarLayerFor(const std::vector<ContextView>& views, const std::vector<float>& max_depths,
+                     double min_radius) {
+  FarLayer far;
+  if (views.empty()) {
+    far.radius = min_radius;
+    return far;
+  }
+  for (const ContextView& view : views) far.center = far.center + view.world_from_camera.translation;
+  far.center = far.center / double(views.size());
+  double spread = 0, deepest = 0;
+  for (const ContextView& view : views)
+    spread = std::max(spread, Norm(view.world_from_camera.translation - far.center));
+  for (float d : max_depths) deepest = std::max(deepest, double(d));
+  far.radius = std::max(min_radius, 2.0 * (spread + deepest));
+  return far;
+}
+
+ImageF MeasuredDepth(const ContextView& view, const std::vector<LidarSweepData>& sweeps,
+                     const std::vector<InstanceTrack>& tracks, const CompletionOptions& options,
+                     bool* from_lidar) {
+  if (from_lidar != nullptr) *from_lidar = false;
+  if (view.depth.width > 0) {
+    ImageF depth = view.depth;
+    for (float& d : depth.pixels)
+      if (!(d > 0.f) || !std::isfinite(d)) d = 0.f;
+    return depth;
+  }
+  const int nearest = NearestSweep(sweeps, view.timestamp_us);
+  if (nearest < 0) return ImageF(view.width(), view.height(), 1);
+  if (from_lidar != nullptr) *from_lidar = true;
+  const std::vector<float> points = PointsAtTime(sweeps[nearest], tracks, view.timestamp_us);
+  return CompleteDepth(ProjectPoints(points, view.camera, view.world_from_camera), options);
+}
+
+ViewDepth WithFarLayer(const ImageF& measured, bool from_lidar, const ContextView& view,
+                       const FarLayer& far) {
+  ViewDepth out;
+  out.width = measured.width;
+  out.height = measured.height;
+  const size_t n = static_cast<size_t>(out.width) * out.height;
+  out.depth.resize(n);
+  out.source.resize(n);
+  const uint8_t measured_source = uint8_t(from_lidar ? DepthSource::kLidar : DepthSource::kDepthMap);
+  DefaultThreadPool().ParallelFor(0, out.height, 16, [&](int64_t y0, int64_t y1) {
+    for (int64_t y = y0; y < y1; ++y) {
+      for (int x = 0; x < out.width; ++x) {
+        const size_t i = static_cast<size_t>(y) * out.width + x;
+        const float d = measured.pixels[i];
+        if (d > 0.f) {
+          out.depth[i] = d;
+          out.source[i] = measured_source;
+        } else {
+          out.depth[i] = static_cast<float>(
+              FarDepth(far, view.camera, view.world_from_camera, x + 0.5, y + 0.5));
+          out.source[i] = uint8_t(DepthSource::kFar);
+        }
+      }
+    }
+  });
+  return out;
+}
+
+}  // namespace pf

@@ -1,0 +1,636 @@
+// Tile-based EWA splatting on the CPU.
+//
+// The passes (ParallelFor on DefaultThreadPool() over fixed chunks, so the
+// result never depends on thread timing):
+//  1. Project: per Gaussian, time-faded opacity, pose (instances moved from
+//     canonical space), camera-frame mean, 2D covariance J W Sigma W^T J^T +
+//     0.3 I, conic, opacity-aware extent (the Mahalanobis radius where alpha
+//     drops to 1/255), colour.
+//  2. Sort the visible Gaussians by depth: one stable radix sort of
+//     (depth bits, index) keys, so ties keep index order.
+//  3. Bin: in depth order, every 16x16 tile the ellipse really touches (an
+//     exact ellipse-versus-rectangle test, not its bounding box) gets the
+//     Gaussian; a counting sort by tile keeps each tile's list in depth order.
+//  4. Composite each tile front to back (raster_tile_kernel.h): per Gaussian
+//     and pixel row only the pixels inside the ellipse's span are evaluated,
+//     pixels whose transmittance fell under 1e-4 are skipped, and a tile
+//     stops once all of its pixels are done.
+//
+// Distortion (OpenCV, fisheye) is rendered directly: the mean is projected
+// through CameraModel::Distort, and the EWA Jacobian is the product of the
+// pinhole Jacobian and the distortion's own 2x2 Jacobian at the mean (a local
+// linearisation per Gaussian). Centres land exactly where
+// CameraModel::Project puts them; the shape is first-order accurate.
+#include "worker/engine/render/rasterizer.h"
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <memory>
+
+#include "absl/strings/str_cat.h"
+#include "common/thread_pool.h"
+#include "worker/engine/render/raster_sh.h"
+#include "worker/engine/render/raster_tile.h"
+
+namespace pf {
+namespace {
+
+using raster::kMaxAlpha;
+using raster::kMinAlpha;
+using raster::kMinTransmittance;
+using raster::kTile;
+using raster::kTilePixels;
+using raster::Projected;
+
+constexpr float kLowPass = 0.3f;
+// The row spans and tile tests use a slightly larger radius than the exact
+// 1/255 level, so float rounding never drops a pixel that the alpha test
+// would keep; the alpha test decides.
+constexpr float kExtentMargin = 1.001f;
+// Pinhole Jacobians are evaluated no further than this fraction of the image
+// size outside the image (as 3DGS clamps at 1.3 tan(fov)), so Gaussians far
+// off screen do not blow up into huge splats.
+constexpr float kJacobianGuard = 0.15f;
+
+// A rigid transform in float: p' = r * p + t, r row-major.
+struct Transform {
+  float r[9];
+  float t[3];
+};
+
+Transform ToFloat(const Rigid& x) {
+  Transform f;
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) f.r[3 * i + j] = static_cast<float>(x.rotation.m[i][j]);
+    f.t[i] = static_cast<float>(x.translation[i]);
+  }
+  return f;
+}
+
+// The per-render state shared by the passes.
+struct Frame {
+  int width = 0, height = 0;
+  int tiles_x = 0, tiles_y = 0;
+  // Camera.
+  const CameraModel* model = nullptr;
+  float fx = 0, fy = 0, cx = 0, cy = 0;
+  float x_lo = 0, x_hi = 0, y_lo = 0, y_hi = 0;  // Jacobian clamp, normalised.
+  float near_plane = 0.01f;
+  // Per owner (0 background, k instance k): camera-from-owner transform,
+  // camera centre in the owner's frame, and whether it is drawn.
+  std::vector<Transform> camera_from_owner;
+  std::vector<float> eye_in_owner;  // [K+1, 3]
+  std::vector<uint8_t> owner_live;
+  float render_time_s = 0;
+};
+
+// Returns the smallest d^2 of the conic over the rectangle of pixel centres
+// [x0, x1] x [y0, y1] (offsets from the Gaussian's centre).
+float MinD2OverRect(float ca, float cb, float cc, float x0, float x1, float y0, float y1) {
+  if (x0 <= 0 && x1 >= 0 && y0 <= 0 && y1 >= 0) return 0;
+  auto edge_x = [&](float dx) {  // Fixed dx, best dy in [y0, y1].
+    const float dy = std::clamp(-cb * dx / cc, y0, y1);
+    return ca * dx * dx + 2 * cb * dx * dy + cc * dy * dy;
+  };
+  auto edge_y = [&](float dy) {  // Fixed dy, best dx in [x0, x1].
+    const float dx = std::clamp(-cb * dy / ca, x0, x1);
+    return ca * dx * dx + 2 * cb * dx * dy + cc * dy * dy;
+  };
+  return std::min(std::min(edge_x(x0), edge_x(x1)), std::min(edge_y(y0), edge_y(y1)));
+}
+
+// Projects Gaussian `i` into `out`; false when it cannot be seen.
+bool ProjectGaussian(const GaussianScene& scene, const Frame& frame, size_t i, Projected* out) {
+  const uint32_t owner = scene.owners[i];
+  if (!frame.owner_live[owner]) return false;
+
+  // Opacity, faded by time.
+  float opacity = 1.f / (1.f + std::exp(-scene.opacity_logits[i]));
+  const float sigma = scene.lifespans[i];
+  if (!std::isinf(sigma)) {
+    const float u = (frame.render_time_s - scene.times[i]) / (sigma + 1.f);
+    opacity *= std::exp(-0.5f * u * u);
+  }
+  if (!(opacity >= kMinAlpha)) return false;
+
+  // Camera-frame mean.
+  const Transform& cam = frame.camera_from_owner[owner];
+  const float* m = &scene.means[3 * i];
+  const float px = cam.r[0] * m[0] + cam.r[1] * m[1] + cam.r[2] * m[2] + cam.t[0];
+  const float py = cam.r[3] * m[0] + cam.r[4] * m[1] + cam.r[5] * m[2] + cam.t[1];
+  const float pz = cam.r[6] * m[0] + cam.r[7] * m[1] + cam.r[8] * m[2] + cam.t[2];
+  if (!(pz >= frame.near_plane)) return false;
+
+  // Pixel centre and the 2x2 Jacobian of pixel w.r.t. normalised coordinates.
+  const float inv_z = 1.f / pz;
+  const float xn = px * inv_z, yn = py * inv_z;
+  const float tx = std::clamp(xn, frame.x_lo, frame.x_hi);
+  const float ty = std::clamp(yn, frame.y_lo, frame.y_hi);
+  float mx, my;
+  float d00 = frame.fx, d01 = 0, d10 = 0, d11 = frame.fy;
+  const CameraModel& model = *frame.model;
+  if (!model.has_distortion()) {
+    mx = frame.fx * xn + frame.cx;
+    my = frame.fy * yn + frame.cy;
+  } else {
+    double u, v;
+    if (!model.Project({px, py, pz}, &u, &v)) return false;
+    mx = static_cast<float>(u);
+    my = static_cast<float>(v);
+    // Central differences of Distort at the (clamped) point.
+    constexpr double h = 1e-6;
+    double ax, ay, bx, by, cxp, cyp, dx, dy;
+    model.Distort(tx + h, ty, &ax, &ay);
+    model.Distort(tx - h, ty, &bx, &by);
+    model.Distort(tx, ty + h, &cxp, &cyp);
+    model.Distort(tx, ty - h, &dx, &dy);
+    d00 = static_cast<float>(model.fx() * (ax - bx) / (2 * h));
+    d10 = static_cast<float>(model.fy() * (ay - by) / (2 * h));
+    d01 = static_cast<float>(model.fx() * (cxp - dx) / (2 * h));
+    d11 = static_cast<float>(model.fy() * (cyp - dy) / (2 * h));
+  }
+  // J = D * [1/z 0 -tx/z; 0 1/z -ty/z], 2x3.
+  const float j00 = d00 * inv_z, j01 = d01 * inv_z, j02 = -(d00 * tx + d01 * ty) * inv_z;
+  const float j10 = d10 * inv_z, j11 = d11 * inv_z, j12 = -(d10 * tx + d11 * ty) * inv_z;
+  // A = J * R_cam (2x3).
+  const float* r = cam.r;
+  const float a00 = j00 * r[0] + j01 * r[3] + j02 * r[6];
+  const float a01 = j00 * r[1] + j01 * r[4] + j02 * r[7];
+  const float a02 = j00 * r[2] + j01 * r[5] + j02 * r[8];
+  const float a10 = j10 * r[0] + j11 * r[3] + j12 * r[6];
+  const float a11 = j10 * r[1] + j11 * r[4] + j12 * r[7];
+  const float a12 = j10 * r[2] + j11 * r[5] + j12 * r[8];
+  // Gaussian rotation (normalised quaternion) and scales.
+  const float* q = &scene.rotations[4 * i];
+  const float qn = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3];
+  if (!(qn > 0)) return false;
+  const float s = 1.f / std::sqrt(qn);
+  const float w = q[0] * s, x = q[1] * s, y = q[2] * s, z = q[3] * s;
+  const float g00 = 1 - 2 * (y * y + z * z), g01 = 2 * (x * y - w * z), g02 = 2 * (x * z + w * y);
+  const float g10 = 2 * (x * y + w * z), g11 = 1 - 2 * (x * x + z * z), g12 = 2 * (y * z - w * x);
+  const float g20 = 2 * (x * z - w * y), g21 = 2 * (y * z + w * x), g22 = 1 - 2 * (x * x + y * y);
+  const float* ls = &scene.log_scales[3 * i];
+  const float s0 = std::exp(ls[0]), s1 = std::exp(ls[1]), s2 = std::exp(ls[2]);
+  // B = A * G * S (2x3); cov = B B^T + low-pass.
+  const float b00 = (a00 * g00 + a01 * g10 + a02 * g20) * s0;
+  const float b01 = (a00 * g01 + a01 * g11 + a02 * g21) * s1;
+  const float b02 = (a00 * g02 + a01 * g12 + a02 * g22) * s2;
+  const float b10 = (a10 * g00 + a11 * g10 + a12 * g20) * s0;
+  const float b11 = (a10 * g01 + a11 * g11 + a12 * g21) * s1;
+  const float b12 = (a10 * g02 + a11 * g12 + a12 * g22) * s2;
+  const float cov_xx = b00 * b00 + b01 * b01 + b02 * b02 + kLowPass;
+  const float cov_xy = b00 * b10 + b01 * b11 + b02 * b12;
+  const float cov_yy = b10 * b10 + b11 * b11 + b12 * b12 + kLowPass;
+  const float det = cov_xx * cov_yy - cov_xy * cov_xy;
+  if (!(det > 0)) return false;
+  const float inv_det = 1.f / det;
+
+  // Opacity-aware extent: alpha = o exp(-d^2 / 2) >= 1/255 <=> d^2 <= 2 ln(255 o).
+  const float d2_max = 2.f * std::log(opacity * 255.f) * kExtentMargin + 1e-4f;
+  const float ext_x = std::sqrt(d2_max * cov_xx), ext_y = std::sqrt(d2_max * cov_yy);
+  if (mx + ext_x < 0 || mx - ext_x > frame.width || my + ext_y < 0 || my - ext_y > frame.height ||
+      !std::isfinite(mx) || !std::isfinite(my)) {
+    return false;
+  }
+  out->mx = mx;
+  out->my = my;
+  out->ca = cov_yy * inv_det;
+  out->cb = -cov_xy * inv_det;
+  out->cc = cov_xx * inv_det;
+  out->opacity = opacity;
+  out->span_d2 = d2_max;
+  out->ext_x = ext_x;
+  out->ext_y = ext_y;
+  out->depth = pz;
+  out->owner = owner;
+  out->pad[0] = out->pad[1] = 0;
+  out->rgb[0] = out->rgb[1] = out->rgb[2] = 0;
+  if (scene.sh_degree >= 0) {
+    // View direction in the owner's frame (SH live in canonical space).
+    const float* eye = &frame.eye_in_owner[3 * owner];
+    float vx = m[0] - eye[0], vy = m[1] - eye[1], vz = m[2] - eye[2];
+    const float vn = std::sqrt(vx * vx + vy * vy + vz * vz);
+    if (vn > 0) vx /= vn, vy /= vn, vz /= vn;
+    raster::EvalShColor(&scene.sh[i * 3 * scene.sh_coeffs()], scene.sh_degree, vx, vy, vz,
+                        out->rgb);
+  }
+  return true;
+}
+
+// Appends the tiles Gaussian `g` (index `i`) touches to `tiles` (and `i` to
+// `indices`) and counts them in `histogram`.
+void EmitTiles(const Frame& frame, const Projected& g, uint32_t i, std::vector<uint32_t>* tiles,
+               std::vector<uint32_t>* indices, uint32_t* histogram) {
+  const float ext_x = g.ext_x;
+  // Pixel-centre bounds of the ellipse, clipped to the image.
+  const int px0 = std::max(0, static_cast<int>(std::ceil(g.mx - ext_x - 0.5f)));
+  const int px1 = std::min(frame.width - 1, static_cast<int>(std::floor(g.mx + ext_x - 0.5f)));
+  const int py0 = std::max(0, static_cast<int>(std::ceil(g.my - g.ext_y - 0.5f)));
+  const int py1 = std::min(frame.height - 1, static_cast<int>(std::floor(g.my + g.ext_y - 0.5f)));
+  if (px0 > px1 || py0 > py1) return;
+  const int tx0 = px0 / kTile, tx1 = px1 / kTile, ty0 = py0 / kTile, ty1 = py1 / kTile;
+  const bool single = tx0 == tx1 && ty0 == ty1;
+  for (int ty = ty0; ty <= ty1; ++ty) {
+    const float y0 = std::max(ty * kTile, py0) + 0.5f - g.my;
+    const float y1 = std::min(ty * kTile + kTile - 1, py1) + 0.5f - g.my;
+    for (int tx = tx0; tx <= tx1; ++tx) {
+      if (!single) {
+        const float x0 = std::max(tx * kTile, px0) + 0.5f - g.mx;
+        const float x1 = std::min(tx * kTile + kTile - 1, px1) + 0.5f - g.mx;
+        if (MinD2OverRect(g.ca, g.cb, g.cc, x0, x1, y0, y1) > g.span_d2) continue;
+      }
+      const uint32_t tile = static_cast<uint32_t>(ty * frame.tiles_x + tx);
+      tiles->push_back(tile);
+      indices->push_back(i);
+      ++histogram[tile];
+    }
+  }
+}
+
+// Per-thread buffers of one tile, reused across tiles and renders.
+struct TileScratch {
+  std::vector<float> transmittance;  // [256]
+  std::vector<float> acc;            // [K, 256]
+  std::vector<float> acc_rgb;        // [3, 256]
+  std::vector<float> acc_depth;      // [256]
+  std::vector<float> best_weight;    // [256]
+  std::vector<uint32_t> best_owner;  // [256]
+};
+
+// Composites tile (tx, ty) from its depth-ordered `indices` and writes its
+// pixels.
+void RenderTile(const Frame& frame, const Projected* projected, const uint32_t* indices,
+                size_t num_indices, int tx, int ty, const float* features, int stride, int count,
+                bool sh_rgb, const RenderOptions& options, RenderBuffers* out, int64_t* tested,
+                int64_t* contributing) {
+  thread_local TileScratch s;
+  constexpr int kPad = raster::kTilePadding;
+  s.transmittance.resize(kTilePixels + kPad);
+  s.acc.resize(static_cast<size_t>(raster::kChannelStride) * std::max(count, 1) + kPad);
+  s.acc_rgb.resize(3 * raster::kChannelStride + kPad);
+  s.acc_depth.resize(kTilePixels + kPad);
+  s.best_weight.resize(kTilePixels + kPad);
+  s.best_owner.resize(kTilePixels + kPad);
+  raster::TileJob job;
+  job.projected = projected;
+  job.indices = indices;
+  job.num_indices = num_indices;
+  job.x_begin = tx * kTile;
+  job.y_begin = ty * kTile;
+  job.x_end = std::min(job.x_begin + kTile, frame.width);
+  job.y_end = std::min(job.y_begin + kTile, frame.height);
+  job.features = features;
+  job.stride = stride;
+  job.count = count;
+  job.sh_rgb = sh_rgb;
+  job.transmittance = s.transmittance.data();
+  job.acc = s.acc.data();
+  job.acc_rgb = s.acc_rgb.data();
+  job.acc_depth = s.acc_depth.data();
+  job.best_weight = s.best_weight.data();
+  job.best_owner = s.best_owner.data();
+  raster::CompositeTile(&job);
+
+  // Write the tile's pixels (channel-major tile buffers to [H, W, C]).
+  const int channels = out->channels;
+  for (int y = job.y_begin; y < job.y_end; ++y) {
+    for (int x = job.x_begin; x < job.x_end; ++x) {
+      const int p = (y - job.y_begin) * kTile + (x - job.x_begin);
+      const size_t pixel = static_cast<size_t>(y) * frame.width + x;
+      const float alpha = 1.f - job.transmittance[p];
+      out->alpha[pixel] = alpha;
+      const float* rgb = sh_rgb ? job.acc_rgb : job.acc;
+      for (int c = 0; c < 3; ++c) out->rgb[3 * pixel + c] = rgb[c * raster::kChannelStride + p];
+      if (options.features) {
+        float* f = &out->features[pixel * channels];
+        for (int c = 0; c < channels; ++c) f[c] = job.acc[c * raster::kChannelStride + p];
+      }
+      if (options.depth) out->depth[pixel] = alpha > 0 ? job.acc_depth[p] / alpha : 0.f;
+      if (options.instance) out->instance[pixel] = job.best_owner[p];
+    }
+  }
+  *tested += job.tested;
+  *contributing += job.contributing;
+}
+
+// Sorts `keys` by their high 32 bits (non-negative float bits sort like the
+// floats), stably: three LSD passes of 11 bits. `buffer` is scratch space.
+void RadixSortByHighWord(std::vector<uint64_t>* keys, std::vector<uint64_t>* buffer) {
+  buffer->resize(keys->size());
+  uint64_t* from = keys->data();
+  uint64_t* to = buffer->data();
+  const size_t n = keys->size();
+  for (int shift = 32; shift < 64; shift += 11) {
+    size_t count[2049] = {};
+    for (size_t k = 0; k < n; ++k) ++count[((from[k] >> shift) & 2047) + 1];
+    for (int b = 0; b < 2048; ++b) count[b + 1] += count[b];
+    for (size_t k = 0; k < n; ++k) to[count[(from[k] >> shift) & 2047]++] = from[k];
+    std::swap(from, to);
+  }
+  // Three passes: the result is in `buffer`.
+  keys->swap(*buffer);
+}
+
+absl::Status ValidateScene(const GaussianScene& scene) {
+  const size_t n = scene.size();
+  if (scene.num_channels < 3 || scene.num_channels > 256) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("scene.num_channels: ", scene.num_channels, " is outside [3, 256]"));
+  }
+  if (scene.sh_degree < -1 || scene.sh_degree > 3) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("scene.sh_degree: ", scene.sh_degree, " is outside [-1, 3]"));
+  }
+  if (n >= (size_t{1} << 32)) {
+    return absl::InvalidArgumentError("scene: more than 2^32 Gaussians");
+  }
+  auto check = [&](const char* name, size_t actual, size_t per) -> absl::Status {
+    if (actual != n * per) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("scene.", name, ": has ", actual, " values, expected ", n * per));
+    }
+    return absl::OkStatus();
+  };
+  for (const absl::Status& s :
+       {check("means", scene.means.size(), 3), check("rotations", scene.rotations.size(), 4),
+        check("log_scales", scene.log_scales.size(), 3),
+        check("features", scene.features.size(), scene.num_channels),
+        check("sh", scene.sh.size(), 3 * static_cast<size_t>(scene.sh_coeffs())),
+        check("times", scene.times.size(), 1), check("lifespans", scene.lifespans.size(), 1),
+        check("owners", scene.owners.size(), 1)}) {
+    if (!s.ok()) return s;
+  }
+  for (size_t i = 0; i < n; ++i) {
+    if (scene.owners[i] > scene.instances.size()) {
+      return absl::InvalidArgumentError(absl::StrCat("scene.owners[", i, "]: ", scene.owners[i],
+                                                     " but the scene has ", scene.instances.size(),
+                                                     " instances"));
+    }
+  }
+  return absl::OkStatus();
+}
+
+// Returns the box pose (rotation, centre) as a rigid transform.
+Rigid BoxPose(const TrackBox& box) { return {ToMatrix(box.rotation), box.center}; }
+
+}  // namespace
+
+TrackBox InterpolateBox(const std::vector<TrackBox>& boxes, int64_t timestamp_us) {
+  if (boxes.empty()) return TrackBox{};
+  if (timestamp_us <= boxes.front().timestamp_us) return boxes.front();
+  if (timestamp_us >= boxes.back().timestamp_us) return boxes.back();
+  const auto next =
+      std::upper_bound(boxes.begin(), boxes.end(), timestamp_us,
+                       [](int64_t t, const TrackBox& box) { return t < box.timestamp_us; });
+  const TrackBox& b = *next;
+  const TrackBox& a = *(next - 1);
+  const double s = static_cast<double>(timestamp_us - a.timestamp_us) /
+                   static_cast<double>(b.timestamp_us - a.timestamp_us);
+  TrackBox box;
+  box.timestamp_us = timestamp_us;
+  box.center = a.center + s * (b.center - a.center);
+  box.size = a.size + s * (b.size - a.size);
+  box.rotation = Slerp(a.rotation, b.rotation, s);
+  return box;
+}
+
+Rigid InstancePoseAt(const std::vector<TrackBox>& boxes, int64_t timestamp_us) {
+  if (boxes.empty()) return Rigid{};
+  return BoxPose(InterpolateBox(boxes, timestamp_us)) * BoxPose(boxes.front()).Inverse();
+}
+
+namespace {
+
+// The per-render arrays, kept per calling thread between renders so that
+// repeated renders do not page in fresh memory (they only grow).
+struct Workspace {
+  struct ChunkOut {
+    std::vector<uint32_t> tiles;
+    std::vector<uint32_t> indices;
+    std::vector<uint32_t> histogram;
+    int64_t visible = 0;
+  };
+  std::vector<Projected> projected;                 // [N]
+  std::vector<std::vector<uint64_t>> visible_keys;  // Per projection chunk.
+  std::vector<uint64_t> by_depth;                   // [visible]
+  std::vector<uint64_t> radix_buffer;               // [visible]
+  std::vector<ChunkOut> chunks;                     // Per binning chunk.
+  std::vector<uint64_t> cursor;                     // [chunks, tiles]
+  std::vector<uint32_t> tile_lists;                 // [pairs]
+};
+
+}  // namespace
+
+absl::StatusOr<RenderBuffers> Render(const GaussianScene& scene, const RenderCamera& camera,
+                                     int64_t timestamp_us, const std::vector<ActorEdit>& edits,
+                                     const RenderOptions& options) {
+  const CameraModel& model = camera.model;
+  if (model.width() <= 0 || model.height() <= 0) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("camera: image size ", model.width(), "x", model.height(), " has no pixels"));
+  }
+  if (auto status = ValidateScene(scene); !status.ok()) return status;
+
+  // Owner poses at this time, with the edits applied.
+  const size_t num_instances = scene.instances.size();
+  std::vector<Rigid> world_from_owner(num_instances + 1);
+  std::vector<uint8_t> live(num_instances + 1, 1);
+  for (size_t k = 0; k < num_instances; ++k) {
+    world_from_owner[k + 1] = InstancePoseAt(scene.instances[k].boxes, timestamp_us);
+  }
+  for (size_t e = 0; e < edits.size(); ++e) {
+    const ActorEdit& edit = edits[e];
+    size_t k = 0;
+    while (k < num_instances && scene.instances[k].id != edit.instance_id) ++k;
+    if (k == num_instances) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("edits[", e, "].instance_id: '", edit.instance_id, "' is not in the scene"));
+    }
+    if (edit.kind == ActorEdit::Kind::kRemove) {
+      live[k + 1] = 0;
+    } else {
+      if (edit.boxes.empty()) {
+        return absl::InvalidArgumentError(
+            absl::StrCat("edits[", e, "].boxes: a trajectory edit needs at least one box"));
+      }
+      const std::vector<TrackBox>& track = scene.instances[k].boxes;
+      const Rigid canonical = track.empty() ? Rigid{} : BoxPose(track.front());
+      world_from_owner[k + 1] =
+          BoxPose(InterpolateBox(edit.boxes, timestamp_us)) * canonical.Inverse();
+    }
+  }
+
+  Frame frame;
+  frame.width = model.width();
+  frame.height = model.height();
+  frame.tiles_x = (frame.width + kTile - 1) / kTile;
+  frame.tiles_y = (frame.height + kTile - 1) / kTile;
+  frame.model = &model;
+  frame.fx = static_cast<float>(model.fx());
+  frame.fy = static_cast<float>(model.fy());
+  frame.cx = static_cast<float>(model.cx());
+  frame.cy = static_cast<float>(model.cy());
+  if (!model.has_distortion()) {
+    frame.x_lo = static_cast<float>((-kJacobianGuard * frame.width - model.cx()) / model.fx());
+    frame.x_hi = static_cast<float>(((1 + kJacobianGuard) * frame.width - model.cx()) / model.fx());
+    frame.y_lo = static_cast<float>((-kJacobianGuard * frame.height - model.cy()) / model.fy());
+    frame.y_hi =
+        static_cast<float>(((1 + kJacobianGuard) * frame.height - model.cy()) / model.fy());
+  } else {
+    // Distorted pixels are not linear in x/z: clamp at the model's valid
+    // radius (Project() culls means beyond it).
+    const float r = static_cast<float>(std::min(model.max_normalized_radius(), 1e3));
+    frame.x_lo = frame.y_lo = -r;
+    frame.x_hi = frame.y_hi = r;
+  }
+  frame.near_plane = options.near_plane;
+  frame.render_time_s =
+      static_cast<float>(static_cast<double>(timestamp_us - scene.time_origin_us) * 1e-6);
+  const Rigid camera_from_world = camera.world_from_camera.Inverse();
+  frame.owner_live = live;
+  frame.camera_from_owner.resize(num_instances + 1);
+  frame.eye_in_owner.resize(3 * (num_instances + 1));
+  for (size_t k = 0; k <= num_instances; ++k) {
+    frame.camera_from_owner[k] = ToFloat(camera_from_world * world_from_owner[k]);
+    const Vec3 eye = world_from_owner[k].Inverse() * camera.world_from_camera.translation;
+    for (int c = 0; c < 3; ++c) frame.eye_in_owner[3 * k + c] = static_cast<float>(eye[c]);
+  }
+
+  RenderBuffers out;
+  out.width = frame.width;
+  out.height = frame.height;
+  out.channels = scene.num_channels;
+  const size_t pixels = static_cast<size_t>(frame.width) * frame.height;
+  out.rgb.resize(pixels * 3);
+  out.alpha.resize(pixels);
+  if (options.features) out.features.resize(pixels * scene.num_channels);
+  if (options.depth) out.depth.resize(pixels);
+  if (options.instance) out.instance.resize(pixels);
+
+  ThreadPool& pool = DefaultThreadPool();
+  using Clock = std::chrono::steady_clock;
+  auto ms_since = [](Clock::time_point t) {
+    return std::chrono::duration<double, std::milli>(Clock::now() - t).count();
+  };
+  const Clock::time_point t_start = Clock::now();
+  const size_t n = scene.size();
+  const int num_tiles = frame.tiles_x * frame.tiles_y;
+
+  // 1. Project, per fixed chunk of Gaussians; list the visible ones as
+  // (depth bits << 32 | index) keys, in index order.
+  constexpr int64_t kChunk = 8192;
+  thread_local Workspace ws;
+  if (ws.projected.size() < n) ws.projected.resize(n);
+  Projected* projected = ws.projected.data();
+  const int64_t num_project_chunks = static_cast<int64_t>((n + kChunk - 1) / kChunk);
+  std::vector<std::vector<uint64_t>>& visible_keys = ws.visible_keys;
+  if (visible_keys.size() < static_cast<size_t>(num_project_chunks)) {
+    visible_keys.resize(num_project_chunks);
+  }
+  pool.ParallelFor(0, num_project_chunks, 1, [&](int64_t c0, int64_t c1) {
+    for (int64_t c = c0; c < c1; ++c) {
+      const size_t begin = static_cast<size_t>(c) * kChunk;
+      const size_t end = std::min(n, begin + kChunk);
+      std::vector<uint64_t>& keys = visible_keys[c];
+      keys.clear();
+      keys.reserve(end - begin);
+      for (size_t i = begin; i < end; ++i) {
+        if (!ProjectGaussian(scene, frame, i, &projected[i])) continue;
+        uint32_t depth_bits;
+        std::memcpy(&depth_bits, &projected[i].depth, sizeof(depth_bits));
+        keys.push_back((static_cast<uint64_t>(depth_bits) << 32) | i);
+      }
+    }
+  });
+  const double ms_project = ms_since(t_start);
+
+  // 2. One global, stable radix sort by depth: ties stay in index order.
+  std::vector<uint64_t>& by_depth = ws.by_depth;
+  by_depth.clear();
+  for (int64_t c = 0; c < num_project_chunks; ++c) {
+    by_depth.insert(by_depth.end(), visible_keys[c].begin(), visible_keys[c].end());
+  }
+  RadixSortByHighWord(&by_depth, &ws.radix_buffer);
+
+  // 3. Bin: in depth order, each Gaussian emits the tiles its ellipse
+  // touches; a counting sort by tile (chunks in order) keeps each tile's
+  // list in depth order.
+  const size_t num_visible = by_depth.size();
+  const int64_t num_chunks = static_cast<int64_t>((num_visible + kChunk - 1) / kChunk);
+  using ChunkOut = Workspace::ChunkOut;
+  std::vector<ChunkOut>& chunks = ws.chunks;
+  if (chunks.size() < static_cast<size_t>(num_chunks)) chunks.resize(num_chunks);
+  pool.ParallelFor(0, num_chunks, 1, [&](int64_t c0, int64_t c1) {
+    for (int64_t c = c0; c < c1; ++c) {
+      ChunkOut& chunk = chunks[c];
+      chunk.histogram.assign(num_tiles, 0);
+      const size_t begin = static_cast<size_t>(c) * kChunk;
+      const size_t end = std::min(num_visible, begin + kChunk);
+      chunk.tiles.clear();
+      chunk.indices.clear();
+      chunk.visible = 0;
+      for (size_t k = begin; k < end; ++k) {
+        if (k + 8 < end) __builtin_prefetch(&projected[static_cast<uint32_t>(by_depth[k + 8])]);
+        const uint32_t i = static_cast<uint32_t>(by_depth[k]);
+        const size_t before = chunk.indices.size();
+        EmitTiles(frame, projected[i], i, &chunk.tiles, &chunk.indices, chunk.histogram.data());
+        if (chunk.indices.size() > before) ++chunk.visible;
+      }
+    }
+  });
+  std::vector<uint64_t> tile_begin(num_tiles + 1, 0);
+  std::vector<uint64_t>& cursor = ws.cursor;
+  cursor.resize(static_cast<size_t>(num_tiles) * num_chunks);
+  uint64_t total = 0;
+  for (int t = 0; t < num_tiles; ++t) {
+    tile_begin[t] = total;
+    for (int64_t c = 0; c < num_chunks; ++c) {
+      cursor[static_cast<size_t>(c) * num_tiles + t] = total;
+      total += chunks[c].histogram[t];
+    }
+  }
+  tile_begin[num_tiles] = total;
+  std::vector<uint32_t>& tile_lists = ws.tile_lists;
+  if (tile_lists.size() < total) tile_lists.resize(total);
+  pool.ParallelFor(0, num_chunks, 1, [&](int64_t c0, int64_t c1) {
+    for (int64_t c = c0; c < c1; ++c) {
+      uint64_t* my_cursor = &cursor[static_cast<size_t>(c) * num_tiles];
+      const ChunkOut& chunk = chunks[c];
+      for (size_t k = 0; k < chunk.indices.size(); ++k) {
+        tile_lists[my_cursor[chunk.tiles[k]]++] = chunk.indices[k];
+      }
+    }
+  });
+  int64_t visible = 0;
+  for (int64_t c = 0; c < num_chunks; ++c) visible += chunks[c].visible;
+  const double ms_bin = ms_since(t_start) - ms_project;
+
+  // 4. Composite each tile.
+  const bool sh_rgb = scene.sh_degree >= 0;
+  const int count = options.features ? scene.num_channels : (sh_rgb ? 0 : 3);
+  std::vector<int64_t> tested(num_tiles, 0), contributing(num_tiles, 0);
+  pool.ParallelFor(0, num_tiles, 1, [&](int64_t t0, int64_t t1) {
+    for (int64_t t = t0; t < t1; ++t) {
+      const uint32_t* begin = tile_lists.data() + tile_begin[t];
+      const size_t size = tile_begin[t + 1] - tile_begin[t];
+      const int tx = static_cast<int>(t % frame.tiles_x), ty = static_cast<int>(t / frame.tiles_x);
+      RenderTile(frame, projected, begin, size, tx, ty, scene.features.data(), scene.num_channels,
+                 count, sh_rgb, options, &out, &tested[t], &contributing[t]);
+    }
+  });
+  spdlog::debug("render: project {:.2f} ms, sort+bin {:.2f} ms ({} pairs), composite {:.2f} ms",
+                ms_project, ms_bin, total, ms_since(t_start) - ms_project - ms_bin);
+  out.stats.gaussians_visible = visible;
+  for (int t = 0; t < num_tiles; ++t) {
+    out.stats.pairs_tested += tested[t];
+    out.stats.pairs_contributing += contributing[t];
+  }
+  return out;
+}
+
+}  // namespace pf

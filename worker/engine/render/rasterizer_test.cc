@@ -1,0 +1,687 @@
+// Tests of the tile rasterizer: agreement with the slow reference renderer on
+// random scenes, hand-made scenes with known composited values, time and
+// actors, camera distortion, determinism.
+#include "worker/engine/render/rasterizer.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <random>
+
+#include "worker/engine/render/bench_scene.h"
+#include "worker/engine/render/raster_tile.h"
+#include "worker/engine/render/reference_renderer.h"
+
+namespace pf {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr float kInf = std::numeric_limits<float>::infinity();
+
+float Logit(double p) { return static_cast<float>(std::log(p / (1 - p))); }
+
+Quat YawQuat(double radians) { return {std::cos(radians / 2), 0, 0, std::sin(radians / 2)}; }
+
+// A pinhole camera at the world origin looking down +z (camera = world).
+RenderCamera SimpleCamera(int width = 64, int height = 64, double f = 64) {
+  RenderCamera camera;
+  camera.model = CameraModel(width, height, f, f, width / 2.0, height / 2.0);
+  return camera;
+}
+
+// Adds an isotropic Gaussian of std-dev `scale` and returns its index.
+size_t AddGaussian(GaussianScene* scene, const Vec3& mean, double scale, double opacity,
+                   std::vector<float> feature, uint32_t owner = 0) {
+  const size_t i = scene->size();
+  scene->Resize(i + 1);
+  for (int c = 0; c < 3; ++c) {
+    scene->means[3 * i + c] = static_cast<float>(mean[c]);
+    scene->log_scales[3 * i + c] = static_cast<float>(std::log(scale));
+  }
+  scene->opacity_logits[i] = Logit(opacity);
+  feature.resize(scene->num_channels, 0.f);
+  for (int c = 0; c < scene->num_channels; ++c)
+    scene->features[i * scene->num_channels + c] = feature[c];
+  scene->owners[i] = owner;
+  return i;
+}
+
+// The world point at depth z that the simple camera projects onto the centre
+// of pixel (px, py).
+Vec3 PointAtPixel(int px, int py, double z, const RenderCamera& camera) {
+  const CameraModel& m = camera.model;
+  return {(px + 0.5 - m.cx()) / m.fx() * z, (py + 0.5 - m.cy()) / m.fy() * z, z};
+}
+
+size_t Pixel(const RenderBuffers& b, int x, int y) { return static_cast<size_t>(y) * b.width + x; }
+
+// A random scene: varied sizes (sub-pixel to larger than a tile),
+// anisotropy, rotations of any norm, opacities, lifespans, and (optionally)
+// two moving instances and SH colour.
+struct RandomSceneSpec {
+  uint32_t seed = 1;
+  int count = 200;
+  int channels = 5;
+  bool instances = true;
+  int sh_degree = -1;
+};
+
+GaussianScene RandomScene(const RandomSceneSpec& spec, const RenderCamera& camera) {
+  std::mt19937 rng(spec.seed);
+  auto uniform = [&](double lo, double hi) {
+    return std::uniform_real_distribution<double>(lo, hi)(rng);
+  };
+  GaussianScene scene;
+  scene.num_channels = spec.channels;
+  scene.sh_degree = spec.sh_degree;
+  scene.time_origin_us = 1'000'000;
+  if (spec.instances) {
+    for (int k = 0; k < 2; ++k) {
+      InstanceTrack track;
+      track.id = "actor" + std::to_string(k);
+      for (int b = 0; b < 3; ++b) {
+        TrackBox box;
+        box.timestamp_us = scene.time_origin_us + b * 1'000'000;
+        box.center = {uniform(-0.5, 0.5), uniform(-0.3, 0.3), uniform(4, 6)};
+        box.rotation = YawQuat(uniform(-0.4, 0.4));
+        box.size = {2, 1, 1};
+        track.boxes.push_back(box);
+      }
+      scene.instances.push_back(track);
+    }
+  }
+  const CameraModel& m = camera.model;
+  const double half_x = 0.6 * m.width() / m.fx(), half_y = 0.6 * m.height() / m.fy();
+  for (int i = 0; i < spec.count; ++i) {
+    const double z = uniform(0, 1) < 0.03 ? uniform(-1, 0.005) : uniform(1.5, 8);
+    const Vec3 p_cam{uniform(-half_x, half_x) * std::abs(z), uniform(-half_y, half_y) * std::abs(z),
+                     z};
+    const Vec3 p_world = camera.world_from_camera * p_cam;
+    const size_t g = scene.size();
+    scene.Resize(g + 1);
+    uint32_t owner = 0;
+    if (spec.instances && uniform(0, 1) < 0.25) owner = uniform(0, 1) < 0.5 ? 1 : 2;
+    Vec3 mean = p_world;
+    if (owner > 0) {
+      // Canonical frame = world at the first box: keep the point as is.
+      mean = p_world;
+    }
+    for (int c = 0; c < 3; ++c) scene.means[3 * g + c] = static_cast<float>(mean[c]);
+    // Size from 0.2 to about 40 pixels at this depth, anisotropic.
+    const double pixel_size = std::abs(z) / m.fx();
+    const double base = pixel_size * std::exp(uniform(std::log(0.2), std::log(40.0)));
+    for (int c = 0; c < 3; ++c) {
+      scene.log_scales[3 * g + c] = static_cast<float>(std::log(base) + uniform(-2.5, 0));
+    }
+    const double norm = uniform(0.5, 2);
+    Quat q = QuatNormalized({uniform(-1, 1), uniform(-1, 1), uniform(-1, 1), uniform(-1, 1)});
+    scene.rotations[4 * g] = static_cast<float>(q.w * norm);
+    scene.rotations[4 * g + 1] = static_cast<float>(q.x * norm);
+    scene.rotations[4 * g + 2] = static_cast<float>(q.y * norm);
+    scene.rotations[4 * g + 3] = static_cast<float>(q.z * norm);
+    scene.opacity_logits[g] = static_cast<float>(uniform(-4, 5));
+    for (int c = 0; c < spec.channels; ++c) {
+      scene.features[g * spec.channels + c] = static_cast<float>(uniform(0, 1));
+    }
+    for (int c = 0; c < 3 * scene.sh_coeffs(); ++c) {
+      scene.sh[g * 3 * scene.sh_coeffs() + c] = static_cast<float>(uniform(-0.5, 0.5));
+    }
+    scene.times[g] = static_cast<float>(uniform(0, 2));
+    scene.lifespans[g] = uniform(0, 1) < 0.5 ? kInf : static_cast<float>(uniform(0, 1));
+    scene.owners[g] = owner;
+  }
+  return scene;
+}
+
+// Compares fast and reference outputs on every unambiguous pixel.
+void ExpectMatchesReference(const GaussianScene& scene, const RenderCamera& camera,
+                            int64_t timestamp_us, const std::vector<ActorEdit>& edits) {
+  absl::StatusOr<RenderBuffers> fast = Render(scene, camera, timestamp_us, edits);
+  ASSERT_TRUE(fast.ok()) << fast.status();
+  std::vector<uint8_t> ambiguous;
+  const RenderBuffers ref =
+      testing::ReferenceRender(scene, camera, timestamp_us, edits, {}, &ambiguous);
+  const size_t pixels = static_cast<size_t>(ref.width) * ref.height;
+  const int nc = scene.num_channels;
+  double max_feature = 0, max_rgb = 0, max_alpha = 0, max_depth = 0;
+  size_t skipped = 0, instance_mismatch = 0, covered = 0;
+  for (size_t p = 0; p < pixels; ++p) {
+    if (ambiguous[p]) {
+      ++skipped;
+      continue;
+    }
+    if (ref.alpha[p] > 0.01f) ++covered;
+    for (int c = 0; c < nc; ++c) {
+      max_feature = std::max(
+          max_feature, std::abs(double(fast->features[p * nc + c]) - ref.features[p * nc + c]));
+    }
+    for (int c = 0; c < 3; ++c) {
+      max_rgb = std::max(max_rgb, std::abs(double(fast->rgb[3 * p + c]) - ref.rgb[3 * p + c]));
+    }
+    max_alpha = std::max(max_alpha, std::abs(double(fast->alpha[p]) - ref.alpha[p]));
+    max_depth = std::max(max_depth, std::abs(double(fast->depth[p]) - ref.depth[p]));
+    if (fast->instance[p] != ref.instance[p]) ++instance_mismatch;
+  }
+  EXPECT_LE(max_feature, 1e-4);
+  EXPECT_LE(max_rgb, 1e-4);
+  EXPECT_LE(max_alpha, 1e-4);
+  EXPECT_LE(max_depth, 1e-4);
+  EXPECT_EQ(instance_mismatch, 0u);
+  EXPECT_LE(skipped, pixels / 200) << "too many close calls";
+  EXPECT_GT(covered, pixels / 4) << "the scene should cover the image";
+  EXPECT_GE(fast->stats.pairs_tested, fast->stats.pairs_contributing);
+  EXPECT_GT(fast->stats.pairs_contributing, 0);
+}
+
+RenderCamera MovedCamera(int width, int height) {
+  RenderCamera camera = SimpleCamera(width, height, 0.8 * width);
+  camera.world_from_camera.rotation = ToMatrix(QuatNormalized({0.98, 0.05, -0.1, 0.08}));
+  camera.world_from_camera.translation = {0.3, -0.2, 0.5};
+  return camera;
+}
+
+struct ReferenceCase {
+  uint32_t seed;
+  int count, width, height, channels, sh_degree;
+};
+
+class RasterizerReferenceTest : public ::testing::TestWithParam<ReferenceCase> {};
+
+TEST_P(RasterizerReferenceTest, MatchesReference) {
+  const ReferenceCase& c = GetParam();
+  const RenderCamera camera = MovedCamera(c.width, c.height);
+  RandomSceneSpec spec;
+  spec.seed = c.seed;
+  spec.count = c.count;
+  spec.channels = c.channels;
+  spec.sh_degree = c.sh_degree;
+  const GaussianScene scene = RandomScene(spec, camera);
+  // Mid-track, so instances move and lifespans fade.
+  ExpectMatchesReference(scene, camera, scene.time_origin_us + 1'300'000, {});
+}
+
+INSTANTIATE_TEST_SUITE_P(RandomScenes, RasterizerReferenceTest,
+                         ::testing::Values(ReferenceCase{1, 60, 40, 30, 3, -1},
+                                           ReferenceCase{2, 300, 97, 61, 5, -1},
+                                           ReferenceCase{3, 300, 97, 61, 8, 1},
+                                           ReferenceCase{4, 1200, 128, 96, 4, -1},
+                                           ReferenceCase{5, 1200, 130, 70, 3, 3},
+                                           ReferenceCase{6, 3000, 160, 120, 3, -1},
+                                           ReferenceCase{7, 500, 33, 17, 32, 2}));
+
+TEST(Rasterizer, MatchesReferenceWithEditsAndDistortion) {
+  for (int model = 0; model < 3; ++model) {
+    RenderCamera camera = MovedCamera(96, 72);
+    if (model == 1) camera.model.SetOpenCv(-0.25, 0.08, 0.002, -0.001, 0.0);
+    if (model == 2) camera.model.SetFisheye(0.05, -0.01, 0.002, 0.0);
+    RandomSceneSpec spec;
+    spec.seed = 11 + model;
+    spec.count = 800;
+    GaussianScene scene = RandomScene(spec, camera);
+    ActorEdit remove;
+    remove.instance_id = "actor0";
+    ActorEdit move;
+    move.kind = ActorEdit::Kind::kTrajectory;
+    move.instance_id = "actor1";
+    move.boxes = scene.instances[1].boxes;
+    for (TrackBox& box : move.boxes) box.center = box.center + Vec3{0.4, 0.1, 0};
+    SCOPED_TRACE(model);
+    ExpectMatchesReference(scene, camera, scene.time_origin_us + 700'000, {remove, move});
+  }
+}
+
+TEST(Rasterizer, OpaqueFrontGaussianHidesBack) {
+  const RenderCamera camera = SimpleCamera();
+  GaussianScene scene;
+  // The back one first in the arrays: order must come from depth.
+  AddGaussian(&scene, PointAtPixel(32, 32, 4.0, camera), 0.3, 0.999, {0, 1, 0});
+  AddGaussian(&scene, PointAtPixel(32, 32, 2.0, camera), 0.3, 0.999, {1, 0, 0});
+  absl::StatusOr<RenderBuffers> out = Render(scene, camera, 0, {});
+  ASSERT_TRUE(out.ok()) << out.status();
+  const size_t p = Pixel(*out, 32, 32);
+  // Front: alpha clamped to 0.99; back: 0.99 of the remaining 0.01.
+  EXPECT_NEAR(out->rgb[3 * p], 0.99, 1e-5);
+  EXPECT_NEAR(out->rgb[3 * p + 1], 0.01 * 0.99, 1e-5);
+  EXPECT_NEAR(out->alpha[p], 1 - 0.01 * 0.01, 1e-5);
+  EXPECT_NEAR(out->depth[p], (0.99 * 2 + 0.0099 * 4) / 0.9999, 1e-4);
+}
+
+TEST(Rasterizer, TwoHalfTransparentGaussiansBlendInDepthOrder) {
+  const RenderCamera camera = SimpleCamera();
+  for (bool red_in_front : {true, false}) {
+    GaussianScene scene;
+    scene.num_channels = 4;
+    AddGaussian(&scene, PointAtPixel(20, 40, red_in_front ? 2.0 : 3.0, camera), 0.2, 0.5,
+                {1, 0, 0, 7});
+    AddGaussian(&scene, PointAtPixel(20, 40, red_in_front ? 3.0 : 2.0, camera), 0.2, 0.4,
+                {0, 1, 0, 9});
+    absl::StatusOr<RenderBuffers> out = Render(scene, camera, 0, {});
+    ASSERT_TRUE(out.ok()) << out.status();
+    const size_t p = Pixel(*out, 20, 40);
+    const double front = red_in_front ? 0.5 : 0.4, back = red_in_front ? 0.4 : 0.5;
+    const double w_front = front, w_back = (1 - front) * back;
+    const double w_red = red_in_front ? w_front : w_back;
+    const double w_green = red_in_front ? w_back : w_front;
+    EXPECT_NEAR(out->rgb[3 * p], w_red, 1e-5);
+    EXPECT_NEAR(out->rgb[3 * p + 1], w_green, 1e-5);
+    EXPECT_NEAR(out->features[4 * p + 3], 7 * w_red + 9 * w_green, 1e-4);
+    EXPECT_NEAR(out->alpha[p], 1 - (1 - front) * (1 - back), 1e-5);
+    EXPECT_NEAR(out->depth[p], (2 * w_front + 3 * w_back) / (w_front + w_back), 1e-4);
+  }
+}
+
+TEST(Rasterizer, AlphaFollowsEwaFootprintWithLowPass) {
+  // An isotropic Gaussian off the axis: 2D covariance s^2 J J^T + 0.3 I.
+  const RenderCamera camera = SimpleCamera();
+  GaussianScene scene;
+  const Vec3 mean = PointAtPixel(40, 25, 3.0, camera);
+  const double s = 0.05, opacity = 0.8;
+  AddGaussian(&scene, mean, s, opacity, {1, 1, 1});
+  absl::StatusOr<RenderBuffers> out = Render(scene, camera, 0, {});
+  ASSERT_TRUE(out.ok()) << out.status();
+  const double f = 64, z = mean.z;
+  const double j[2][3] = {{f / z, 0, -f * mean.x / (z * z)}, {0, f / z, -f * mean.y / (z * z)}};
+  double cov[2][2];
+  for (int r = 0; r < 2; ++r)
+    for (int c = 0; c < 2; ++c)
+      cov[r][c] = s * s * (j[r][0] * j[c][0] + j[r][1] * j[c][1] + j[r][2] * j[c][2]) +
+                  (r == c ? 0.3 : 0.0);
+  const double det = cov[0][0] * cov[1][1] - cov[0][1] * cov[1][0];
+  int inside = 0;
+  for (int y = 0; y < 64; ++y) {
+    for (int x = 0; x < 64; ++x) {
+      const double dx = x - 40, dy = y - 25;  // Pixel centres minus the mean.
+      const double d2 = (cov[1][1] * dx * dx - 2 * cov[0][1] * dx * dy + cov[0][0] * dy * dy) / det;
+      double expected = std::min(0.99, opacity * std::exp(-0.5 * d2));
+      if (expected < 1 / 255.0) expected = 0;
+      if (expected > 0) ++inside;
+      ASSERT_NEAR(out->alpha[Pixel(*out, x, y)], expected, 1e-5) << x << "," << y;
+    }
+  }
+  // The opacity-aware extent: about pi * sqrt(det) * 2 ln(255 o) pixels.
+  const double area = kPi * std::sqrt(det) * 2 * std::log(255 * opacity);
+  EXPECT_NEAR(inside, area, 0.1 * area);
+}
+
+TEST(Rasterizer, FaintGaussianHasSmallerExtent) {
+  const RenderCamera camera = SimpleCamera(128, 128, 64);
+  auto covered = [&](double opacity) {
+    GaussianScene scene;
+    AddGaussian(&scene, PointAtPixel(64, 64, 3.0, camera), 0.3, opacity, {1, 1, 1});
+    absl::StatusOr<RenderBuffers> out = Render(scene, camera, 0, {});
+    int count = 0;
+    for (float a : out->alpha) count += a > 0;
+    return count;
+  };
+  const int strong = covered(0.9), faint = covered(0.02);
+  EXPECT_GT(faint, 0);
+  // Area ratio ln(255 * 0.02) / ln(255 * 0.9) = 0.30.
+  EXPECT_NEAR(static_cast<double>(faint) / strong, std::log(5.1) / std::log(229.5), 0.05);
+}
+
+TEST(Rasterizer, ShColourSeenAlongViewDirection) {
+  const RenderCamera camera = SimpleCamera();
+  GaussianScene scene;
+  scene.sh_degree = 1;
+  const Vec3 mean = PointAtPixel(45, 20, 2.0, camera);
+  AddGaussian(&scene, mean, 0.2, 0.999, {0, 0, 0});
+  // Per channel: dc, then the three degree-1 coefficients.
+  scene.sh = {0.5, 0.1, 0.2, 0.3, -0.4, 0.0, 0.0, 0.6, 1.0, -0.3, 0.1, 0.0};
+  absl::StatusOr<RenderBuffers> out = Render(scene, camera, 0, {});
+  ASSERT_TRUE(out.ok()) << out.status();
+  const Vec3 d = Normalized(mean);
+  const double c0 = 0.28209479177387814, c1 = 0.4886025119029199;
+  for (int c = 0; c < 3; ++c) {
+    const float* k = &scene.sh[4 * c];
+    const double expected =
+        std::max(0.0, c0 * k[0] - c1 * d.y * k[1] + c1 * d.z * k[2] - c1 * d.x * k[3] + 0.5);
+    EXPECT_NEAR(out->rgb[3 * Pixel(*out, 45, 20) + c], 0.99 * expected, 1e-5) << c;
+  }
+}
+
+TEST(Rasterizer, LifespanFadesOpacityAwayFromItsTime) {
+  const RenderCamera camera = SimpleCamera();
+  GaussianScene scene;
+  scene.time_origin_us = 5'000'000;
+  AddGaussian(&scene, PointAtPixel(10, 10, 2.0, camera), 0.05, 0.8, {1, 1, 1});
+  scene.times[0] = 1.0f;
+  scene.lifespans[0] = 0.5f;
+  const size_t p = 10 * 64 + 10;
+  for (double t : {1.0, 1.4, 2.0, 0.2, 3.5}) {
+    absl::StatusOr<RenderBuffers> out =
+        Render(scene, camera, scene.time_origin_us + static_cast<int64_t>(t * 1e6), {});
+    ASSERT_TRUE(out.ok());
+    const double u = (t - 1.0) / 1.5;
+    double expected = 0.8 * std::exp(-0.5 * u * u);
+    if (expected < 1 / 255.0) expected = 0;
+    EXPECT_NEAR(out->alpha[p], expected, 1e-5) << "t' = " << t;
+  }
+  // sigma = +inf never fades.
+  scene.lifespans[0] = kInf;
+  absl::StatusOr<RenderBuffers> out = Render(scene, camera, scene.time_origin_us + 90'000'000, {});
+  EXPECT_NEAR(out->alpha[p], 0.8, 1e-5);
+}
+
+// A scene with one moving car (instance 1) in front of a background wall.
+GaussianScene ActorScene() {
+  GaussianScene scene;
+  InstanceTrack track;
+  track.id = "car";
+  TrackBox a, b;
+  a.timestamp_us = 0;
+  a.center = {-1, 0, 5};
+  a.rotation = YawQuat(0);
+  b.timestamp_us = 1'000'000;
+  b.center = {1, 0.4, 5};
+  b.rotation = QuatNormalized({std::cos(kPi / 4), 0, std::sin(kPi / 4), 0});
+  track.boxes = {a, b};
+  scene.instances.push_back(track);
+  // Wall: one big Gaussian far away (blue).
+  AddGaussian(&scene, {0, 0, 20}, 10.0, 0.999, {0, 0, 1});
+  // Car: a small cluster around its first box centre, offset along box x.
+  for (int k = -2; k <= 2; ++k) {
+    const size_t i = AddGaussian(&scene, {-1 + 0.2 * k, 0, 5}, 0.1, 0.95, {1, 0, 0}, 1);
+    scene.log_scales[3 * i + 1] = std::log(0.05f);
+  }
+  return scene;
+}
+
+// Returns the centroid of the pixels whose instance id is `id`, and their count.
+int Centroid(const RenderBuffers& b, uint32_t id, double* x, double* y) {
+  double sx = 0, sy = 0;
+  int n = 0;
+  for (int v = 0; v < b.height; ++v) {
+    for (int u = 0; u < b.width; ++u) {
+      if (b.instance[Pixel(b, u, v)] != id) continue;
+      sx += u + 0.5;
+      sy += v + 0.5;
+      ++n;
+    }
+  }
+  *x = n > 0 ? sx / n : 0;
+  *y = n > 0 ? sy / n : 0;
+  return n;
+}
+
+TEST(Rasterizer, MovingInstanceAppearsWhereItsBoxIs) {
+  const RenderCamera camera = SimpleCamera(128, 96, 100);
+  const GaussianScene scene = ActorScene();
+  // Mid-track, at the end and after it (the end box is held).
+  for (int64_t t : {int64_t{0}, int64_t{500'000}, int64_t{1'000'000}, int64_t{3'000'000}}) {
+    const TrackBox box = InterpolateBox(scene.instances[0].boxes, t);
+    double u, v;
+    ASSERT_TRUE(camera.model.Project(box.center, &u, &v));
+    absl::StatusOr<RenderBuffers> out = Render(scene, camera, t, {});
+    ASSERT_TRUE(out.ok());
+    double x, y;
+    ASSERT_GT(Centroid(*out, 1, &x, &y), 20) << "t = " << t;
+    EXPECT_NEAR(x, u, 0.75) << "t = " << t;
+    EXPECT_NEAR(y, v, 0.75) << "t = " << t;
+  }
+  // The box rotates by 90 degrees about y: the car, long along box x at the
+  // start, is long along the camera's z at the end (narrow in the image).
+  auto extent_x = [&](int64_t t) {
+    absl::StatusOr<RenderBuffers> out = Render(scene, camera, t, {});
+    int lo = 1 << 20, hi = -1;
+    for (int v = 0; v < out->height; ++v)
+      for (int u = 0; u < out->width; ++u)
+        if (out->instance[Pixel(*out, u, v)] == 1) lo = std::min(lo, u), hi = std::max(hi, u);
+    return hi - lo;
+  };
+  EXPECT_GT(extent_x(0), 2 * extent_x(1'000'000));
+}
+
+TEST(Rasterizer, RemovedInstanceLeavesBackgroundVisible) {
+  const RenderCamera camera = SimpleCamera(128, 96, 100);
+  const GaussianScene scene = ActorScene();
+  ActorEdit remove;
+  remove.instance_id = "car";
+  absl::StatusOr<RenderBuffers> with = Render(scene, camera, 0, {});
+  absl::StatusOr<RenderBuffers> without = Render(scene, camera, 0, {remove});
+  ASSERT_TRUE(with.ok() && without.ok());
+  // Where the car was: now the wall (blue), instance 0.
+  double u, v;
+  ASSERT_TRUE(camera.model.Project({-1, 0, 5}, &u, &v));
+  const size_t p = Pixel(*with, static_cast<int>(u), static_cast<int>(v));
+  EXPECT_EQ(with->instance[p], 1u);
+  EXPECT_GT(with->rgb[3 * p], 0.8);
+  EXPECT_EQ(without->instance[p], 0u);
+  EXPECT_NEAR(without->rgb[3 * p], 0, 1e-6);
+  EXPECT_GT(without->rgb[3 * p + 2], 0.9);
+  EXPECT_NEAR(without->depth[p], 20, 0.1);
+  for (uint32_t id : without->instance) ASSERT_EQ(id, 0u);
+}
+
+TEST(Rasterizer, TrajectoryEditMovesTheActor) {
+  const RenderCamera camera = SimpleCamera(128, 96, 100);
+  const GaussianScene scene = ActorScene();
+  ActorEdit edit;
+  edit.kind = ActorEdit::Kind::kTrajectory;
+  edit.instance_id = "car";
+  TrackBox box = scene.instances[0].boxes[0];
+  box.center = {0.5, -0.6, 6};
+  edit.boxes = {box};
+  absl::StatusOr<RenderBuffers> out = Render(scene, camera, 500'000, {edit});
+  ASSERT_TRUE(out.ok());
+  double u, v, x, y;
+  ASSERT_TRUE(camera.model.Project(box.center, &u, &v));
+  ASSERT_GT(Centroid(*out, 1, &x, &y), 20);
+  EXPECT_NEAR(x, u, 0.75);
+  EXPECT_NEAR(y, v, 0.75);
+}
+
+TEST(Rasterizer, InstanceIdIsTheLargestContributor) {
+  const RenderCamera camera = SimpleCamera();
+  GaussianScene scene;
+  for (const char* id : {"a", "b"}) {
+    InstanceTrack track;
+    track.id = id;
+    track.boxes = {TrackBox{}};
+    scene.instances.push_back(track);
+  }
+  // Front: weight 0.3; back: 0.7 * 0.9 = 0.63, so the back one wins.
+  AddGaussian(&scene, PointAtPixel(30, 30, 2.0, camera), 0.2, 0.3, {1, 0, 0}, 1);
+  AddGaussian(&scene, PointAtPixel(30, 30, 3.0, camera), 0.2, 0.9, {0, 1, 0}, 2);
+  absl::StatusOr<RenderBuffers> out = Render(scene, camera, 0, {});
+  ASSERT_TRUE(out.ok());
+  EXPECT_EQ(out->instance[Pixel(*out, 30, 30)], 2u);
+  scene.opacity_logits[0] = Logit(0.7);  // Now 0.7 versus 0.27.
+  out = Render(scene, camera, 0, {});
+  EXPECT_EQ(out->instance[Pixel(*out, 30, 30)], 1u);
+  EXPECT_EQ(out->instance[Pixel(*out, 0, 0)], 0u);
+}
+
+// Renders a tiny Gaussian at each point and checks that its alpha-weighted
+// centroid lands where CameraModel::Project puts the point.
+void ExpectPointsLandWhereProjected(const RenderCamera& camera, double tolerance_px) {
+  const CameraModel& m = camera.model;
+  int checked = 0;
+  for (double fy : {0.08, 0.3, 0.5, 0.75, 0.93}) {
+    for (double fx : {0.06, 0.25, 0.5, 0.7, 0.95}) {
+      Vec3 ray;
+      ASSERT_TRUE(m.Unproject(fx * m.width(), fy * m.height(), &ray));
+      const Vec3 point = 4.0 * ray;
+      double u, v;
+      ASSERT_TRUE(m.Project(point, &u, &v));
+      GaussianScene scene;
+      // About 0.5 px: the 0.3 px^2 low-pass dominates the footprint.
+      AddGaussian(&scene, camera.world_from_camera * point, 0.5 * 4.0 / m.fx(), 0.9, {1, 1, 1});
+      absl::StatusOr<RenderBuffers> out = Render(scene, camera, 0, {});
+      ASSERT_TRUE(out.ok());
+      double sw = 0, sx = 0, sy = 0;
+      for (int y = 0; y < m.height(); ++y) {
+        for (int x = 0; x < m.width(); ++x) {
+          const double a = out->alpha[Pixel(*out, x, y)];
+          sw += a, sx += a * (x + 0.5), sy += a * (y + 0.5);
+        }
+      }
+      ASSERT_GT(sw, 0);
+      EXPECT_NEAR(sx / sw, u, tolerance_px) << "point at " << fx << ", " << fy;
+      EXPECT_NEAR(sy / sw, v, tolerance_px) << "point at " << fx << ", " << fy;
+      ++checked;
+    }
+  }
+  EXPECT_EQ(checked, 25);
+}
+
+TEST(Rasterizer, PinholePointsLandWhereProjected) {
+  RenderCamera camera = SimpleCamera(160, 120, 110);
+  camera.world_from_camera.translation = {1, 2, 3};
+  ExpectPointsLandWhereProjected(camera, 0.05);
+}
+
+TEST(Rasterizer, OpenCvPointsLandWhereProjected) {
+  RenderCamera camera = SimpleCamera(160, 120, 110);
+  camera.model.SetOpenCv(-0.3, 0.1, 0.001, -0.002, -0.01);
+  camera.world_from_camera.rotation = ToMatrix(YawQuat(0.3));
+  ExpectPointsLandWhereProjected(camera, 0.05);
+}
+
+TEST(Rasterizer, FisheyePointsLandWhereProjected) {
+  RenderCamera camera = SimpleCamera(160, 120, 60);
+  camera.model.SetFisheye(0.08, -0.02, 0.005, -0.001);
+  ExpectPointsLandWhereProjected(camera, 0.05);
+}
+
+TEST(Rasterizer, DeterministicAcrossRuns) {
+  const BenchScene bench = MakeBenchScene(30000, 200, 150, 5, 3);
+  absl::StatusOr<RenderBuffers> a = Render(bench.scene, bench.camera, bench.timestamp_us, {});
+  absl::StatusOr<RenderBuffers> b = Render(bench.scene, bench.camera, bench.timestamp_us, {});
+  ASSERT_TRUE(a.ok() && b.ok());
+  EXPECT_EQ(a->features, b->features);
+  EXPECT_EQ(a->rgb, b->rgb);
+  EXPECT_EQ(a->alpha, b->alpha);
+  EXPECT_EQ(a->depth, b->depth);
+  EXPECT_EQ(a->instance, b->instance);
+  EXPECT_EQ(a->stats.pairs_tested, b->stats.pairs_tested);
+  EXPECT_EQ(a->stats.pairs_contributing, b->stats.pairs_contributing);
+}
+
+TEST(Rasterizer, BaselineAndAvx2KernelsGiveTheSameBits) {
+  const BenchScene bench = MakeBenchScene(20000, 200, 150, 7, 5);
+  absl::StatusOr<RenderBuffers> fast = Render(bench.scene, bench.camera, bench.timestamp_us, {});
+  raster::ForceBaselineKernelForTesting(true);
+  EXPECT_STREQ(raster::TileKernelName(), "baseline");
+  absl::StatusOr<RenderBuffers> base = Render(bench.scene, bench.camera, bench.timestamp_us, {});
+  raster::ForceBaselineKernelForTesting(false);
+  ASSERT_TRUE(fast.ok() && base.ok());
+  EXPECT_EQ(fast->features, base->features);
+  EXPECT_EQ(fast->alpha, base->alpha);
+  EXPECT_EQ(fast->depth, base->depth);
+  EXPECT_EQ(fast->instance, base->instance);
+  EXPECT_EQ(fast->stats.pairs_tested, base->stats.pairs_tested);
+}
+
+TEST(Rasterizer, BenchSceneIsReproducibleAndCoversTheImage) {
+  const BenchScene a = MakeBenchScene(20000, 160, 120, 4, 9);
+  const BenchScene b = MakeBenchScene(20000, 160, 120, 4, 9);
+  ASSERT_EQ(a.scene.size(), 20000u);
+  EXPECT_EQ(a.scene.means, b.scene.means);
+  EXPECT_EQ(a.scene.features, b.scene.features);
+  EXPECT_EQ(a.description, b.description);
+  EXPECT_NE(MakeBenchScene(20000, 160, 120, 4, 10).scene.means, a.scene.means);
+  absl::StatusOr<RenderBuffers> out = Render(a.scene, a.camera, a.timestamp_us, {});
+  ASSERT_TRUE(out.ok());
+  double coverage = 0;
+  for (float alpha : out->alpha) coverage += alpha;
+  EXPECT_GT(coverage / out->alpha.size(), 0.6);
+  // Tight extents: few evaluated pairs are wasted.
+  EXPECT_LT(static_cast<double>(out->stats.pairs_tested) / out->stats.pairs_contributing, 2.0);
+}
+
+TEST(Rasterizer, OptionsLeaveOutBuffers) {
+  const BenchScene bench = MakeBenchScene(5000, 64, 48, 6, 1);
+  RenderOptions options;
+  options.features = options.depth = options.instance = false;
+  absl::StatusOr<RenderBuffers> lean =
+      Render(bench.scene, bench.camera, bench.timestamp_us, {}, options);
+  absl::StatusOr<RenderBuffers> full = Render(bench.scene, bench.camera, bench.timestamp_us, {});
+  ASSERT_TRUE(lean.ok() && full.ok());
+  EXPECT_TRUE(lean->features.empty() && lean->depth.empty() && lean->instance.empty());
+  EXPECT_EQ(lean->channels, 6);
+  EXPECT_EQ(lean->rgb, full->rgb);
+  EXPECT_EQ(lean->alpha, full->alpha);
+}
+
+TEST(Rasterizer, EmptySceneAndOddImageSizes) {
+  GaussianScene empty;
+  absl::StatusOr<RenderBuffers> out = Render(empty, SimpleCamera(1, 1, 1), 0, {});
+  ASSERT_TRUE(out.ok()) << out.status();
+  EXPECT_EQ(out->alpha, std::vector<float>{0.f});
+  EXPECT_EQ(out->depth, std::vector<float>{0.f});
+  // A Gaussian much larger than the image and the tiles, on a 17x3 image.
+  GaussianScene big;
+  AddGaussian(&big, {0, 0, 2}, 50.0, 0.5, {1, 2, 3});
+  out = Render(big, SimpleCamera(17, 3, 10), 0, {});
+  ASSERT_TRUE(out.ok()) << out.status();
+  for (size_t p = 0; p < out->alpha.size(); ++p) {
+    EXPECT_NEAR(out->alpha[p], 0.5, 1e-3);
+    EXPECT_NEAR(out->features[3 * p + 2], 1.5, 3e-3);
+    EXPECT_NEAR(out->depth[p], 2.0, 1e-5);
+  }
+}
+
+TEST(Rasterizer, RejectsBadInput) {
+  const GaussianScene scene = ActorScene();
+  RenderCamera camera = SimpleCamera();
+  ActorEdit edit;
+  edit.instance_id = "bus";
+  absl::StatusOr<RenderBuffers> out = Render(scene, camera, 0, {edit});
+  EXPECT_EQ(out.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(std::string(out.status().message()).find("bus"), std::string::npos);
+
+  edit.instance_id = "car";
+  edit.kind = ActorEdit::Kind::kTrajectory;
+  EXPECT_EQ(Render(scene, camera, 0, {edit}).status().code(), absl::StatusCode::kInvalidArgument);
+
+  EXPECT_EQ(Render(scene, SimpleCamera(0, 10), 0, {}).status().code(),
+            absl::StatusCode::kInvalidArgument);
+
+  GaussianScene broken = scene;
+  broken.features.pop_back();
+  out = Render(broken, camera, 0, {});
+  EXPECT_EQ(out.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(std::string(out.status().message()).find("features"), std::string::npos);
+
+  broken = scene;
+  broken.owners[0] = 7;
+  out = Render(broken, camera, 0, {});
+  EXPECT_NE(std::string(out.status().message()).find("owners[0]"), std::string::npos);
+}
+
+TEST(InstancePose, InterpolatesLinearCentreAndSlerpRotation) {
+  TrackBox a, b;
+  a.timestamp_us = 1'000'000;
+  a.center = {0, 0, 0};
+  a.rotation = YawQuat(0);
+  b.timestamp_us = 3'000'000;
+  b.center = {4, 2, 0};
+  b.rotation = YawQuat(kPi / 2);
+  const std::vector<TrackBox> boxes = {a, b};
+
+  const TrackBox mid = InterpolateBox(boxes, 1'500'000);
+  EXPECT_NEAR(mid.center.x, 1, 1e-12);
+  EXPECT_NEAR(mid.center.y, 0.5, 1e-12);
+  const Quat q = YawQuat(kPi / 8);
+  EXPECT_NEAR(mid.rotation.w, q.w, 1e-12);
+  EXPECT_NEAR(mid.rotation.z, q.z, 1e-12);
+  // Held outside the track.
+  EXPECT_NEAR(InterpolateBox(boxes, 0).center.x, 0, 1e-12);
+  EXPECT_NEAR(InterpolateBox(boxes, 9'000'000).center.x, 4, 1e-12);
+
+  // world_from_canonical maps the first box's centre to the box centre at t,
+  // and rotates by the yaw change.
+  const Rigid pose = InstancePoseAt(boxes, 3'000'000);
+  const Vec3 c = pose * a.center;
+  EXPECT_NEAR(c.x, 4, 1e-12);
+  EXPECT_NEAR(c.y, 2, 1e-12);
+  const Vec3 ahead = pose * Vec3{1, 0, 0};  // One metre along the first box's x.
+  EXPECT_NEAR(ahead.x, 4, 1e-12);
+  EXPECT_NEAR(ahead.y, 3, 1e-12);
+  EXPECT_NEAR(InstancePoseAt(boxes, 0).translation.x, 0, 1e-12);
+}
+
+}  // namespace
+}  // namespace pf

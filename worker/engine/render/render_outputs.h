@@ -1,0 +1,107 @@
+// What a render job writes: one EXR per view, a PNG preview beside it and a
+// manifest.json of everything written (docs/SCENE_FORMAT.md, "Render
+// outputs", has the long form).
+//
+// EXR (scanline, ZIP compression), channels in this order, each only when
+// selected by OutputChannels:
+//   R, G, B   half   colour premultiplied by alpha (rgb)
+//   A         half   alpha (alpha)
+//   Z         float  expected depth along the camera z axis in metres,
+//                    normalised by alpha; 0 where nothing was hit (depth)
+//   feature.000 .. feature.NNN
+//             half   the scene's N_c feature channels, premultiplied by alpha
+//                    (features)
+//   instance  uint   owner of the largest contributor: 0 background or empty,
+//                    k the scene's k-th instance (instance)
+// (OpenEXR stores channels sorted by name; readers find them by name.)
+// Header attributes:
+//   worldToCamera      m44f, the OpenEXR standard attribute: world to a camera
+//                      frame with x right, y up, z forward, in Imath's
+//                      row-vector convention (p_cam = p_world * M)
+//   pf:worldFromCamera m44d, our pose: row-major column-vector convention,
+//                      OpenCV camera axes (x right, y down, z forward)
+//   pf:fx, pf:fy, pf:cx, pf:cy  double, intrinsics in pixels (pixel centres
+//                      at +0.5)
+//   pf:cameraModel     string "pinhole" | "opencv" | "fisheye"
+//   pf:distortion      float[] the model's coefficients (opencv: k1 k2 p1 p2
+//                      k3; fisheye: k1 k2 k3 k4); absent for pinhole
+//   pf:camera, pf:view string, camera id and view name
+//   timestamp_us       double, the render time (exact for |t| < 2^53)
+//   pf:timestampUs     string, the same as decimal digits
+//   pf:sceneId, pf:model, pf:version  strings
+//   software           "PointForward <version>"
+// The PNG preview is the premultiplied colour clamped to [0, 1], i.e. the
+// un-premultiplied colour composited over black, 8-bit RGB.
+#ifndef POINTFORWARD_WORKER_ENGINE_RENDER_RENDER_OUTPUTS_H_
+#define POINTFORWARD_WORKER_ENGINE_RENDER_RENDER_OUTPUTS_H_
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+#include "worker/engine/render/rasterizer.h"
+#include "worker/engine/render/views.h"
+
+namespace pf {
+
+// The software version written into outputs.
+const char* SoftwareVersion();
+
+// Which layers an EXR carries (`--outputs rgb,alpha,depth,features,instance`).
+struct OutputChannels {
+  bool rgb = true;
+  bool alpha = true;
+  bool depth = true;
+  bool features = true;
+  bool instance = true;
+};
+
+// Parses layer names ("rgb", "alpha", "depth", "features", "instance");
+// an empty list selects all. INVALID_ARGUMENT naming an unknown layer.
+absl::StatusOr<OutputChannels> ParseOutputChannels(const std::vector<std::string>& names);
+
+// Returns the EXR channel names for `channels` and `num_features` channels,
+// in the order listed above.
+std::vector<std::string> ExrChannelNames(const OutputChannels& channels, int num_features);
+
+// Facts about the scene written into every header.
+struct SceneLabel {
+  std::string scene_id;  // E.g. the scene file's checksum.
+  std::string model;     // E.g. "analytic", "3dgs-ply".
+};
+
+// Writes the EXR of `buffers` rendered through `view` to `path` atomically.
+// INVALID_ARGUMENT if `buffers` lacks a selected layer or no layer is
+// selected; INTERNAL with OpenImageIO's message if writing fails.
+absl::Status WriteRenderExr(const std::string& path, const RenderBuffers& buffers,
+                            const OutputChannels& channels, const RenderView& view,
+                            const SceneLabel& scene);
+
+// Writes the 8-bit RGB preview of `buffers` to `path` atomically.
+absl::Status WritePreviewPng(const std::string& path, const RenderBuffers& buffers);
+
+// One rendered view in the manifest; file names are relative to its directory.
+struct ManifestEntry {
+  std::string exr;
+  std::string png;
+  const RenderView* view = nullptr;  // Not owned; must outlive WriteManifest().
+  std::vector<std::string> channels;
+  int width = 0;
+  int height = 0;
+  double render_ms = 0;
+};
+
+// Returns the manifest JSON: {"scene": {...}, "views": [{"name", "exr", "png",
+// "camera", "cameraModel", "timestampUs", "worldFromCamera", "intrinsics",
+// "width", "height", "channels", "renderMs"}]}.
+std::string ManifestJson(const SceneLabel& scene, const std::vector<ManifestEntry>& entries);
+
+// Writes ManifestJson(...) to `path` atomically.
+absl::Status WriteManifest(const std::string& path, const SceneLabel& scene,
+                           const std::vector<ManifestEntry>& entries);
+
+}  // namespace pf
+
+#endif  // POINTFORWARD_WORKER_ENGINE_RENDER_RENDER_OUTPUTS_H_

@@ -1,0 +1,257 @@
+// Tests of the render outputs: the EXR read back with OpenImageIO (channel
+// names, types, values, header), the PNG preview and the manifest.
+#include "worker/engine/render/render_outputs.h"
+
+#include <OpenImageIO/imageio.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+
+#include "common/file_util.h"
+#include "tests/test_util.h"
+#include "worker/engine/image/image_io.h"
+
+namespace pf {
+namespace {
+
+namespace fs = std::filesystem;
+using OIIO::TypeDesc;
+
+constexpr int kWidth = 7, kHeight = 5, kChannels = 4;
+
+// Buffers with a distinct, exactly checkable value in every layer and pixel.
+RenderBuffers MakeBuffers() {
+  RenderBuffers b;
+  b.width = kWidth;
+  b.height = kHeight;
+  b.channels = kChannels;
+  const size_t n = kWidth * kHeight;
+  b.rgb.resize(3 * n);
+  b.alpha.resize(n);
+  b.depth.resize(n);
+  b.features.resize(kChannels * n);
+  b.instance.resize(n);
+  for (size_t i = 0; i < n; ++i) {
+    b.alpha[i] = (i % 5) / 4.f;
+    for (int c = 0; c < 3; ++c) b.rgb[3 * i + c] = b.alpha[i] * (0.1f * c + 0.01f * i);
+    b.depth[i] = b.alpha[i] > 0 ? 10.f + 0.123456f * i : 0.f;
+    for (int c = 0; c < kChannels; ++c) b.features[kChannels * i + c] = 0.5f * c - 0.02f * i;
+    b.instance[i] = i == 3 ? 70000u : static_cast<uint32_t>(i % 3);  // > 65535: not a half.
+  }
+  return b;
+}
+
+RenderView MakeView() {
+  RenderView view;
+  view.name = "front_42";
+  view.camera_id = "front";
+  view.timestamp_us = 1'700'000'000'000'042;
+  view.camera_model = "opencv";
+  view.distortion = {-0.1, 0.01, 0.001, -0.002, 0.0001};
+  view.camera.model = CameraModel(kWidth, kHeight, 100.25, 101.5, 3.5, 2.5);
+  view.camera.model.SetOpenCv(-0.1, 0.01, 0.001, -0.002, 0.0001);
+  // Camera at (5, 2, 1.5) looking along world +x, y down = world -z.
+  const double pose[16] = {0, 0, 1, 5, -1, 0, 0, 2, 0, -1, 0, 1.5, 0, 0, 0, 1};
+  view.camera.world_from_camera = Rigid::FromRowMajor(pose);
+  return view;
+}
+
+class RenderOutputsTest : public ::testing::Test {
+ protected:
+  void SetUp() override { dir_ = testing::MakeTempDir("render_outputs"); }
+  std::string dir_;
+};
+
+TEST_F(RenderOutputsTest, ExrHasEveryChannelWithItsTypeValuesAndHeader) {
+  const RenderBuffers buffers = MakeBuffers();
+  const std::string path = dir_ + "/front_42.exr";
+  ASSERT_TRUE(
+      WriteRenderExr(path, buffers, OutputChannels{}, MakeView(), {"abc123", "analytic"}).ok());
+
+  auto in = OIIO::ImageInput::open(path);
+  ASSERT_TRUE(in) << OIIO::geterror();
+  const OIIO::ImageSpec& spec = in->spec();
+  EXPECT_EQ(spec.width, kWidth);
+  EXPECT_EQ(spec.height, kHeight);
+  EXPECT_EQ(spec.tile_width, 0);  // Scanline.
+  EXPECT_EQ(spec.get_string_attribute("compression"), "zip");
+
+  // Channel names and types.
+  const std::vector<std::string> expected = {
+      "R",           "G",           "B",           "A",           "Z",
+      "feature.000", "feature.001", "feature.002", "feature.003", "instance"};
+  ASSERT_EQ(spec.nchannels, static_cast<int>(expected.size()));
+  std::map<std::string, int> index;
+  for (int c = 0; c < spec.nchannels; ++c) index[spec.channelnames[c]] = c;
+  for (const std::string& name : expected) {
+    ASSERT_TRUE(index.count(name)) << name;
+    const TypeDesc type = spec.channelformat(index[name]);
+    if (name == "Z") {
+      EXPECT_EQ(type, TypeDesc::FLOAT) << name;
+    } else if (name == "instance") {
+      EXPECT_EQ(type, TypeDesc::UINT) << name;
+    } else {
+      EXPECT_EQ(type, TypeDesc::HALF) << name;
+    }
+  }
+
+  // Values: half channels to half precision, Z exact, instance ids exact.
+  std::vector<float> pixels(size_t(kWidth) * kHeight * spec.nchannels);
+  ASSERT_TRUE(in->read_image(0, 0, 0, spec.nchannels, TypeDesc::FLOAT, pixels.data()));
+  std::vector<uint32_t> ids(size_t(kWidth) * kHeight);
+  ASSERT_TRUE(
+      in->read_image(0, 0, index["instance"], index["instance"] + 1, TypeDesc::UINT, ids.data()));
+  auto value = [&](size_t i, const std::string& name) {
+    return pixels[i * spec.nchannels + index[name]];
+  };
+  for (size_t i = 0; i < size_t(kWidth) * kHeight; ++i) {
+    EXPECT_NEAR(value(i, "R"), buffers.rgb[3 * i], 1e-3) << i;
+    EXPECT_NEAR(value(i, "B"), buffers.rgb[3 * i + 2], 1e-3) << i;
+    EXPECT_NEAR(value(i, "A"), buffers.alpha[i], 1e-3) << i;
+    EXPECT_EQ(value(i, "Z"), buffers.depth[i]) << i;
+    EXPECT_NEAR(value(i, "feature.002"), buffers.features[kChannels * i + 2], 2e-3) << i;
+    EXPECT_NEAR(value(i, "feature.003"), buffers.features[kChannels * i + 3], 2e-3) << i;
+    EXPECT_EQ(ids[i], buffers.instance[i]) << i;
+  }
+  EXPECT_EQ(ids[3], 70000u);
+
+  // Header: our pose, intrinsics, model, time, scene.
+  const OIIO::ParamValue* pose = spec.find_attribute("pf:worldFromCamera");
+  ASSERT_NE(pose, nullptr);
+  EXPECT_EQ(pose->type(), TypeDesc(TypeDesc::DOUBLE, TypeDesc::MATRIX44));
+  const double* m = static_cast<const double*>(pose->data());
+  EXPECT_EQ(m[3], 5);
+  EXPECT_EQ(m[2], 1);
+  EXPECT_EQ(m[11], 1.5);
+  EXPECT_EQ(spec.get_float_attribute("pf:fx"), 100.25f);
+  EXPECT_EQ(spec.get_float_attribute("pf:fy"), 101.5f);
+  EXPECT_EQ(spec.get_float_attribute("pf:cx"), 3.5f);
+  EXPECT_EQ(spec.get_float_attribute("pf:cy"), 2.5f);
+  EXPECT_EQ(spec.get_string_attribute("pf:cameraModel"), "opencv");
+  const OIIO::ParamValue* distortion = spec.find_attribute("pf:distortion");
+  ASSERT_NE(distortion, nullptr);
+  ASSERT_EQ(distortion->type().basetype, TypeDesc::FLOAT);
+  ASSERT_EQ(distortion->type().numelements() * distortion->nvalues(), 5u);
+  EXPECT_FLOAT_EQ(static_cast<const float*>(distortion->data())[3], -0.002f);
+  const OIIO::ParamValue* timestamp = spec.find_attribute("timestamp_us");
+  ASSERT_NE(timestamp, nullptr);
+  EXPECT_EQ(timestamp->type(), TypeDesc::DOUBLE);
+  EXPECT_EQ(*static_cast<const double*>(timestamp->data()), 1'700'000'000'000'042.0);
+  EXPECT_EQ(spec.get_string_attribute("pf:timestampUs"), "1700000000000042");
+  EXPECT_EQ(spec.get_string_attribute("pf:camera"), "front");
+  EXPECT_EQ(spec.get_string_attribute("pf:view"), "front_42");
+  EXPECT_EQ(spec.get_string_attribute("pf:sceneId"), "abc123");
+  EXPECT_EQ(spec.get_string_attribute("pf:model"), "analytic");
+  EXPECT_EQ(spec.get_string_attribute("pf:version"), SoftwareVersion());
+
+  // worldToCamera (Imath row vectors, camera y up): the world point 3 m in
+  // front of the camera and 1 m above it maps to camera (0, +1, 3).
+  const OIIO::ParamValue* w2c = spec.find_attribute("worldToCamera");
+  ASSERT_NE(w2c, nullptr);
+  EXPECT_EQ(w2c->type(), OIIO::TypeMatrix44);
+  const float* k = static_cast<const float*>(w2c->data());
+  const double p[4] = {8, 2, 2.5, 1};
+  double q[4] = {0, 0, 0, 0};
+  for (int c = 0; c < 4; ++c) {
+    for (int r = 0; r < 4; ++r) q[c] += p[r] * k[4 * r + c];
+  }
+  EXPECT_NEAR(q[0], 0, 1e-6);
+  EXPECT_NEAR(q[1], 1, 1e-6);
+  EXPECT_NEAR(q[2], 3, 1e-6);
+  EXPECT_NEAR(q[3], 1, 1e-6);
+  in->close();
+
+  // Written atomically: no temporary file left.
+  int files = 0;
+  for (const auto& entry : fs::directory_iterator(dir_)) files += entry.is_regular_file();
+  EXPECT_EQ(files, 1);
+}
+
+TEST_F(RenderOutputsTest, OutputsSelectTheChannels) {
+  absl::StatusOr<OutputChannels> channels = ParseOutputChannels({"rgb", "depth"});
+  ASSERT_TRUE(channels.ok());
+  EXPECT_EQ(ExrChannelNames(*channels, kChannels), (std::vector<std::string>{"R", "G", "B", "Z"}));
+  const std::string path = dir_ + "/subset.exr";
+  ASSERT_TRUE(WriteRenderExr(path, MakeBuffers(), *channels, MakeView(), {}).ok());
+  auto in = OIIO::ImageInput::open(path);
+  ASSERT_TRUE(in);
+  std::vector<std::string> names = in->spec().channelnames;
+  std::sort(names.begin(), names.end());
+  EXPECT_EQ(names, (std::vector<std::string>{"B", "G", "R", "Z"}));
+
+  EXPECT_EQ(ExrChannelNames(*ParseOutputChannels({}), 2),
+            (std::vector<std::string>{"R", "G", "B", "A", "Z", "feature.000", "feature.001",
+                                      "instance"}));
+  absl::Status status = ParseOutputChannels({"rgb", "normals"}).status();
+  EXPECT_EQ(status.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(status.message().find("unknown layer 'normals'"), absl::string_view::npos);
+}
+
+TEST_F(RenderOutputsTest, MissingLayerIsAnError) {
+  RenderBuffers buffers = MakeBuffers();
+  buffers.features.clear();
+  absl::Status status = WriteRenderExr(dir_ + "/x.exr", buffers, OutputChannels{}, MakeView(), {});
+  EXPECT_EQ(status.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(status.message().find("layer 'features' has 0 values, expected 140"),
+            absl::string_view::npos)
+      << status;
+  EXPECT_FALSE(fs::exists(dir_ + "/x.exr"));
+  OutputChannels none{false, false, false, false, false};
+  EXPECT_FALSE(WriteRenderExr(dir_ + "/y.exr", MakeBuffers(), none, MakeView(), {}).ok());
+}
+
+TEST_F(RenderOutputsTest, PreviewIsPremultipliedColourClampedTo8Bit) {
+  RenderBuffers buffers = MakeBuffers();
+  buffers.rgb[0] = 1.7f;   // Clamped to 1.
+  buffers.rgb[1] = -0.2f;  // Clamped to 0.
+  const std::string path = dir_ + "/preview.png";
+  ASSERT_TRUE(WritePreviewPng(path, buffers).ok());
+  absl::StatusOr<ImageF> image = ReadImage(path);
+  ASSERT_TRUE(image.ok()) << image.status();
+  ASSERT_EQ(image->channels, 3);
+  ASSERT_EQ(image->width, kWidth);
+  EXPECT_EQ(image->at(0, 0, 0), 1.f);
+  EXPECT_EQ(image->at(0, 0, 1), 0.f);
+  for (int y = 0; y < kHeight; ++y) {
+    for (int x = 0; x < kWidth; ++x) {
+      for (int c = 0; c < 3; ++c) {
+        if (x == 0 && y == 0) continue;
+        EXPECT_NEAR(image->at(x, y, c), buffers.rgb[3 * (y * kWidth + x) + c], 0.5 / 255 + 1e-6);
+      }
+    }
+  }
+}
+
+TEST_F(RenderOutputsTest, ManifestListsEveryView) {
+  const RenderView view = MakeView();
+  ManifestEntry entry;
+  entry.exr = "front_42.exr";
+  entry.png = "front_42.png";
+  entry.view = &view;
+  entry.channels = {"R", "G", "B", "A"};
+  entry.width = kWidth;
+  entry.height = kHeight;
+  const std::string path = dir_ + "/manifest.json";
+  ASSERT_TRUE(WriteManifest(path, {"abc123", "analytic"}, {entry}).ok());
+  const nlohmann::json json = nlohmann::json::parse(*ReadFileToString(path));
+  EXPECT_EQ(json["scene"]["id"], "abc123");
+  ASSERT_EQ(json["views"].size(), 1u);
+  const nlohmann::json& v = json["views"][0];
+  EXPECT_EQ(v["name"], "front_42");
+  EXPECT_EQ(v["exr"], "front_42.exr");
+  EXPECT_EQ(v["png"], "front_42.png");
+  EXPECT_EQ(v["camera"], "front");
+  EXPECT_EQ(v["cameraModel"], "opencv");
+  EXPECT_EQ(v["timestampUs"].get<int64_t>(), 1'700'000'000'000'042);
+  EXPECT_EQ(v["width"], kWidth);
+  EXPECT_EQ(v["height"], kHeight);
+  EXPECT_EQ(v["channels"], nlohmann::json({"R", "G", "B", "A"}));
+  EXPECT_EQ(v["worldFromCamera"][3], 5.0);
+  EXPECT_EQ(v["intrinsics"]["fx"], 100.25);
+  EXPECT_EQ(v["distortion"].size(), 5u);
+}
+
+}  // namespace
+}  // namespace pf
