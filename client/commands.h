@@ -26,12 +26,12 @@ int ExitCodeFor(const absl::Status& status);
 // Prints "pf <command>: <message>" to stderr and returns ExitCodeFor(status).
 int ReportError(const std::string& command, const absl::Status& status);
 
-int RunValidate(const std::vector<std::string>& args);  // pf validate
-int RunSynth(const std::vector<std::string>& args);     // pf synth [render]
-int RunImport(const std::vector<std::string>& args);    // pf import waymo|dgp
-int RunScene(const std::vector<std::string>& args);     // pf scene info|export
-int RunRender(const std::vector<std::string>& args);    // pf render
-int RunBench(const std::vector<std::string>& args);     // pf bench raster
+int RunValidate(const std::vector<std::string>& args);     // pf validate
+int RunSynth(const std::vector<std::string>& args);        // pf synth [render]
+int RunImport(const std::vector<std::string>& args);       // pf import waymo|dgp
+int RunScene(const std::vector<std::string>& args);        // pf scene info|export
+int RunRender(const std::vector<std::string>& args);       // pf render
+int RunBench(const std::vector<std::string>& args);        // pf bench raster
 int RunReconstruct(const std::vector<std::string>& args);  // pf reconstruct
 int RunEval(const std::vector<std::string>& args);         // pf eval
 

@@ -7,8 +7,8 @@
 // to stdout.
 #include <cstdio>
 #include <map>
-#include <set>
 #include <optional>
+#include <set>
 #include <string>
 #include <vector>
 

@@ -51,7 +51,8 @@ absl::Status MakeDirs(const std::string& dir) {
   if (dir.empty()) return absl::OkStatus();
   std::error_code ec;
   fs::create_directories(dir, ec);
-  if (ec) return absl::InternalError(absl::StrCat(dir, ": cannot create directory: ", ec.message()));
+  if (ec)
+    return absl::InternalError(absl::StrCat(dir, ": cannot create directory: ", ec.message()));
   return absl::OkStatus();
 }
 
@@ -63,7 +64,8 @@ absl::Status WriteFileAtomic(const std::string& path, std::string_view contents)
   const std::string temp = TempPathFor(path);
   {
     std::ofstream out(temp, std::ios::binary | std::ios::trunc);
-    if (!out) return absl::InternalError(absl::StrCat(path, ": cannot write: ", std::strerror(errno)));
+    if (!out)
+      return absl::InternalError(absl::StrCat(path, ": cannot write: ", std::strerror(errno)));
     out.write(contents.data(), static_cast<std::streamsize>(contents.size()));
     out.flush();
     if (!out) {
@@ -93,8 +95,7 @@ absl::StatusOr<std::string> ResolvePath(const std::string& root, const std::stri
   if (policy == PathPolicy::kAllowOutside) return joined.string();
   const fs::path inside = joined.lexically_relative(root_abs);
   if (inside.empty() || *inside.begin() == "..") {
-    return absl::InvalidArgumentError(
-        absl::StrCat("'", relative, "' escapes the clip directory"));
+    return absl::InvalidArgumentError(absl::StrCat("'", relative, "' escapes the clip directory"));
   }
   // Symlinks: compare the real locations where the file exists.
   std::error_code ec;

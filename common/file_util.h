@@ -44,8 +44,7 @@ enum class PathPolicy {
 // absolute path, a path whose ".." components climb above `root`, or an
 // existing path whose symlinks resolve outside `root` is INVALID_ARGUMENT
 // ("escapes the clip directory", "is absolute").
-absl::StatusOr<std::string> ResolvePath(const std::string& root,
-                                        const std::string& relative,
+absl::StatusOr<std::string> ResolvePath(const std::string& root, const std::string& relative,
                                         PathPolicy policy);
 
 }  // namespace pf

@@ -37,6 +37,13 @@ inline Vec3 Normalized(const Vec3& a) {
 struct Mat3 {
   std::array<std::array<double, 3>, 3> m{{{1, 0, 0}, {0, 1, 0}, {0, 0, 1}}};
   static Mat3 Identity() { return Mat3{}; }
+  // Returns the matrix whose columns are `c0`, `c1`, `c2` (e.g. the axes of a
+  // frame, giving world_from_frame).
+  static Mat3 FromColumns(const Vec3& c0, const Vec3& c1, const Vec3& c2) {
+    Mat3 r;
+    r.m = {{{c0.x, c1.x, c2.x}, {c0.y, c1.y, c2.y}, {c0.z, c1.z, c2.z}}};
+    return r;
+  }
   Vec3 Row(int r) const { return {m[r][0], m[r][1], m[r][2]}; }
   Vec3 Col(int c) const { return {m[0][c], m[1][c], m[2][c]}; }
 };
@@ -57,9 +64,7 @@ inline Mat3 Transpose(const Mat3& a) {
     for (int j = 0; j < 3; ++j) r.m[i][j] = a.m[j][i];
   return r;
 }
-inline double Determinant(const Mat3& a) {
-  return Dot(a.Row(0), Cross(a.Row(1), a.Row(2)));
-}
+inline double Determinant(const Mat3& a) { return Dot(a.Row(0), Cross(a.Row(1), a.Row(2))); }
 
 // Unit quaternion (w, x, y, z) for rotations; Hamilton convention, so
 // ToMatrix(q) * v rotates v by q.
@@ -75,10 +80,9 @@ inline Quat QuatNormalized(const Quat& q) {
   return n > 0 ? Quat{q.w / n, q.x / n, q.y / n, q.z / n} : Quat{};
 }
 inline Quat operator*(const Quat& a, const Quat& b) {
-  return {a.w * b.w - a.x * b.x - a.y * b.y - a.z * b.z,
-          a.w * b.x + a.x * b.w + a.y * b.z - a.z * b.y,
-          a.w * b.y - a.x * b.z + a.y * b.w + a.z * b.x,
-          a.w * b.z + a.x * b.y - a.y * b.x + a.z * b.w};
+  return {
+      a.w * b.w - a.x * b.x - a.y * b.y - a.z * b.z, a.w * b.x + a.x * b.w + a.y * b.z - a.z * b.y,
+      a.w * b.y - a.x * b.z + a.y * b.w + a.z * b.x, a.w * b.z + a.x * b.y - a.y * b.x + a.z * b.w};
 }
 
 // Returns the rotation matrix of `q` (normalised first).
@@ -134,8 +138,8 @@ inline Quat Slerp(const Quat& a_in, const Quat& b_in, double s) {
     wa = std::sin((1 - s) * theta) / sin_theta;
     wb = std::sin(s * theta) / sin_theta;
   }
-  return QuatNormalized({wa * a.w + wb * b.w, wa * a.x + wb * b.x, wa * a.y + wb * b.y,
-                         wa * a.z + wb * b.z});
+  return QuatNormalized(
+      {wa * a.w + wb * b.w, wa * a.x + wb * b.x, wa * a.y + wb * b.y, wa * a.z + wb * b.z});
 }
 
 // A rigid transform: p' = rotation * p + translation.

@@ -1,10 +1,10 @@
 // Logging setup on spdlog.
 #include "common/logging.h"
 
+#include <spdlog/sinks/stdout_color_sinks.h>
+
 #include <cstdlib>
 #include <string>
-
-#include <spdlog/sinks/stdout_color_sinks.h>
 
 namespace pf {
 
@@ -25,8 +25,7 @@ void InitLogging(std::string_view level) {
 
 std::shared_ptr<spdlog::logger> JobLogger(std::string_view job_id) {
   auto base = spdlog::default_logger();
-  auto logger = std::make_shared<spdlog::logger>(std::string(job_id),
-                                                 base->sinks().begin(),
+  auto logger = std::make_shared<spdlog::logger>(std::string(job_id), base->sinks().begin(),
                                                  base->sinks().end());
   logger->set_pattern("%Y-%m-%dT%H:%M:%S.%e %^%l%$ [%n] %v");
   logger->set_level(base->level());

@@ -4,10 +4,10 @@
 #ifndef POINTFORWARD_COMMON_LOGGING_H_
 #define POINTFORWARD_COMMON_LOGGING_H_
 
+#include <spdlog/spdlog.h>
+
 #include <memory>
 #include <string_view>
-
-#include <spdlog/spdlog.h>
 
 namespace pf {
 

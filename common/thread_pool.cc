@@ -89,8 +89,7 @@ void ThreadPool::ParallelFor(int64_t begin, int64_t end, int64_t grain,
       }
     }
   };
-  const int helpers =
-      static_cast<int>(std::min<int64_t>(num_threads(), num_chunks - 1));
+  const int helpers = static_cast<int>(std::min<int64_t>(num_threads(), num_chunks - 1));
   shared.active = helpers;
   for (int i = 0; i < helpers; ++i) {
     Schedule([&] {

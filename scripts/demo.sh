@@ -1,12 +1,59 @@
 #!/usr/bin/env bash
-# The demo: synthesise a driving clip and validate it. Later issues extend it
-# to reconstruction and rendering.
+# The demo: synthesise a driving clip, validate it, reconstruct a Gaussian
+# scene from its CONTEXT frames, render a lane-shift trajectory of the front
+# camera (EXR + PNG), and evaluate the TARGET frames (report.json and contact
+# sheets). Everything lands in $PF_DEMO_OUT (default demo-out/).
 set -euo pipefail
 BUILD_DIR=${1:-build}
 PF="$BUILD_DIR/bin/pf"
 OUT=${PF_DEMO_OUT:-demo-out}
 rm -rf "$OUT"
-echo "== pf synth --out $OUT/clip"
+mkdir -p "$OUT"
+
+step() { printf '\n== %s\n' "$*"; }
+
+step "pf synth --out $OUT/clip --seed 1"
 "$PF" synth --out "$OUT/clip" --seed 1
-echo "== pf validate $OUT/clip/clip.json"
+
+step "pf validate $OUT/clip/clip.json"
 "$PF" validate "$OUT/clip/clip.json"
+
+step "pf reconstruct $OUT/clip/clip.json --out $OUT/scene.pfs"
+"$PF" reconstruct "$OUT/clip/clip.json" --out "$OUT/scene.pfs"
+
+step "pf scene info $OUT/scene.pfs"
+"$PF" scene info "$OUT/scene.pfs"
+
+# Views: the front camera at each CONTEXT time, shifted 0, 1, 2 and 3 m to its
+# left, towards the centre line (a lane change the car never made; on the
+# right an overtaking car is alongside).
+python3 - "$OUT/clip/clip.json" "$OUT/lane_shift.json" <<'PY'
+import json, sys
+clip = json.load(open(sys.argv[1]))
+front = [c for c in clip["cameras"] if c["id"] == "cam_front"] or clip["cameras"][:1]
+cam = front[0]
+frames = [f for f in clip["frames"] if f["camera"] == cam["id"]]
+views = []
+for f in frames[::5]:
+    m = [float(v) for v in f["worldFromCamera"]]
+    t = int(f.get("timestampUs", 0))
+    for shift in (0, 1, 2, 3):
+        shifted = list(m)
+        for row in range(3):  # translate along the camera's -x axis (its left)
+            shifted[4 * row + 3] -= shift * m[4 * row]
+        views.append({"camera": cam["id"], "timestampUs": t, "worldFromCamera": shifted,
+                      "name": f"left{shift}m_{t}"})
+json.dump({"cameras": [cam], "views": views}, open(sys.argv[2], "w"), indent=1)
+PY
+
+step "pf render $OUT/scene.pfs --cameras $OUT/lane_shift.json --out $OUT/lane_shift"
+"$PF" render "$OUT/scene.pfs" --cameras "$OUT/lane_shift.json" --out "$OUT/lane_shift"
+
+step "pf eval $OUT/clip/clip.json --out $OUT/eval"
+"$PF" eval "$OUT/clip/clip.json" --out "$OUT/eval"
+
+step "done"
+echo "clip:        $OUT/clip/clip.json"
+echo "scene:       $OUT/scene.pfs"
+echo "lane shift:  $OUT/lane_shift/ (EXR + PNG per view, manifest.json)"
+echo "eval:        $OUT/eval/report.json and contact sheets in $OUT/eval/"

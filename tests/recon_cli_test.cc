@@ -2,14 +2,12 @@
 // small synth clip (192 x 144, 8 frames), checking the figures of
 // report.json, the scene file and the contact sheets, and the errors of bad
 // flags.
-#include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
 #include <vector>
-
-#include <nlohmann/json.hpp>
 
 #include "gtest/gtest.h"
 #include "tests/test_util.h"
@@ -22,11 +20,7 @@ namespace fs = std::filesystem;
 using testing::CommandResult;
 using testing::RunCommand;
 
-std::string Pf() {
-  const char* bin_dir = std::getenv("PF_BIN_DIR");
-  return bin_dir != nullptr && *bin_dir != '\0' ? testing::BinPath("pf")
-                                                : PF_RECON_BIN_DIR "/pf";
-}
+std::string Pf() { return testing::BinPath("pf"); }
 
 nlohmann::json ReadJson(const std::string& path) {
   std::ifstream in(path);
@@ -40,9 +34,8 @@ class ReconCli : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     dir_ = new std::string(testing::MakeTempDir("recon_cli"));
-    const CommandResult synth =
-        RunCommand({Pf(), "synth", "--out", *dir_ + "/clip", "--width", "192", "--height", "144",
-                    "--frames", "8"});
+    const CommandResult synth = RunCommand({Pf(), "synth", "--out", *dir_ + "/clip", "--width",
+                                            "192", "--height", "144", "--frames", "8"});
     ASSERT_EQ(synth.exit_code, 0) << synth.err;
     for (const char* model : {"analytic", "pixel-aligned"}) {
       const std::string out = *dir_ + "/eval_" + model;
@@ -74,6 +67,7 @@ TEST_F(ReconCli, EvalReportHasEveryTargetFrameWithFigures) {
     EXPECT_GT(frame["ssim"].get<double>(), 0.0);
     EXPECT_LE(frame["ssim"].get<double>(), 1.0);
     EXPECT_TRUE(frame["depthRmse"].is_number());  // Synth targets have depth maps.
+    EXPECT_LT(frame["holeFraction"].get<double>(), 0.1);
     EXPECT_TRUE(fs::exists(*dir_ + "/eval_analytic/" + frame["contactSheet"].get<std::string>()));
   }
   const nlohmann::json& mean = report["mean"];
@@ -105,7 +99,8 @@ TEST_F(ReconCli, ReconstructWritesALoadableSceneAndASummary) {
       RunCommand({Pf(), "reconstruct", Clip(), "--out", scene_path, "--ns", "2000", "--nd", "300"});
   ASSERT_EQ(result.exit_code, 0) << result.err;
   EXPECT_NE(result.out.find("gaussians:"), std::string::npos) << result.out;
-  EXPECT_NE(result.out.find("N_s 2000, N_d 300"), std::string::npos) << result.out;
+  EXPECT_NE(result.out.find("0 without depth), N_s 2000, N_d 300"), std::string::npos)
+      << result.out;
   EXPECT_NE(result.err.find("fuse done"), std::string::npos) << result.err;  // Progress.
   absl::StatusOr<SceneFile> file = ReadSceneFile(scene_path);
   ASSERT_TRUE(file.ok()) << file.status();
@@ -115,14 +110,14 @@ TEST_F(ReconCli, ReconstructWritesALoadableSceneAndASummary) {
   size_t dynamic = 0;
   for (uint32_t owner : scene.owners) dynamic += owner != 0;
   EXPECT_GT(dynamic, 0u);
-  EXPECT_LE(dynamic, 4u * 300);  // N_d per instance.
+  EXPECT_LE(dynamic, 4u * 300);                  // N_d per instance.
   EXPECT_LE(scene.size() - dynamic, 6u * 2000);  // N_s per view.
 }
 
 TEST_F(ReconCli, AblationFlagsAreRecordedInTheReport) {
   const std::string out = *dir_ + "/eval_ablation";
-  const CommandResult result = RunCommand(
-      {Pf(), "eval", Clip(), "--out", out, "--fusion", "average", "--no-lifespan"});
+  const CommandResult result =
+      RunCommand({Pf(), "eval", Clip(), "--out", out, "--fusion", "average", "--no-lifespan"});
   ASSERT_EQ(result.exit_code, 0) << result.err;
   const nlohmann::json report = ReadJson(out + "/report.json");
   EXPECT_EQ(report["fusion"], "average");
@@ -134,14 +129,16 @@ TEST_F(ReconCli, BadFlagsAreBadInputNamingTheFlag) {
       RunCommand({Pf(), "reconstruct", Clip(), "--out", *dir_ + "/x", "--model", "nerf"});
   EXPECT_EQ(model.exit_code, 2);
   EXPECT_NE(model.err.find("--model"), std::string::npos) << model.err;
-  const CommandResult ns = RunCommand({Pf(), "reconstruct", Clip(), "--out", *dir_ + "/x", "--ns", "0"});
+  const CommandResult ns =
+      RunCommand({Pf(), "reconstruct", Clip(), "--out", *dir_ + "/x", "--ns", "0"});
   EXPECT_EQ(ns.exit_code, 2);
   EXPECT_NE(ns.err.find("--ns"), std::string::npos) << ns.err;
   const CommandResult device =
       RunCommand({Pf(), "eval", Clip(), "--out", *dir_ + "/x", "--device", "cuda:0"});
   EXPECT_EQ(device.exit_code, 2);
   EXPECT_NE(device.err.find("--device"), std::string::npos) << device.err;
-  const CommandResult missing = RunCommand({Pf(), "reconstruct", *dir_ + "/nope.json", "--out", *dir_ + "/x"});
+  const CommandResult missing =
+      RunCommand({Pf(), "reconstruct", *dir_ + "/nope.json", "--out", *dir_ + "/x"});
   EXPECT_EQ(missing.exit_code, 2);
   const CommandResult usage = RunCommand({Pf(), "eval", Clip()});
   EXPECT_EQ(usage.exit_code, 2);

@@ -36,13 +36,13 @@ CommandResult RunCommand(const std::vector<std::string>& argv);
 }  // namespace pf::testing
 
 // Skips the current test when the sample data is missing.
-#define PF_REQUIRE_DATA(var, subdir)                                              \
-  const std::optional<std::string> var##_opt = ::pf::testing::DataDir(subdir);    \
-  if (!var##_opt) {                                                               \
-    GTEST_SKIP() << "sample data '" << (subdir)                                   \
-                 << "' not found: set PF_DATA_DIR (CMake -DPF_DATA_DIR or the "   \
-                    "environment) to the shared/data directory";                  \
-  }                                                                               \
+#define PF_REQUIRE_DATA(var, subdir)                                            \
+  const std::optional<std::string> var##_opt = ::pf::testing::DataDir(subdir);  \
+  if (!var##_opt) {                                                             \
+    GTEST_SKIP() << "sample data '" << (subdir)                                 \
+                 << "' not found: set PF_DATA_DIR (CMake -DPF_DATA_DIR or the " \
+                    "environment) to the shared/data directory";                \
+  }                                                                             \
   const std::string var = *var##_opt
 
 #endif  // POINTFORWARD_TESTS_TEST_UTIL_H_

@@ -1,7 +1,6 @@
 // End-to-end tests of `pf validate`: the real binary on a valid clip (one
 // summary line, exit 0) and on broken ones (every problem with its field
 // path, exit 2).
-#include <cstdlib>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -22,11 +21,8 @@ using testing::CommandResult;
 using testing::MakeTempDir;
 using testing::RunCommand;
 
-// Returns the path of the pf binary: PF_BIN_DIR's when set, else the build's.
-std::string Pf() {
-  const char* bin_dir = std::getenv("PF_BIN_DIR");
-  return bin_dir != nullptr && *bin_dir != '\0' ? BinPath("pf") : PF_TEST_BIN_DIR "/pf";
-}
+// Returns the path of the pf binary.
+std::string Pf() { return BinPath("pf"); }
 
 std::vector<std::string> Lines(const std::string& text) {
   return absl::StrSplit(text, '\n', absl::SkipEmpty());

@@ -161,9 +161,7 @@ TEST(ClipValidator, ResolveClipPathJoinsAndRejects) {
 // Keeps docs/MANIFEST.md honest: its example parses, passes the manifest
 // checks and has the summary the page says.
 TEST(ClipValidator, ManifestDocExampleIsValid) {
-  // The repository root, from this file's path (PF_SOURCE_DIR may be unset).
-  const std::string doc_path =
-      (fs::path(__FILE__).parent_path() / "../../../docs/MANIFEST.md").lexically_normal().string();
+  const std::string doc_path = (fs::path(testing::SourceDir()) / "docs/MANIFEST.md").string();
   const absl::StatusOr<std::string> doc = ReadFileToString(doc_path);
   ASSERT_TRUE(doc.ok()) << doc.status();
   const size_t begin = doc->find("```json\n");

@@ -1,12 +1,12 @@
 // Image reading and writing on OpenImageIO.
 #include "worker/engine/image/image_io.h"
 
+#include <OpenImageIO/imageio.h>
+
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <memory>
-
-#include <OpenImageIO/imageio.h>
 
 #include "absl/strings/str_cat.h"
 #include "common/file_util.h"
@@ -109,9 +109,9 @@ absl::StatusOr<ImageF> ReadDepth(const std::string& path) {
     }
     for (size_t i = 0; i < raw.size(); ++i) depth.pixels[i] = raw[i] / 256.f;
   } else {
-    return absl::InvalidArgumentError(absl::StrCat(
-        path, ": depth must be a float EXR or a 16-bit PNG (got ", format, ", ",
-        spec.format.c_str(), ")"));
+    return absl::InvalidArgumentError(
+        absl::StrCat(path, ": depth must be a float EXR or a 16-bit PNG (got ", format, ", ",
+                     spec.format.c_str(), ")"));
   }
   in->close();
   for (float& d : depth.pixels) {

@@ -14,8 +14,8 @@ absl::Status RefineColours(const std::vector<ContextView>& views, const QuerySet
                            const RefinementOptions& options, GaussianScene* scene) {
   const size_t n = scene->size();
   if (queries.size() != n) {
-    return absl::InvalidArgumentError(absl::StrCat("RefineColours: ", queries.size(),
-                                                   " queries for ", n, " Gaussians"));
+    return absl::InvalidArgumentError(
+        absl::StrCat("RefineColours: ", queries.size(), " queries for ", n, " Gaussians"));
   }
   // Gaussians by source view, so each render is used once.
   std::vector<std::vector<int64_t>> by_view(views.size());
@@ -32,8 +32,8 @@ absl::Status RefineColours(const std::vector<ContextView>& views, const QuerySet
       if (by_view[v].empty()) continue;
       const ContextView& view = views[v];
       ASSIGN_OR_RETURN(const RenderBuffers render,
-                       Render(*scene, {view.camera, view.world_from_camera}, view.timestamp_us,
-                              {}, render_options));
+                       Render(*scene, {view.camera, view.world_from_camera}, view.timestamp_us, {},
+                              render_options));
       const std::vector<int64_t>& members = by_view[v];
       DefaultThreadPool().ParallelFor(
           0, static_cast<int64_t>(members.size()), 4096, [&](int64_t b, int64_t e) {
@@ -54,8 +54,8 @@ absl::Status RefineColours(const std::vector<ContextView>& views, const QuerySet
       for (int64_t i = b; i < e; ++i) {
         float* feat = &scene->features[static_cast<size_t>(i) * channels];
         for (int c = 0; c < 3; ++c) {
-          feat[c] = std::clamp(feat[c] + step * delta[3 * i + c], options.min_colour,
-                               options.max_colour);
+          feat[c] =
+              std::clamp(feat[c] + step * delta[3 * i + c], options.min_colour, options.max_colour);
         }
       }
     });

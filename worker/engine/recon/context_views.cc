@@ -3,13 +3,12 @@
 
 // The generated protobuf header first: OpenImageIO headers included before it
 // break it (see image_io.h).
-#include "pointforward/v1/clip.pb.h"
-
 #include <algorithm>
 #include <map>
 
 #include "absl/strings/str_cat.h"
 #include "common/status_macros.h"
+#include "pointforward/v1/clip.pb.h"
 #include "worker/engine/clip/clip_validator.h"
 
 namespace pf {
@@ -129,8 +128,8 @@ absl::StatusOr<std::vector<InstanceTrack>> TracksFromClip(const Clip& clip) {
               [](const TrackBox& a, const TrackBox& b) { return a.timestamp_us < b.timestamp_us; });
     for (size_t b = 1; b < track.boxes.size(); ++b) {
       if (track.boxes[b].timestamp_us == track.boxes[b - 1].timestamp_us) {
-        return absl::InvalidArgumentError(absl::StrCat("instances[", i, "]: two boxes at ",
-                                                       track.boxes[b].timestamp_us, " us"));
+        return absl::InvalidArgumentError(
+            absl::StrCat("instances[", i, "]: two boxes at ", track.boxes[b].timestamp_us, " us"));
       }
     }
     tracks.push_back(std::move(track));

@@ -41,7 +41,7 @@ struct ContextView {
 enum class FrameSelection { kContext, kTarget };
 
 struct LoadViewsOptions {
-  bool read_depth = true;         // Read the frames' depth maps when they name one.
+  bool read_depth = true;  // Read the frames' depth maps when they name one.
   bool allow_outside_paths = false;
 };
 

@@ -1,10 +1,9 @@
 // Tests of decoding a clip's frames and tracks.
 #include "worker/engine/recon/context_views.h"
 
-#include "pointforward/v1/clip.pb.h"
-
 #include <gtest/gtest.h>
 
+#include "pointforward/v1/clip.pb.h"
 #include "tests/test_util.h"
 #include "worker/engine/clip/clip_test_util.h"
 

@@ -2,17 +2,15 @@
 #include "worker/engine/recon/evaluation.h"
 
 // The generated protobuf header first (see image_io.h).
-#include "pointforward/v1/clip.pb.h"
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-
 #include <nlohmann/json.hpp>
 
 #include "absl/strings/str_cat.h"
 #include "common/file_util.h"
 #include "common/status_macros.h"
+#include "pointforward/v1/clip.pb.h"
 #include "worker/engine/recon/image_metrics.h"
 #include "worker/engine/recon/recon_flags.h"
 #include "worker/engine/recon/scene_graph.h"
@@ -84,11 +82,13 @@ std::string EvalReportJson(const EvalReport& report) {
     frame["depthRmse"] = OptionalNumber(f.depth_rmse);
     frame["dynamicPsnr"] = OptionalNumber(f.dynamic_psnr);
     frame["dynamicPixels"] = f.dynamic_pixels;
+    frame["holeFraction"] = f.hole_fraction;
     frame["contactSheet"] = f.contact_sheet;
     frames.push_back(std::move(frame));
   }
   j["frames"] = frames;
-  return j.dump(2) + "\n";
+  // Replace invalid UTF-8 (in camera ids) rather than throw.
+  return j.dump(2, ' ', false, nlohmann::ordered_json::error_handler_t::replace) + "\n";
 }
 
 absl::StatusOr<EvalReport> EvaluateClip(const LoadedClip& loaded, const ReconOptions& options,
@@ -120,9 +120,8 @@ absl::StatusOr<EvalReport> EvaluateClip(const LoadedClip& loaded, const ReconOpt
   for (size_t t = 0; t < targets.size(); ++t) {
     const ContextView& target = targets[t];
     const auto start = std::chrono::steady_clock::now();
-    ASSIGN_OR_RETURN(RenderBuffers buffers,
-                     Render(scene, {target.camera, target.world_from_camera}, target.timestamp_us,
-                            {}, render_options));
+    ASSIGN_OR_RETURN(RenderBuffers buffers, Render(scene, {target.camera, target.world_from_camera},
+                                                   target.timestamp_us, {}, render_options));
     FrameMetrics m;
     m.render_seconds = SecondsSince(start);
     const auto metrics_start = std::chrono::steady_clock::now();
@@ -138,14 +137,17 @@ absl::StatusOr<EvalReport> EvaluateClip(const LoadedClip& loaded, const ReconOpt
       depth.pixels = buffers.depth;
       m.depth_rmse = DepthRmse(target.depth, depth);
     }
-    const std::vector<uint8_t> mask = DynamicMask(target.camera, target.world_from_camera,
-                                                  scene.instances, target.timestamp_us);
+    const std::vector<uint8_t> mask =
+        DynamicMask(target.camera, target.world_from_camera, scene.instances, target.timestamp_us);
     for (uint8_t v : mask) m.dynamic_pixels += v != 0;
     m.dynamic_psnr = Psnr(target.rgb, render, mask);
+    int64_t holes = 0;
+    for (float a : buffers.alpha) holes += a < 0.5f;
+    m.hole_fraction = double(holes) / double(std::max<size_t>(1, buffers.alpha.size()));
     if (m.dynamic_pixels == 0) m.dynamic_psnr.reset();
     m.contact_sheet = absl::StrCat(target.camera_id, "_", target.timestamp_us, ".png");
-    RETURN_IF_ERROR(WritePng(absl::StrCat(out_dir, "/", m.contact_sheet),
-                             ContactSheet(target.rgb, render)));
+    RETURN_IF_ERROR(
+        WritePng(absl::StrCat(out_dir, "/", m.contact_sheet), ContactSheet(target.rgb, render)));
     if (options.progress) {
       options.progress(absl::StrCat("target ", t + 1, "/", targets.size(), " ", m.contact_sheet,
                                     ": PSNR ", m.psnr, " dB, SSIM ", m.ssim, " (render ",

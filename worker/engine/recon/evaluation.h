@@ -12,10 +12,12 @@
 //    "mean": {"psnr": x, "ssim": x, "depthRmse": x, "dynamicPsnr": x},
 //    "frames": [{"camera": "...", "timestampUs": t, "psnr": x, "ssim": x,
 //                "depthRmse": x, "dynamicPsnr": x, "dynamicPixels": n,
-//                "contactSheet": "cam_t.png"}, ...]}
+//                "holeFraction": x, "contactSheet": "cam_t.png"}, ...]}
 // depthRmse is over pixels where the target frame has depth (frames without
 // a depth map leave it out); dynamicPsnr over pixels whose ray crosses an
-// instance box at the frame's time (left out where there are none). Means
+// instance box at the frame's time (left out where there are none);
+// holeFraction is the share of pixels the render leaves (nearly) empty,
+// alpha < 0.5, which show black (regions no context view saw). Means
 // are over the frames that have the figure; a figure no frame has is null.
 #ifndef POINTFORWARD_WORKER_ENGINE_RECON_EVALUATION_H_
 #define POINTFORWARD_WORKER_ENGINE_RECON_EVALUATION_H_
@@ -40,6 +42,7 @@ struct FrameMetrics {
   std::optional<double> depth_rmse;
   std::optional<double> dynamic_psnr;
   int64_t dynamic_pixels = 0;
+  double hole_fraction = 0;   // Pixels the render covers with alpha < 0.5.
   std::string contact_sheet;  // File name inside the output directory.
   double render_seconds = 0;
 };

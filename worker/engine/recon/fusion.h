@@ -55,9 +55,9 @@ struct FusionOptions {
 
 // The fused queries, aligned with the QuerySet.
 struct FusedQueries {
-  std::vector<float> rgb;            // [N, 3]
-  std::vector<float> agreement;      // [N] in (0, 1]
-  std::vector<float> lifespans;      // [N] seconds, +inf never fades
+  std::vector<float> rgb;              // [N, 3]
+  std::vector<float> agreement;        // [N] in (0, 1]
+  std::vector<float> lifespans;        // [N] seconds, +inf never fades
   std::vector<uint16_t> observations;  // [N] views that contributed
 };
 

@@ -2,9 +2,9 @@
 // exclude views, lifespans, instances re-posed to each view's time.
 #include "worker/engine/recon/fusion.h"
 
-#include <cmath>
-
 #include <gtest/gtest.h>
+
+#include <cmath>
 
 namespace pf {
 namespace {
@@ -54,10 +54,10 @@ QuerySet OneQuery(uint32_t owner = 0) {
 }
 
 TEST(Fusion, WeightsPreferTheConsistentView) {
-  const FlatView source(1, 0, 0, 10);       // d = 0
-  const FlatView close(0, 1, 0, 10.05f);    // |d| = 0.005
-  const FlatView off(0, 0, 1, 10.25f);      // |d| = 0.025, still within tolerance
-  const FlatView occluder(1, 1, 1, 5);      // Something in front: not an observation.
+  const FlatView source(1, 0, 0, 10);     // d = 0
+  const FlatView close(0, 1, 0, 10.05f);  // |d| = 0.005
+  const FlatView off(0, 0, 1, 10.25f);    // |d| = 0.025, still within tolerance
+  const FlatView occluder(1, 1, 1, 5);    // Something in front: not an observation.
   const std::vector<FusionView> views = {source.fusion(), close.fusion(), off.fusion(),
                                          occluder.fusion()};
   FusionOptions options;  // tau = 0.01

@@ -20,13 +20,7 @@ Quat DiscFrame(const Vec3& normal_in, const Vec3& ray_in, double max_stretch, do
   }
   t1 = Normalized(t1);
   const Vec3 t2 = Cross(n, t1);
-  Mat3 r;
-  for (int row = 0; row < 3; ++row) {
-    r.m[row][0] = t1[row];
-    r.m[row][1] = t2[row];
-    r.m[row][2] = n[row];
-  }
-  return FromMatrix(r);
+  return FromMatrix(Mat3::FromColumns(t1, t2, n));
 }
 
 GaussianScene DecodeGaussians(const QuerySet& queries, const FusedQueries& fused,

@@ -1,10 +1,10 @@
 // Tests of decoding fused queries into Gaussians.
 #include "worker/engine/recon/gaussian_decoder.h"
 
+#include <gtest/gtest.h>
+
 #include <cmath>
 #include <limits>
-
-#include <gtest/gtest.h>
 
 namespace pf {
 namespace {

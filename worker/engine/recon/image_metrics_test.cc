@@ -2,9 +2,9 @@
 // computed by hand.
 #include "worker/engine/recon/image_metrics.h"
 
-#include <cmath>
-
 #include <gtest/gtest.h>
+
+#include <cmath>
 
 namespace pf {
 namespace {

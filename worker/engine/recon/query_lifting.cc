@@ -32,8 +32,8 @@ bool LiftQuery(const ContextView& view, const ViewDepth& depth, int x, int y, Qu
   const Vec3 origin = view.world_from_camera.translation;
   const std::array<float, 6> plucker = PluckerRay(origin, p - origin);
   Query12& q = *query;
-  q = {float(p.x), float(p.y), float(p.z), view.rgb.at(x, y, 0), view.rgb.at(x, y, 1),
-       view.rgb.at(x, y, 2)};
+  q = {float(p.x),           float(p.y),           float(p.z),
+       view.rgb.at(x, y, 0), view.rgb.at(x, y, 1), view.rgb.at(x, y, 2)};
   for (int k = 0; k < 6; ++k) q[6 + k] = plucker[k];
   return true;
 }
@@ -67,8 +67,7 @@ LiftedView LiftView(const ContextView& view, const ViewDepth& depth) {
   };
   // Picks the neighbour difference along one axis: central when both sides
   // are valid and smooth, else the side with the smaller relative depth jump.
-  auto tangent = [&](size_t i, size_t prev, size_t next, bool has_prev, bool has_next,
-                     Vec3* t) {
+  auto tangent = [&](size_t i, size_t prev, size_t next, bool has_prev, bool has_next, Vec3* t) {
     has_prev = has_prev && out.valid[prev] && depth.is_far(prev) == depth.is_far(i);
     has_next = has_next && out.valid[next] && depth.is_far(next) == depth.is_far(i);
     if (!has_prev && !has_next) return false;

@@ -1,9 +1,9 @@
 // Tests of lifting: it inverts projection; Plücker rays; normals.
 #include "worker/engine/recon/query_lifting.h"
 
-#include <cmath>
-
 #include <gtest/gtest.h>
+
+#include <cmath>
 
 namespace pf {
 namespace {

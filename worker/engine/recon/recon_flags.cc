@@ -7,7 +7,8 @@
 namespace pf {
 
 const std::set<std::string>& ReconValueFlags() {
-  static const std::set<std::string> flags = {"model", "ns", "nd", "fusion", "device", "splat-sigma", "refine"};
+  static const std::set<std::string> flags = {"model",  "ns",          "nd",    "fusion",
+                                              "device", "splat-sigma", "refine"};
   return flags;
 }
 
@@ -49,15 +50,15 @@ absl::StatusOr<ReconOptions> ReconOptionsFromFlags(const CommandLine& cl) {
   } else if (fusion == "no-depth") {
     options.fusion.weights = FusionWeights::kNoDepth;
   } else {
-    return absl::InvalidArgumentError(absl::StrCat(
-        "--fusion: unknown weighting '", fusion, "' (expected softmax, average or no-depth)"));
+    return absl::InvalidArgumentError(absl::StrCat("--fusion: unknown weighting '", fusion,
+                                                   "' (expected softmax, average or no-depth)"));
   }
   options.fusion.lifespan = !cl.Has("no-lifespan");
   ASSIGN_OR_RETURN(options.decoder.tangent_sigma,
                    cl.GetDouble("splat-sigma", options.decoder.tangent_sigma));
   if (!(options.decoder.tangent_sigma > 0.05 && options.decoder.tangent_sigma <= 4)) {
-    return absl::InvalidArgumentError(absl::StrCat("--splat-sigma: must be in (0.05, 4], got ",
-                                                   cl.Get("splat-sigma")));
+    return absl::InvalidArgumentError(
+        absl::StrCat("--splat-sigma: must be in (0.05, 4], got ", cl.Get("splat-sigma")));
   }
   ASSIGN_OR_RETURN(const int64_t refine, cl.GetInt("refine", options.refinement.iterations));
   if (refine < 0 || refine > 20) {

@@ -2,13 +2,12 @@
 #include "worker/engine/recon/reconstruction.h"
 
 // The generated protobuf header first (see image_io.h).
-#include "pointforward/v1/clip.pb.h"
-
 #include <algorithm>
 #include <chrono>
 
 #include "absl/strings/str_cat.h"
 #include "common/status_macros.h"
+#include "pointforward/v1/clip.pb.h"
 #include "worker/engine/recon/query_lifting.h"
 #include "worker/engine/recon/scene_graph.h"
 
@@ -107,6 +106,7 @@ absl::StatusOr<ReconResult> ReconstructInputs(const ReconInputs& inputs,
     from_lidar[v] = lidar;
     stats.lidar_views += lidar ? 1 : 0;
     for (float d : measured[v].pixels) max_depths[v] = std::max(max_depths[v], d);
+    stats.views_without_depth += max_depths[v] > 0.f ? 0 : 1;
   }
   const FarLayer far = FarLayerFor(views, max_depths);
   std::vector<ViewDepth> depths(num_views);
@@ -116,6 +116,11 @@ absl::StatusOr<ReconResult> ReconstructInputs(const ReconInputs& inputs,
   }
   clock.Done("depth", absl::StrCat(" (", stats.lidar_views, " of ", num_views,
                                    " views from LiDAR, far layer radius ", far.radius, " m)"));
+  if (stats.views_without_depth > 0) {
+    clock.Progress(absl::StrCat("warning: ", stats.views_without_depth, " of ", num_views,
+                                " views have no depth map and no LiDAR point; all their pixels "
+                                "are on the far layer"));
+  }
 
   // 2. Lifting.
   std::vector<LiftedView> lifted(num_views);
@@ -150,8 +155,7 @@ absl::StatusOr<ReconResult> ReconstructInputs(const ReconInputs& inputs,
   FusedQueries fused;
   if (options.model == ReconModel::kAnalytic) {
     std::vector<FusionView> fusion_views(num_views);
-    for (size_t v = 0; v < num_views; ++v)
-      fusion_views[v] = {&views[v], &depths[v], &masks[v]};
+    for (size_t v = 0; v < num_views; ++v) fusion_views[v] = {&views[v], &depths[v], &masks[v]};
     fused = FuseQueries(queries, fusion_views, tracks, options.fusion);
   } else {
     fused = UnfusedQueries(queries);

@@ -6,10 +6,12 @@
 // Column-vector form (geometry.h), with box b_t = (c_t, R_t) box-to-world:
 //   inside:      |R_t^T (p - c_t)| <= m / 2 (element-wise)
 //   canonical:   p~ = R_1 R_t^T (p - c_t) + c_1
-// The paper writes row vectors with R^B world-to-box, p~ = (p - c_t) R_t^T R_1
-// + c_1; transposed, with our box-to-world R = (R^B)^T, that is the line above:
-// express p in box t, then place it in box 1. Boxes between track keyframes are interpolated as
-// the renderer does (InterpolateBox: linear centre, slerp rotation).
+// The paper writes row vectors with R^B world-to-box,
+//   p~ = (p - c_t) R_t^T R_1 + c_1;
+// transposed, with our box-to-world R = (R^B)^T, that is the line above:
+// express p in box t, then place it in box 1. Boxes between track keyframes
+// are interpolated as the renderer does (InterpolateBox: linear centre,
+// slerp rotation).
 #ifndef POINTFORWARD_WORKER_ENGINE_RECON_SCENE_GRAPH_H_
 #define POINTFORWARD_WORKER_ENGINE_RECON_SCENE_GRAPH_H_
 

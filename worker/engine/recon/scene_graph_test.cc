@@ -2,9 +2,9 @@
 // hand-computed points.
 #include "worker/engine/recon/scene_graph.h"
 
-#include <cmath>
-
 #include <gtest/gtest.h>
+
+#include <cmath>
 
 namespace pf {
 namespace {
@@ -18,8 +18,8 @@ Quat Yaw(double degrees) {
 TEST(SceneGraph, PointInRotatedBox) {
   TrackBox box;
   box.center = {10, 0, 1};
-  box.size = {4, 2, 2};  // Length 4 along the box x axis.
-  box.rotation = Yaw(90);  // Box x axis is world +y.
+  box.size = {4, 2, 2};                         // Length 4 along the box x axis.
+  box.rotation = Yaw(90);                       // Box x axis is world +y.
   EXPECT_TRUE(PointInBox({10, 1.9, 1}, box));   // 1.9 m along the box's length.
   EXPECT_FALSE(PointInBox({11.9, 0, 1}, box));  // 1.9 m across: outside (half width 1).
   EXPECT_TRUE(PointInBox({10.9, 0, 1}, box));

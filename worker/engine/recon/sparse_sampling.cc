@@ -16,7 +16,7 @@ namespace {
 struct Candidate {
   int view;
   int pixel;
-  Vec3 position;   // World or canonical.
+  Vec3 position;  // World or canonical.
   float footprint;
 };
 
@@ -69,7 +69,8 @@ void Emit(const Candidate& c, const SamplingView& sv, uint32_t owner, const Rigi
   const std::array<float, 6> plucker = PluckerRay(origin, ray_world);
   out->positions.insert(out->positions.end(),
                         {float(c.position.x), float(c.position.y), float(c.position.z)});
-  out->rgb.insert(out->rgb.end(), {view.rgb.at(x, y, 0), view.rgb.at(x, y, 1), view.rgb.at(x, y, 2)});
+  out->rgb.insert(out->rgb.end(),
+                  {view.rgb.at(x, y, 0), view.rgb.at(x, y, 1), view.rgb.at(x, y, 2)});
   out->plucker.insert(out->plucker.end(), plucker.begin(), plucker.end());
   out->normals.insert(out->normals.end(), {float(normal.x), float(normal.y), float(normal.z)});
   out->rays.insert(out->rays.end(), {float(ray.x), float(ray.y), float(ray.z)});
@@ -94,7 +95,8 @@ std::vector<size_t> ThinByVoxel(const std::vector<Candidate>& candidates, double
   };
   for (size_t i = 0; i < candidates.size(); ++i) {
     auto [it, inserted] = best.try_emplace(VoxelKey(candidates[i].position, side, 0), i);
-    if (!inserted && off_centre(candidates[i].position) < off_centre(candidates[it->second].position))
+    if (!inserted &&
+        off_centre(candidates[i].position) < off_centre(candidates[it->second].position))
       it->second = i;
   }
   std::vector<size_t> kept;
@@ -127,9 +129,9 @@ std::vector<uint32_t> PixelOwners(const LiftedView& lifted, const ViewDepth& dep
   DefaultThreadPool().ParallelFor(0, static_cast<int64_t>(n), 8192, [&](int64_t b, int64_t e) {
     for (int64_t i = b; i < e; ++i) {
       if (!lifted.valid[i] || depth.is_far(i)) continue;
-      owners[i] = boxes.Owner(
-          {lifted.points[3 * i], lifted.points[3 * i + 1], lifted.points[3 * i + 2]},
-          kMembershipMargin);
+      owners[i] =
+          boxes.Owner({lifted.points[3 * i], lifted.points[3 * i + 1], lifted.points[3 * i + 2]},
+                      kMembershipMargin);
     }
   });
   return owners;
@@ -181,8 +183,8 @@ QuerySet SampleQueries(const std::vector<SamplingView>& views,
   const Rigid identity;
   std::vector<ViewResolution> resolution(views.size());
   for (size_t v = 0; v < views.size(); ++v) {
-    resolution[v] = {views[v].view->world_from_camera.Inverse(),
-                     FocalLength(views[v].view->camera), StaticStride(views[v], options)};
+    resolution[v] = {views[v].view->world_from_camera.Inverse(), FocalLength(views[v].view->camera),
+                     StaticStride(views[v], options)};
   }
   const bool prefer_finer = !options.dense && options.finer_view_ratio > 0;
   // Static queries, view by view.

@@ -37,12 +37,12 @@ inline constexpr int64_t kDefaultStaticPerView = 100000;
 inline constexpr int64_t kDefaultDynamicPerInstance = 10000;
 
 struct SamplingOptions {
-  int64_t static_per_view = kDefaultStaticPerView;          // N_s
+  int64_t static_per_view = kDefaultStaticPerView;            // N_s
   int64_t dynamic_per_instance = kDefaultDynamicPerInstance;  // N_d
-  int far_stride = 3;          // Far-layer cells taken: one in far_stride^2.
-  bool skip_covered = true;    // Skip static points whose voxel an earlier view filled.
+  int far_stride = 3;             // Far-layer cells taken: one in far_stride^2.
+  bool skip_covered = true;       // Skip static points whose voxel an earlier view filled.
   double finer_view_ratio = 1.2;  // Leave points to views this much finer; <= 0: off.
-  bool dense = false;          // Every valid pixel, no thinning (pixel-aligned).
+  bool dense = false;             // Every valid pixel, no thinning (pixel-aligned).
 };
 
 // Returns the budget `at_768x576` scaled by the pixel count relative to
@@ -63,7 +63,8 @@ QuerySet SampleQueries(const std::vector<SamplingView>& views,
                        const std::vector<InstanceTrack>& tracks, const SamplingOptions& options);
 
 // Returns the owner of every lifted pixel of a view: box membership of its
-// point at `timestamp_us` with kMembershipMargin (scene_graph.h); far-layer and invalid pixels are 0.
+// point at `timestamp_us` with kMembershipMargin (scene_graph.h); far-layer and invalid pixels are
+// 0.
 std::vector<uint32_t> PixelOwners(const LiftedView& lifted, const ViewDepth& depth,
                                   const std::vector<InstanceTrack>& tracks, int64_t timestamp_us);
 

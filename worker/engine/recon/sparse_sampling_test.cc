@@ -2,10 +2,10 @@
 // earlier views covered, instance budgets.
 #include "worker/engine/recon/sparse_sampling.h"
 
+#include <gtest/gtest.h>
+
 #include <cmath>
 #include <set>
-
-#include <gtest/gtest.h>
 
 #include "worker/engine/recon/scene_graph.h"
 
@@ -148,7 +148,7 @@ TEST(SparseSampling, SurfacesAreLeftToTheViewThatSeesThemClosest) {
   EXPECT_EQ(near_count, 1728);
   EXPECT_EQ(far_inside, 0);
   EXPECT_GT(far_outside, 1728 / 2);  // 3/4 of the far view is outside the near one.
-  options.finer_view_ratio = 0;  // Off: the far view keeps its samples there.
+  options.finer_view_ratio = 0;      // Off: the far view keeps its samples there.
   const QuerySet plain = SampleQueries({far_view.sampling(), near_view.sampling()}, {}, options);
   int plain_inside = 0;
   for (size_t i = 0; i < plain.size(); ++i)

@@ -3,8 +3,6 @@
 #include "worker/engine/recon/view_depth.h"
 
 // The generated protobuf header first (see image_io.h).
-#include "pointforward/v1/clip.pb.h"
-
 #include <algorithm>
 #include <cmath>
 #include <cstring>
@@ -13,6 +11,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "common/thread_pool.h"
+#include "pointforward/v1/clip.pb.h"
 #include "worker/engine/clip/clip_validator.h"
 #include "worker/engine/recon/scene_graph.h"
 #include "worker/engine/render/rasterizer.h"
@@ -30,8 +29,7 @@ absl::StatusOr<std::vector<LidarSweepData>> LoadLidarSweeps(const LoadedClip& lo
                                                      sweep.world_from_sensor_size(),
                                                      " numbers, expected 16"));
     }
-    absl::StatusOr<std::string> path =
-        ResolveClipPath(loaded, sweep.points(), allow_outside_paths);
+    absl::StatusOr<std::string> path = ResolveClipPath(loaded, sweep.points(), allow_outside_paths);
     if (!path.ok()) {
       return absl::Status(path.status().code(),
                           absl::StrCat(where, ".points: ", std::string(path.status().message())));
@@ -40,8 +38,8 @@ absl::StatusOr<std::vector<LidarSweepData>> LoadLidarSweeps(const LoadedClip& lo
     if (!in) return absl::NotFoundError(absl::StrCat(where, ".points: cannot open ", *path));
     const std::streamoff bytes = in.tellg();
     if (bytes < 0 || bytes % 16 != 0) {
-      return absl::InvalidArgumentError(absl::StrCat(where, ".points: ", *path, " has ", bytes,
-                                                     " bytes, not a multiple of 16"));
+      return absl::InvalidArgumentError(
+          absl::StrCat(where, ".points: ", *path, " has ", bytes, " bytes, not a multiple of 16"));
     }
     std::vector<float> records(static_cast<size_t>(bytes / 4));
     in.seekg(0);
@@ -121,9 +119,15 @@ ImageF ProjectPoints(const std::vector<float>& points, const CameraModel& camera
   return depth;
 }
 
+int CompletionRadius(int height) {
+  return std::max(12, static_cast<int>(std::lround(0.04 * height)));
+}
+
 ImageF CompleteDepth(const ImageF& sparse, const CompletionOptions& options) {
   const int w = sparse.width, h = sparse.height;
-  const int cell = std::max(1, options.max_distance_px);
+  const int max_distance =
+      options.max_distance_px > 0 ? options.max_distance_px : CompletionRadius(h);
+  const int cell = std::max(1, max_distance);
   const int gw = (w + cell - 1) / cell, gh = (h + cell - 1) / cell;
   // Measured pixels bucketed by grid cell (counting sort).
   std::vector<int> start(static_cast<size_t>(gw) * gh + 1, 0);
@@ -138,7 +142,7 @@ ImageF CompleteDepth(const ImageF& sparse, const CompletionOptions& options) {
       if (sparse.at(x, y) > 0.f) samples[fill[(y / cell) * gw + x / cell]++] = y * w + x;
 
   ImageF dense = sparse;
-  const double max_d2 = double(options.max_distance_px) * options.max_distance_px;
+  const double max_d2 = double(max_distance) * max_distance;
   DefaultThreadPool().ParallelFor(0, h, 4, [&](int64_t y0, int64_t y1) {
     for (int64_t y = y0; y < y1; ++y) {
       const int cy = static_cast<int>(y) / cell;
@@ -191,7 +195,8 @@ FarLayer FarLayerFor(const std::vector<ContextView>& views, const std::vector<fl
     far.radius = min_radius;
     return far;
   }
-  for (const ContextView& view : views) far.center = far.center + view.world_from_camera.translation;
+  for (const ContextView& view : views)
+    far.center = far.center + view.world_from_camera.translation;
   far.center = far.center / double(views.size());
   double spread = 0, deepest = 0;
   for (const ContextView& view : views)
@@ -226,7 +231,8 @@ ViewDepth WithFarLayer(const ImageF& measured, bool from_lidar, const ContextVie
   const size_t n = static_cast<size_t>(out.width) * out.height;
   out.depth.resize(n);
   out.source.resize(n);
-  const uint8_t measured_source = uint8_t(from_lidar ? DepthSource::kLidar : DepthSource::kDepthMap);
+  const uint8_t measured_source =
+      uint8_t(from_lidar ? DepthSource::kLidar : DepthSource::kDepthMap);
   DefaultThreadPool().ParallelFor(0, out.height, 16, [&](int64_t y0, int64_t y1) {
     for (int64_t y = y0; y < y1; ++y) {
       for (int x = 0; x < out.width; ++x) {

@@ -53,9 +53,14 @@ ImageF ProjectPoints(const std::vector<float>& points, const CameraModel& camera
                      const Rigid& world_from_camera);
 
 struct CompletionOptions {
-  // Pixels further than this from any measured pixel stay unknown.
-  int max_distance_px = 12;
+  // Pixels further than this from any measured pixel stay unknown. <= 0:
+  // CompletionRadius(image height), so the gap between LiDAR rings on the
+  // road near the car (tens of pixels in a 1216-row image) is bridged.
+  int max_distance_px = 0;
 };
+
+// Returns the automatic completion radius: max(12, 4 % of `height`) pixels.
+int CompletionRadius(int height);
 
 // Densifies a sparse depth map: every unknown pixel within
 // `max_distance_px` of measured ones takes the depth of the nearest one,

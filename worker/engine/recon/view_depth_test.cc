@@ -1,9 +1,9 @@
 // Tests of depth per view: LiDAR projection, completion and the far layer.
 #include "worker/engine/recon/view_depth.h"
 
-#include <cmath>
-
 #include <gtest/gtest.h>
+
+#include <cmath>
 
 namespace pf {
 namespace {
@@ -26,7 +26,7 @@ TEST(ViewDepth, CompletionFillsNearbyPixelsOnlyAndPrefersTheNearerSurface) {
   CompletionOptions options;
   options.max_distance_px = 4;
   const ImageF dense = CompleteDepth(sparse, options);
-  EXPECT_FLOAT_EQ(dense.at(10, 10), 5.f);   // Measured values kept.
+  EXPECT_FLOAT_EQ(dense.at(10, 10), 5.f);  // Measured values kept.
   EXPECT_FLOAT_EQ(dense.at(12, 10), 50.f);
   EXPECT_FLOAT_EQ(dense.at(9, 12), 5.f);    // Nearest measurement.
   EXPECT_FLOAT_EQ(dense.at(11, 10), 5.f);   // Tie between both: the nearer surface.
@@ -35,18 +35,28 @@ TEST(ViewDepth, CompletionFillsNearbyPixelsOnlyAndPrefersTheNearerSurface) {
   EXPECT_FLOAT_EQ(dense.at(10, 15), 0.f);   // 5 px away > 4.
 }
 
+TEST(ViewDepth, AutomaticRadiusGrowsWithTheImage) {
+  EXPECT_EQ(CompletionRadius(144), 12);
+  EXPECT_EQ(CompletionRadius(1216), 49);
+  ImageF sparse(100, 1216, 1);
+  sparse.at(50, 100) = 8.f;
+  const ImageF dense = CompleteDepth(sparse, {});  // Automatic radius 49.
+  EXPECT_FLOAT_EQ(dense.at(50, 140), 8.f);
+  EXPECT_FLOAT_EQ(dense.at(50, 160), 0.f);
+}
+
 TEST(ViewDepth, LidarPointsInABoxMoveWithItToTheImageTime) {
   InstanceTrack car;
   car.boxes = {{0, {10, 0, 1}, {4, 2, 2}, Quat{}}, {1000000, {20, 0, 1}, {4, 2, 2}, Quat{}}};
   LidarSweepData sweep;
   sweep.timestamp_us = 0;
-  sweep.points = {11, 0.5f, 1.5f,   // In the car at t = 0.
-                  30, 0, 0};        // Ground.
+  sweep.points = {11, 0.5f, 1.5f,  // In the car at t = 0.
+                  30, 0,    0};    // Ground.
   const std::vector<float> moved = PointsAtTime(sweep, {car}, 500000);
   EXPECT_NEAR(moved[0], 16.f, 1e-5);  // The box moved 5 m along x in 0.5 s.
   EXPECT_NEAR(moved[1], 0.5f, 1e-5);
   EXPECT_NEAR(moved[2], 1.5f, 1e-5);
-  EXPECT_FLOAT_EQ(moved[3], 30.f);    // Static point stays.
+  EXPECT_FLOAT_EQ(moved[3], 30.f);  // Static point stays.
 }
 
 TEST(ViewDepth, NearestSweepInTime) {

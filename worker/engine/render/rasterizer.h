@@ -32,32 +32,32 @@ struct RenderCamera {
 struct ActorEdit {
   enum class Kind { kRemove, kTrajectory };
   Kind kind = Kind::kRemove;
-  std::string instance_id;       // InstanceTrack::id.
-  std::vector<TrackBox> boxes;   // kTrajectory: the new track, sorted by time.
+  std::string instance_id;      // InstanceTrack::id.
+  std::vector<TrackBox> boxes;  // kTrajectory: the new track, sorted by time.
 };
 
 struct RenderOptions {
-  bool features = true;     // Fill RenderBuffers::features.
-  bool depth = true;        // Fill depth.
-  bool instance = true;     // Fill instance ids.
-  float near_plane = 0.01f; // Gaussians closer than this (z, metres) are culled.
+  bool features = true;      // Fill RenderBuffers::features.
+  bool depth = true;         // Fill depth.
+  bool instance = true;      // Fill instance ids.
+  float near_plane = 0.01f;  // Gaussians closer than this (z, metres) are culled.
 };
 
 // Counters of one render, for the benchmark.
 struct RasterStats {
-  int64_t gaussians_visible = 0;    // Projected and inside the image.
-  int64_t pairs_tested = 0;         // Gaussian-pixel pairs evaluated.
-  int64_t pairs_contributing = 0;   // Pairs that changed the pixel.
+  int64_t gaussians_visible = 0;   // Projected and inside the image.
+  int64_t pairs_tested = 0;        // Gaussian-pixel pairs evaluated.
+  int64_t pairs_contributing = 0;  // Pairs that changed the pixel.
 };
 
 // Per-pixel outputs, row-major [H, W, ...].
 struct RenderBuffers {
   int width = 0;
   int height = 0;
-  int channels = 0;              // N_c of the scene.
-  std::vector<float> features;   // [H, W, C] premultiplied by alpha (empty if not asked)
-  std::vector<float> rgb;        // [H, W, 3] premultiplied by alpha
-  std::vector<float> alpha;      // [H, W]
+  int channels = 0;             // N_c of the scene.
+  std::vector<float> features;  // [H, W, C] premultiplied by alpha (empty if not asked)
+  std::vector<float> rgb;       // [H, W, 3] premultiplied by alpha
+  std::vector<float> alpha;     // [H, W]
   // [H, W] expected z depth normalised by alpha: sum(w_i z_i) / sum(w_i);
   // 0 where alpha == 0.
   std::vector<float> depth;

@@ -245,13 +245,7 @@ Mat3 EgoFromOpenCvCamera(double yaw, double pitch) {
                      std::sin(pitch)};
   const Vec3 right{std::sin(yaw), -std::cos(yaw), 0};
   const Vec3 down = Cross(forward, right);
-  Mat3 r;
-  for (int i = 0; i < 3; ++i) {
-    r.m[i][0] = right[i];
-    r.m[i][1] = down[i];
-    r.m[i][2] = forward[i];
-  }
-  return r;
+  return Mat3::FromColumns(right, down, forward);
 }
 
 Rigid Vehicle::BoxToWorldAt(double t) const {
