@@ -11,8 +11,8 @@ PACKAGES=(
   # Libraries.
   libabsl-dev libprotobuf-dev protobuf-compiler libspdlog-dev libgtest-dev
   libopenimageio-dev libopenexr-dev libopencv-core-dev nlohmann-json3-dev zlib1g-dev
-  # Tools the tests use.
-  openimageio-tools python3
+  # The demo writes its views file with a few lines of Python.
+  python3
 )
 
 missing=()
