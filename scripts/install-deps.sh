@@ -10,7 +10,10 @@ PACKAGES=(
   build-essential cmake ninja-build ccache pkg-config clang-format
   # Libraries.
   libabsl-dev libprotobuf-dev protobuf-compiler libspdlog-dev libgtest-dev
-  libopenimageio-dev libopenexr-dev libopencv-core-dev nlohmann-json3-dev zlib1g-dev
+  libopenimageio-dev libopenexr-dev nlohmann-json3-dev zlib1g-dev
+  # OpenImageIO's CMake config checks for files of these two: its command-line
+  # tools (/usr/bin/iconvert, ...) and /usr/include/opencv4.
+  openimageio-tools libopencv-core-dev
   # The demo writes its views file with a few lines of Python.
   python3
 )
