@@ -8,7 +8,6 @@
 #include <cstdio>
 #include <map>
 #include <optional>
-#include <set>
 #include <string>
 #include <vector>
 
@@ -56,9 +55,7 @@ absl::Status Run(const CommandLine& cl) {
 }  // namespace
 
 int RunEval(const std::vector<std::string>& args) {
-  std::set<std::string> value_flags = ReconValueFlags();
-  value_flags.insert("out");
-  absl::StatusOr<CommandLine> cl = CommandLine::Parse(args, value_flags, ReconBoolFlags());
+  absl::StatusOr<CommandLine> cl = ParseReconCommandLine(args);
   if (!cl.ok()) return ReportError("eval", cl.status());
   const absl::Status status = Run(*cl);
   return status.ok() ? kExitOk : ReportError("eval", status);

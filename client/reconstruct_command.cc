@@ -6,7 +6,6 @@
 // goes to stderr, a summary to stdout.
 #include <cstdio>
 #include <map>
-#include <set>
 #include <string>
 #include <vector>
 
@@ -67,9 +66,7 @@ absl::Status Run(const CommandLine& cl) {
 }  // namespace
 
 int RunReconstruct(const std::vector<std::string>& args) {
-  std::set<std::string> value_flags = ReconValueFlags();
-  value_flags.insert("out");
-  absl::StatusOr<CommandLine> cl = CommandLine::Parse(args, value_flags, ReconBoolFlags());
+  absl::StatusOr<CommandLine> cl = ParseReconCommandLine(args);
   if (!cl.ok()) return ReportError("reconstruct", cl.status());
   const absl::Status status = Run(*cl);
   return status.ok() ? kExitOk : ReportError("reconstruct", status);

@@ -12,16 +12,13 @@
 #include "common/file_util.h"
 #include "tests/test_util.h"
 #include "waymo/frame.pb.h"
+#include "worker/engine/importers/bytes_test_util.h"
 #include "worker/engine/importers/crc32c.h"
 
 namespace pf {
 namespace {
 
-std::string Le(uint64_t v, int bytes) {
-  std::string out;
-  for (int i = 0; i < bytes; ++i) out.push_back(static_cast<char>((v >> (8 * i)) & 0xFF));
-  return out;
-}
+using testing::Le;
 
 // Frames `payload` as one TFRecord.
 std::string Frame(const std::string& payload) {

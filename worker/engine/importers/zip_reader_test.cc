@@ -9,16 +9,13 @@
 #include <string>
 
 #include "tests/test_util.h"
+#include "worker/engine/importers/bytes_test_util.h"
 #include "worker/engine/importers/npy.h"
 
 namespace pf {
 namespace {
 
-std::string Le(uint64_t v, int bytes) {
-  std::string out;
-  for (int i = 0; i < bytes; ++i) out.push_back(static_cast<char>((v >> (8 * i)) & 0xFF));
-  return out;
-}
+using testing::Le;
 
 // Builds a ZIP of one entry, stored (method 0) or raw-deflated (method 8).
 std::string MakeZip(const std::string& name, const std::string& content, int method) {

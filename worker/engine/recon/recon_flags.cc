@@ -17,6 +17,12 @@ const std::set<std::string>& ReconBoolFlags() {
   return flags;
 }
 
+absl::StatusOr<CommandLine> ParseReconCommandLine(const std::vector<std::string>& args) {
+  std::set<std::string> value_flags = ReconValueFlags();
+  value_flags.insert("out");
+  return CommandLine::Parse(args, value_flags, ReconBoolFlags());
+}
+
 const char* FusionWeightsName(FusionWeights weights) {
   switch (weights) {
     case FusionWeights::kDepthSoftmax:

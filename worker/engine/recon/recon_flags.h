@@ -14,6 +14,7 @@
 
 #include <set>
 #include <string>
+#include <vector>
 
 #include "absl/status/statusor.h"
 #include "common/command_line.h"
@@ -24,6 +25,10 @@ namespace pf {
 // Flags that take a value / no value, to pass to CommandLine::Parse.
 const std::set<std::string>& ReconValueFlags();
 const std::set<std::string>& ReconBoolFlags();
+
+// Parses the words of `pf reconstruct` / `pf eval`: the reconstruction flags
+// above plus `--out`. INVALID_ARGUMENT naming an unknown flag.
+absl::StatusOr<CommandLine> ParseReconCommandLine(const std::vector<std::string>& args);
 
 // Returns the options the flags of `cl` ask for. INVALID_ARGUMENT naming the
 // flag for an unknown model or fusion, a budget that is not a positive
