@@ -588,4 +588,20 @@ absl::Status SaveClip(const pointforward::v1::Clip& clip, const std::string& pat
   return WriteFileAtomic(path, ClipToJson(clip));
 }
 
+std::vector<ClipFileRef> ReferencedFiles(const pointforward::v1::Clip& clip) {
+  std::vector<ClipFileRef> refs;
+  std::set<std::string> seen;
+  auto add = [&](std::string field, const std::string& path) {
+    if (!path.empty() && seen.insert(path).second) refs.push_back({std::move(field), path});
+  };
+  for (int i = 0; i < clip.frames_size(); ++i) {
+    add(absl::StrCat("frames[", i, "].image"), clip.frames(i).image());
+    add(absl::StrCat("frames[", i, "].depth"), clip.frames(i).depth());
+  }
+  for (int i = 0; i < clip.lidar_size(); ++i) {
+    add(absl::StrCat("lidar[", i, "].points"), clip.lidar(i).points());
+  }
+  return refs;
+}
+
 }  // namespace pf

@@ -63,6 +63,16 @@ std::string ClipToJson(const pointforward::v1::Clip& clip);
 // given: keep them relative to `path`'s directory.
 absl::Status SaveClip(const pointforward::v1::Clip& clip, const std::string& path);
 
+// A file the manifest references, as written in it.
+struct ClipFileRef {
+  std::string field;  // "frames[3].image", "frames[3].depth", "lidar[0].points".
+  std::string path;
+};
+
+// Every file `clip` references (frame images and depth maps, LiDAR sweeps),
+// in manifest order; a path named twice is listed once, at its first field.
+std::vector<ClipFileRef> ReferencedFiles(const pointforward::v1::Clip& clip);
+
 }  // namespace pf
 
 #endif  // POINTFORWARD_WORKER_ENGINE_CLIP_CLIP_IO_H_

@@ -249,3 +249,32 @@ TEST(ClipIo, ClipToJsonUsesManifestSpelling) {
 
 }  // namespace
 }  // namespace pf
+
+namespace pf {
+namespace {
+
+TEST(ReferencedFilesTest, ListsImagesDepthsAndSweepsOnceEachInManifestOrder) {
+  pointforward::v1::Clip clip;
+  auto* f0 = clip.add_frames();
+  f0->set_image("images/a.png");
+  f0->set_depth("depth/a.exr");
+  auto* f1 = clip.add_frames();
+  f1->set_image("images/b.png");
+  f1->set_depth("depth/a.exr");  // Shared: listed at its first field only.
+  clip.add_lidar()->set_points("lidar/0.bin");
+  clip.add_lidar();  // No path: not listed.
+
+  const std::vector<ClipFileRef> refs = ReferencedFiles(clip);
+  ASSERT_EQ(refs.size(), 4u);
+  EXPECT_EQ(refs[0].field, "frames[0].image");
+  EXPECT_EQ(refs[0].path, "images/a.png");
+  EXPECT_EQ(refs[1].field, "frames[0].depth");
+  EXPECT_EQ(refs[1].path, "depth/a.exr");
+  EXPECT_EQ(refs[2].field, "frames[1].image");
+  EXPECT_EQ(refs[2].path, "images/b.png");
+  EXPECT_EQ(refs[3].field, "lidar[0].points");
+  EXPECT_EQ(refs[3].path, "lidar/0.bin");
+}
+
+}  // namespace
+}  // namespace pf

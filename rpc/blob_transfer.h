@@ -1,0 +1,50 @@
+// Client side of pointforward.v1.BlobService: uploads files and bytes in
+// chunks and downloads blobs to files, checking the SHA-256 on both ends.
+// Used by the remote `pf`, pf-worker and the tests.
+//
+//   BlobClient blobs(channel);
+//   ASSIGN_OR_RETURN(pointforward::v1::Digest d, blobs.UploadFile("clip/img.png"));
+//   RETURN_IF_ERROR(blobs.DownloadToFile(d.sha256(), "out/img.png"));
+#ifndef POINTFORWARD_RPC_BLOB_TRANSFER_H_
+#define POINTFORWARD_RPC_BLOB_TRANSFER_H_
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+#include "grpcpp/channel.h"
+#include "pointforward/v1/blobs.grpc.pb.h"
+
+namespace pf {
+
+// Bytes per WriteBlob / ReadBlob message.
+inline constexpr int64_t kBlobChunkBytes = 1 << 20;
+
+class BlobClient {
+ public:
+  explicit BlobClient(std::shared_ptr<grpc::Channel> channel);
+
+  // Hashes the file, asks FindMissingBlobs, and streams it only when the
+  // server lacks it. Errors name the path.
+  absl::StatusOr<pointforward::v1::Digest> UploadFile(const std::string& path);
+  absl::StatusOr<pointforward::v1::Digest> UploadBytes(std::string_view bytes);
+  // Uploads several files (skipping those the server has), in order.
+  absl::StatusOr<std::vector<pointforward::v1::Digest>> UploadFiles(
+      const std::vector<std::string>& paths);
+
+  // Streams the blob into `path` (written atomically) and checks its hash:
+  // DATA_LOSS on mismatch, nothing left at `path` then.
+  absl::Status DownloadToFile(const std::string& sha256, const std::string& path);
+  absl::StatusOr<std::string> DownloadBytes(const std::string& sha256);
+
+ private:
+  std::unique_ptr<pointforward::v1::BlobService::Stub> stub_;
+};
+
+}  // namespace pf
+
+#endif  // POINTFORWARD_RPC_BLOB_TRANSFER_H_
