@@ -1,12 +1,16 @@
 // pf: the PointForward command line. Parses the subcommand and hands the rest
-// of the words to it; see `pf help`.
+// of the words to it; see `pf help`. With `--server ADDR` first (or PF_SERVER
+// set) the scene, render and jobs commands go to a pf-server instead
+// (client/remote/).
 #include <cstdio>
 #include <cstring>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "absl/strings/str_cat.h"
 #include "client/commands.h"
+#include "client/remote/remote_main.h"
 #include "common/logging.h"
 
 namespace pf {
@@ -66,6 +70,27 @@ commands:
         reconstruct, render the TARGET frames, write DIR/report.json and contact sheets
   help  this text
 
+remote mode: pf --server HOST:PORT <command> (or PF_SERVER=HOST:PORT, which sends
+scene, render and jobs to that server; other commands always run here):
+  scene create CLIP.json|file:///abs/clip.json [--wait] [--model M] [--ns N] [--nd N]
+        [--fusion F] [--no-lifespan] [--device D] [--request-id ID]
+        upload the clip and every file it names (or let the server read a file://
+        clip), start its reconstruction; prints the operation name. --wait waits
+        and prints the scene
+  scene get NAME | scene list [--page-size N] | scene delete NAME
+  scene export NAME --ply OUT.ply [--time-us T]
+        inspect, list, delete scenes; export one as a 3DGS PLY (sha256 checked)
+  render SCENE --cameras VIEWS.json [--out DIR --wait] [--outputs LIST]
+         [--chunk-frames N] [--request-id ID]
+  render --clip CLIP.json [reconstruction flags] --cameras VIEWS.json [--out DIR --wait]
+        submit a render job (of a clip: reconstructed first unless cached);
+        --wait waits and downloads every output file into DIR
+  jobs list [--kind reconstruct|render] | jobs get ID | jobs cancel ID
+  jobs wait ID [--out DIR]
+        the server's jobs; ID is operations/X, renderJobs/X or X. wait shows a
+        progress bar (plain lines when stderr is not a terminal); --out
+        downloads a render job's files
+
 Exit codes: 0 done, 1 failed, 2 bad input, 3 server unreachable.
 Set PF_LOG_LEVEL=debug for more logging, PF_THREADS=N to size the thread pool.
 )";
@@ -75,6 +100,11 @@ Set PF_LOG_LEVEL=debug for more logging, PF_THREADS=N to size the thread pool.
 
 int main(int argc, char** argv) {
   pf::InitLogging();
+  // Remote mode: a leading --server ADDR, or PF_SERVER for the remote commands.
+  if (const std::optional<int> code =
+          pf::RunRemoteIfAsked(std::vector<std::string>(argv + 1, argv + argc))) {
+    return *code;
+  }
   if (argc < 2 || std::strcmp(argv[1], "help") == 0 || std::strcmp(argv[1], "--help") == 0 ||
       std::strcmp(argv[1], "-h") == 0) {
     std::fputs(pf::kUsage, argc < 2 ? stderr : stdout);
@@ -90,6 +120,11 @@ int main(int argc, char** argv) {
   if (command == "bench") return pf::RunBench(args);
   if (command == "reconstruct") return pf::RunReconstruct(args);
   if (command == "eval") return pf::RunEval(args);
+  if (command == "jobs") {
+    std::fputs("pf jobs: talks to a server: give --server HOST:PORT first or set PF_SERVER\n",
+               stderr);
+    return pf::kExitBadInput;
+  }
   std::fprintf(stderr, "pf: unknown command '%s' (see pf help)\n", command.c_str());
   return pf::kExitBadInput;
 }

@@ -9,6 +9,7 @@
 #define POINTFORWARD_RPC_BLOB_TRANSFER_H_
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 #include <string_view>
@@ -26,7 +27,8 @@ inline constexpr int64_t kBlobChunkBytes = 1 << 20;
 
 class BlobClient {
  public:
-  explicit BlobClient(std::shared_ptr<grpc::Channel> channel);
+  // `server_address` (optional) names the server in UNAVAILABLE errors.
+  explicit BlobClient(std::shared_ptr<grpc::Channel> channel, std::string server_address = "");
 
   // Hashes the file, asks FindMissingBlobs, and streams it only when the
   // server lacks it. Errors name the path.
@@ -42,7 +44,21 @@ class BlobClient {
   absl::StatusOr<std::string> DownloadBytes(const std::string& sha256);
 
  private:
+  // Returns, for each digest, whether the server lacks it (FindMissingBlobs).
+  absl::StatusOr<std::vector<bool>> FindMissing(
+      const std::vector<pointforward::v1::Digest>& digests);
+  // Streams the chunks `next_chunk` returns (an empty one ends) to WriteBlob
+  // under `digest`.
+  absl::Status Write(const pointforward::v1::Digest& digest,
+                     const std::function<absl::StatusOr<std::string_view>()>& next_chunk);
+  // Streams the blob through `sink` and checks its hash: DATA_LOSS on
+  // mismatch (the sink has then seen bad bytes; callers discard them).
+  absl::Status Read(const std::string& sha256,
+                    const std::function<absl::Status(std::string_view)>& sink);
+  absl::Status FromGrpcStatus(const grpc::Status& status) const;
+
   std::unique_ptr<pointforward::v1::BlobService::Stub> stub_;
+  std::string server_address_;
 };
 
 }  // namespace pf

@@ -13,6 +13,9 @@
 namespace pf {
 
 absl::Status FromGrpc(const grpc::Status& status);
+// Like FromGrpc, but UNAVAILABLE reads "server ADDRESS unreachable: ...", so
+// a user sees which server could not be reached.
+absl::Status FromGrpc(const grpc::Status& status, const std::string& server_address);
 grpc::Status ToGrpc(const absl::Status& status);
 
 // A channel to "HOST:PORT" (insecure for now). Messages up to 64 MiB.

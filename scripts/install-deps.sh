@@ -14,8 +14,20 @@ PACKAGES=(
   # OpenImageIO's CMake config checks for files of these two: its command-line
   # tools (/usr/bin/iconvert, ...) and /usr/include/opencv4.
   openimageio-tools libopencv-core-dev
-  # The demo writes its views file with a few lines of Python.
-  python3
+  # The service: gRPC and its code generators, Google's common protos
+  # (google/longrunning, google/rpc; extracted from the jar at configure
+  # time), SQLite for the embedded job store.
+  libgrpc++-dev protobuf-compiler-grpc libgoogle-common-protos-java libsqlite3-dev
+  # PostgreSQL job store: libpq (the client library the store links), and the
+  # server itself, which the tests run as a throwaway instance (initdb in a
+  # temporary directory, as the `postgres` user).
+  libpq-dev postgresql
+  # Python: the demo's views file, and the example client (grpc, protobuf
+  # and OpenImageIO bindings).
+  python3 python3-grpcio python3-protobuf python3-openimageio
+  # Checks of the deployment files (tests/deploy_files_test.py): yamllint,
+  # and PyYAML to read the Kubernetes manifests.
+  yamllint python3-yaml
 )
 
 missing=()

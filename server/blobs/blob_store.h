@@ -54,7 +54,8 @@ class BlobWriter {
 
 class BlobStore {
  public:
-  // `root` is created if absent.
+  // `root` is created if absent. Files left in ROOT/tmp by a process that
+  // died mid-upload are removed, so only one process should serve a root.
   explicit BlobStore(std::string root);
 
   const std::string& root() const { return root_; }

@@ -202,6 +202,8 @@ class JobStore {
   // Newest first; `kind` filters when set.
   virtual absl::StatusOr<Page<JobRecord>> ListJobs(std::optional<JobKind> kind, int page_size,
                                                    const std::string& page_token) = 0;
+  // One task with its attempts; NOT_FOUND when absent.
+  virtual absl::StatusOr<TaskRecord> GetTask(const std::string& task_id) = 0;
   // The job's tasks in index order, with their attempts.
   virtual absl::StatusOr<std::vector<TaskRecord>> ListTasks(const std::string& job_id) = 0;
   // Cancels a job that has not ended: job CANCELLED, its unfinished tasks
@@ -253,10 +255,15 @@ class JobStore {
 
   // Counts for metrics and tests: queued tasks by kind.
   virtual absl::StatusOr<int> CountQueuedTasks(JobKind kind) = 0;
+  // Jobs of `kind` in `state` (metrics: running jobs).
+  virtual absl::StatusOr<int> CountJobs(JobKind kind, JobState state) = 0;
 };
 
 // Opens the store a --store flag names: "sqlite:PATH" (created if absent,
-// WAL mode). INVALID_ARGUMENT for an unknown scheme.
+// WAL mode) or "postgresql://USER:PASS@HOST:PORT/DB" (also postgres://; an
+// existing database, whose schema is created or migrated here).
+// INVALID_ARGUMENT for an unknown scheme; UNAVAILABLE when PostgreSQL cannot
+// be reached. Messages never show the password.
 absl::StatusOr<std::unique_ptr<JobStore>> OpenJobStore(const std::string& spec,
                                                        const StoreOptions& options);
 

@@ -1,0 +1,115 @@
+// pf in remote mode, run as a process, for what needs no server: an
+// unreachable server is exit 3 with its address named, and bad local input
+// (views file, clip files, job ids) is exit 2 before any connection.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "tests/test_util.h"
+#include "worker/engine/clip/clip_test_util.h"
+
+namespace pf {
+namespace {
+
+using testing::BinPath;
+using testing::CommandResult;
+using testing::RunCommand;
+
+// Nothing listens on port 1 of the loopback.
+constexpr char kNoServer[] = "127.0.0.1:1";
+
+// Runs `argv` and returns its result and how long it took in seconds.
+CommandResult RunTimed(const std::vector<std::string>& argv, double* seconds) {
+  const auto start = std::chrono::steady_clock::now();
+  CommandResult result = RunCommand(argv);
+  *seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return result;
+}
+
+TEST(RemoteCli, UnreachableServerIsExitThreeNamingIt) {
+  double seconds = 0;
+  const CommandResult result =
+      RunTimed({BinPath("pf"), "--server", kNoServer, "scene", "list"}, &seconds);
+  EXPECT_EQ(result.exit_code, 3) << result.err;
+  EXPECT_NE(result.err.find("pf: server 127.0.0.1:1 unreachable: "), std::string::npos)
+      << result.err;
+  EXPECT_TRUE(result.out.empty()) << result.out;
+  // The connection deadline is 5 s.
+  EXPECT_LT(seconds, 10.0);
+}
+
+TEST(RemoteCli, ServerFromEnvironmentWhenNoFlag) {
+  const CommandResult result = RunCommand(
+      {"/usr/bin/env", std::string("PF_SERVER=") + kNoServer, BinPath("pf"), "jobs", "list"});
+  EXPECT_EQ(result.exit_code, 3) << result.err;
+  EXPECT_NE(result.err.find("pf: server 127.0.0.1:1 unreachable: "), std::string::npos)
+      << result.err;
+}
+
+TEST(RemoteCli, JobsWithoutServerIsBadInput) {
+  const CommandResult result =
+      RunCommand({"/usr/bin/env", "-u", "PF_SERVER", BinPath("pf"), "jobs", "list"});
+  EXPECT_EQ(result.exit_code, 2) << result.err;
+  EXPECT_NE(result.err.find("--server"), std::string::npos) << result.err;
+}
+
+TEST(RemoteCli, MissingViewsFileIsExitTwoBeforeConnecting) {
+  const std::string dir = testing::MakeTempDir("remote_cli");
+  const std::string views = dir + "/missing.json";
+  double seconds = 0;
+  const CommandResult result = RunTimed({BinPath("pf"), "--server", kNoServer, "render", "S",
+                                         "--cameras", views, "--out", dir + "/d"},
+                                        &seconds);
+  EXPECT_EQ(result.exit_code, 2) << result.err;
+  EXPECT_NE(result.err.find(views), std::string::npos) << result.err;
+  EXPECT_EQ(result.err.find("unreachable"), std::string::npos) << result.err;
+  EXPECT_LT(seconds, 4.0) << "checked the file only after trying to connect";
+  EXPECT_FALSE(std::filesystem::exists(dir + "/d"));
+}
+
+TEST(RemoteCli, MalformedViewsFileIsExitTwoNamingIt) {
+  const std::string dir = testing::MakeTempDir("remote_cli");
+  const std::string views = dir + "/views.json";
+  { std::ofstream(views) << R"({"views": [{"camera": "front", "timestampUs": "soon"}]})"; }
+  const CommandResult result =
+      RunCommand({BinPath("pf"), "--server", kNoServer, "render", "scenes/s1", "--cameras", views,
+                  "--wait", "--out", dir + "/d"});
+  EXPECT_EQ(result.exit_code, 2) << result.err;
+  EXPECT_NE(result.err.find(views + ": not a RenderViews JSON"), std::string::npos) << result.err;
+}
+
+TEST(RemoteCli, ClipWithMissingFileIsExitTwoNamingFieldAndPath) {
+  const std::string dir = testing::MakeTempDir("remote_cli");
+  const std::string manifest = testing::WriteTestClip(dir, testing::MakeTestClip(dir));
+  std::filesystem::remove(dir + "/images/front_1.png");
+  const CommandResult result =
+      RunCommand({BinPath("pf"), "--server", kNoServer, "scene", "create", manifest, "--wait"});
+  EXPECT_EQ(result.exit_code, 2) << result.err;
+  EXPECT_NE(result.err.find("pf scene create: frames[2].image: file not found: "),
+            std::string::npos)
+      << result.err;
+  EXPECT_NE(result.err.find("images/front_1.png"), std::string::npos) << result.err;
+}
+
+TEST(RemoteCli, SceneNameGivenAsJobIsExitTwo) {
+  const CommandResult result =
+      RunCommand({BinPath("pf"), "--server", kNoServer, "jobs", "get", "scenes/s1"});
+  EXPECT_EQ(result.exit_code, 2) << result.err;
+  EXPECT_NE(result.err.find("pf scene get scenes/s1"), std::string::npos) << result.err;
+}
+
+TEST(RemoteCli, LocalCommandWithServerIsRefused) {
+  const CommandResult result =
+      RunCommand({BinPath("pf"), "--server", kNoServer, "validate", "clip.json"});
+  EXPECT_EQ(result.exit_code, 2) << result.err;
+  EXPECT_NE(result.err.find("'validate' is not a remote command"), std::string::npos) << result.err;
+  const CommandResult no_address = RunCommand({BinPath("pf"), "--server"});
+  EXPECT_EQ(no_address.exit_code, 2) << no_address.err;
+  EXPECT_NE(no_address.err.find("--server needs an address"), std::string::npos) << no_address.err;
+}
+
+}  // namespace
+}  // namespace pf

@@ -1,0 +1,92 @@
+// Dispatch of remote `pf` commands and the reporting of their errors.
+#include "client/remote/remote_main.h"
+
+#include <cstdio>
+#include <cstdlib>
+#include <exception>
+
+#include "absl/strings/match.h"
+#include "absl/strings/str_cat.h"
+#include "client/commands.h"
+#include "client/remote/remote_commands.h"
+#include "client/remote/remote_context.h"
+#include "google/protobuf/util/json_util.h"
+
+namespace pf {
+
+absl::StatusOr<std::string> ToJson(const google::protobuf::Message& message) {
+  google::protobuf::util::JsonPrintOptions options;
+  options.add_whitespace = true;
+  std::string json;
+  try {
+    const auto status = google::protobuf::util::MessageToJsonString(message, &json, options);
+    if (!status.ok()) {
+      return absl::InternalError(absl::StrCat("cannot print ", message.GetTypeName(),
+                                              " as JSON: ", std::string(status.message())));
+    }
+  } catch (const std::exception& e) {
+    return absl::InternalError(
+        absl::StrCat("cannot print ", message.GetTypeName(), " as JSON: ", e.what()));
+  }
+  while (!json.empty() && json.back() == '\n') json.pop_back();
+  return json;
+}
+
+bool IsRemoteCommand(const std::string& command) {
+  return command == "scene" || command == "render" || command == "jobs";
+}
+
+int RunRemote(const std::string& address, const std::vector<std::string>& args) {
+  if (args.empty() || !IsRemoteCommand(args[0])) {
+    std::fprintf(stderr,
+                 "pf: %s is not a remote command: with --server, use scene, render or "
+                 "jobs (see pf help)\n",
+                 args.empty() ? "nothing" : absl::StrCat("'", args[0], "'").c_str());
+    return kExitBadInput;
+  }
+  const std::string& group = args[0];
+  const std::vector<std::string> rest(args.begin() + 1, args.end());
+  // "scene create", "jobs wait", "render": the command named in messages.
+  const std::string label = group == "render" || rest.empty() ? group : group + " " + rest[0];
+
+  RemoteContext ctx(address, stdout);
+  absl::StatusOr<int> result;
+  try {
+    if (group == "scene") {
+      result = RunRemoteScene(ctx, rest);
+    } else if (group == "render") {
+      result = RunRemoteRender(ctx, rest);
+    } else {
+      result = RunRemoteJobs(ctx, rest);
+    }
+  } catch (const std::exception& e) {
+    result = absl::InternalError(absl::StrCat("unexpected error: ", e.what()));
+  }
+  if (result.ok()) return *result;
+  if (result.status().code() == absl::StatusCode::kUnavailable) {
+    std::fprintf(stderr, "pf: server %s unreachable: %s\n", address.c_str(),
+                 std::string(result.status().message()).c_str());
+    return kExitUnreachable;
+  }
+  return ReportError(label, result.status());
+}
+
+std::optional<int> RunRemoteIfAsked(const std::vector<std::string>& words) {
+  if (!words.empty() && (words[0] == "--server" || absl::StartsWith(words[0], "--server="))) {
+    const bool joined = words[0] != "--server";
+    const std::string address = joined ? words[0].substr(9) : (words.size() > 1 ? words[1] : "");
+    if (address.empty()) {
+      std::fputs("pf: --server needs an address (HOST:PORT)\n", stderr);
+      return kExitBadInput;
+    }
+    const size_t first = joined ? 1 : 2;
+    return RunRemote(address, std::vector<std::string>(words.begin() + first, words.end()));
+  }
+  const char* server = std::getenv("PF_SERVER");
+  if (server != nullptr && server[0] != '\0' && !words.empty() && IsRemoteCommand(words[0])) {
+    return RunRemote(server, words);
+  }
+  return std::nullopt;
+}
+
+}  // namespace pf

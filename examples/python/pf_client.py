@@ -1,0 +1,215 @@
+#!/usr/bin/python3
+"""A small PointForward client in Python: reconstruct a clip, render views,
+read an EXR back.
+
+It talks to pf-server with the stubs the build generates from our protos
+(build/python; put it on PYTHONPATH) and Debian's python3-grpcio,
+python3-protobuf and python3-openimageio:
+
+    PYTHONPATH=build/python /usr/bin/python3 examples/python/pf_client.py \
+        --server 127.0.0.1:50051 --clip demo-out/clip/clip.json \
+        --views demo-out/views.json --out /tmp/renders
+
+Steps: check grpc.health.v1, list the services by server reflection, upload the clip's manifest and every file it
+references to BlobService (only those the server lacks), CreateScene and
+wait on the operation, CreateRenderJob and wait, download every output
+(checking its SHA-256), and open the first EXR with OpenImageIO. The last
+line printed is a JSON summary.
+"""
+
+import argparse
+import hashlib
+import json
+import os
+import sys
+import time
+
+import grpc
+from google.longrunning import operations_pb2, operations_pb2_grpc
+from google.protobuf import duration_pb2, json_format
+from pointforward.v1 import (blobs_pb2, blobs_pb2_grpc, resources_pb2, service_pb2,
+                             service_pb2_grpc, views_pb2)
+
+CHUNK = 1 << 20
+
+
+def health(channel):
+    """grpc.health.v1.Health/Check on the whole server; True when SERVING."""
+    check = channel.unary_unary("/grpc.health.v1.Health/Check",
+                                request_serializer=lambda b: b,
+                                response_deserializer=lambda b: b)
+    return check(b"", timeout=5) == b"\x08\x01"  # status: SERVING
+
+
+def _fields(data):
+    """Yields (field number, value) of a protobuf message's length-delimited
+    fields; enough to read reflection answers without their .proto."""
+    i = 0
+    while i < len(data):
+        key, i = _varint(data, i)
+        wire = key & 7
+        if wire == 0:
+            _, i = _varint(data, i)
+        elif wire == 2:
+            size, i = _varint(data, i)
+            yield key >> 3, data[i:i + size]
+            i += size
+        else:
+            raise ValueError(f"unexpected wire type {wire}")
+
+
+def _varint(data, i):
+    value, shift = 0, 0
+    while True:
+        byte = data[i]
+        i += 1
+        value |= (byte & 0x7F) << shift
+        shift += 7
+        if byte < 0x80:
+            return value, i
+
+
+def reflection_services(channel):
+    """The services the server lists through gRPC server reflection
+    (grpc.reflection.v1alpha; grpcurl and friends use the same)."""
+    call = channel.stream_stream("/grpc.reflection.v1alpha.ServerReflection/ServerReflectionInfo",
+                                 request_serializer=lambda b: b,
+                                 response_deserializer=lambda b: b)
+    # ServerReflectionRequest{list_services: ""}: field 7, length 0.
+    names = []
+    for response in call(iter([b"\x3a\x00"]), timeout=5):
+        for number, body in _fields(response):
+            if number == 6:  # list_services_response
+                for _, service in _fields(body):  # repeated ServiceResponse service = 1
+                    names += [name.decode() for n, name in _fields(service) if n == 1]
+    return sorted(names)
+
+
+def digest_of(data):
+    return resources_pb2.Digest(sha256=hashlib.sha256(data).hexdigest(), size_bytes=len(data))
+
+
+def upload(blobs, contents):
+    """Uploads {name: bytes}; returns {name: Digest}. Skips blobs the server has."""
+    digests = {name: digest_of(data) for name, data in contents.items()}
+    missing = blobs.FindMissingBlobs(
+        blobs_pb2.FindMissingBlobsRequest(digests=list(digests.values()))).missing
+    missing = {d.sha256 for d in missing}
+    for name, data in contents.items():
+        digest = digests[name]
+        if digest.sha256 not in missing:
+            continue
+
+        def chunks(digest=digest, data=data):
+            yield blobs_pb2.WriteBlobRequest(digest=digest, data=data[:CHUNK])
+            for offset in range(CHUNK, len(data), CHUNK):
+                yield blobs_pb2.WriteBlobRequest(data=data[offset:offset + CHUNK])
+
+        blobs.WriteBlob(chunks())
+        missing.discard(digest.sha256)
+    return digests
+
+
+def download(blobs, digest, path):
+    """Streams a blob to `path`, checking its hash before the file appears."""
+    hasher = hashlib.sha256()
+    tmp = path + ".part"
+    with open(tmp, "wb") as out:
+        for chunk in blobs.ReadBlob(blobs_pb2.ReadBlobRequest(sha256=digest.sha256)):
+            hasher.update(chunk.data)
+            out.write(chunk.data)
+    if hasher.hexdigest() != digest.sha256:
+        os.remove(tmp)
+        raise RuntimeError(f"{path}: content hashes to {hasher.hexdigest()}, not {digest.sha256}")
+    os.replace(tmp, path)
+
+
+def referenced_files(clip):
+    """Paths a clip manifest references, as written in it."""
+    paths = []
+    for frame in clip.get("frames", []):
+        paths += [frame[key] for key in ("image", "depth") if frame.get(key)]
+    paths += [sweep["points"] for sweep in clip.get("lidar", []) if sweep.get("points")]
+    return sorted(set(paths))
+
+
+def wait(operations, operation, what):
+    """Waits on an operation, printing its progress; returns it when done."""
+    while not operation.done:
+        operation = operations.WaitOperation(operations_pb2.WaitOperationRequest(
+            name=operation.name, timeout=duration_pb2.Duration(seconds=1)))
+        metadata = resources_pb2.OperationMetadata()
+        operation.metadata.Unpack(metadata)
+        print(f"{what}: {metadata.state} {metadata.stage} {metadata.fraction:.0%}", file=sys.stderr)
+    if operation.HasField("error"):
+        raise RuntimeError(f"{what} failed: {operation.error.message}")
+    return operation
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--server", required=True, help="pf-server address, HOST:PORT")
+    parser.add_argument("--clip", required=True, help="clip manifest (clip.json)")
+    parser.add_argument("--views", required=True, help="RenderViews JSON (as for pf render)")
+    parser.add_argument("--out", required=True, help="directory for the downloaded outputs")
+    args = parser.parse_args()
+
+    channel = grpc.insecure_channel(args.server)
+    if not health(channel):
+        sys.exit(f"pf_client: {args.server} is not SERVING")
+    services = reflection_services(channel)
+    blobs = blobs_pb2_grpc.BlobServiceStub(channel)
+    scenes = service_pb2_grpc.SceneServiceStub(channel)
+    renders = service_pb2_grpc.RenderServiceStub(channel)
+    operations = operations_pb2_grpc.OperationsStub(channel)
+
+    # 1. Upload the clip and reconstruct it (or find it in the cache).
+    clip_dir = os.path.dirname(os.path.abspath(args.clip))
+    with open(args.clip, "rb") as f:
+        manifest = f.read()
+    files = {}
+    for path in referenced_files(json.loads(manifest)):
+        with open(os.path.join(clip_dir, path), "rb") as f:
+            files[path] = f.read()
+    digests = upload(blobs, {"clip.json": manifest, **files})
+    uploaded = resources_pb2.UploadedClip(manifest=digests["clip.json"])
+    for path in files:
+        uploaded.files[path].CopyFrom(digests[path])
+    started = time.time()
+    operation = scenes.CreateScene(service_pb2.CreateSceneRequest(
+        clip=resources_pb2.ClipSource(uploaded=uploaded)))
+    operation = wait(operations, operation, "reconstruct")
+    scene = resources_pb2.Scene()
+    operation.response.Unpack(scene)
+    print(f"{scene.name}: {scene.gaussians} gaussians in {time.time() - started:.1f} s",
+          file=sys.stderr)
+
+    # 2. Render the views and download every output.
+    views = views_pb2.RenderViews()
+    with open(args.views) as f:
+        json_format.Parse(f.read(), views)
+    operation = renders.CreateRenderJob(service_pb2.CreateRenderJobRequest(
+        scene=scene.name, views=views))
+    operation = wait(operations, operation, "render")
+    job = resources_pb2.RenderJob()
+    operation.response.Unpack(job)
+    os.makedirs(args.out, exist_ok=True)
+    for output in job.files:
+        download(blobs, output.digest, os.path.join(args.out, os.path.basename(output.name)))
+
+    # 3. Read the first EXR back.
+    import OpenImageIO as oiio
+    exr_name = next(f.name for f in job.files if f.name.endswith(".exr"))
+    image = oiio.ImageBuf(os.path.join(args.out, exr_name))
+    spec = image.spec()
+    stats = oiio.ImageBufAlgo.computePixelStats(image)
+    channels = list(spec.channelnames)
+    mean_rgb = [stats.avg[channels.index(c)] for c in ("R", "G", "B")]
+    print(json.dumps({"scene": scene.name, "gaussians": scene.gaussians,
+                      "renderJob": job.name, "files": len(job.files), "exr": exr_name,
+                      "width": spec.width, "height": spec.height, "channels": channels,
+                      "meanRgb": mean_rgb, "services": services}))
+
+
+if __name__ == "__main__":
+    main()

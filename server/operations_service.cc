@@ -1,0 +1,111 @@
+// google.longrunning.Operations over the job store: every job is an
+// operation named "operations/{job_id}".
+#include "google/longrunning/operations.pb.h"
+#include "server/services.h"
+
+#include <google/protobuf/util/time_util.h>
+
+#include <algorithm>
+#include <chrono>
+#include <optional>
+#include <string>
+#include <thread>
+
+#include "absl/strings/str_cat.h"
+#include "rpc/grpc_status.h"
+#include "spdlog/spdlog.h"
+
+namespace pf {
+namespace {
+
+using google::longrunning::Operation;
+
+constexpr int64_t kMaxWaitMs = 60000;
+constexpr auto kPollInterval = std::chrono::milliseconds(100);
+
+absl::StatusOr<std::optional<JobKind>> ParseFilter(const std::string& filter) {
+  if (filter.empty()) return std::optional<JobKind>();
+  if (filter == "kind=reconstruct") return std::optional<JobKind>(JobKind::kReconstruct);
+  if (filter == "kind=render") return std::optional<JobKind>(JobKind::kRender);
+  return absl::InvalidArgumentError(absl::StrCat(
+      "filter: unsupported filter '", filter, "'; expected kind=reconstruct or kind=render"));
+}
+
+}  // namespace
+
+grpc::Status OperationsServiceImpl::ListOperations(
+    grpc::ServerContext*, const google::longrunning::ListOperationsRequest* request,
+    google::longrunning::ListOperationsResponse* response) {
+  absl::StatusOr<std::optional<JobKind>> kind = ParseFilter(request->filter());
+  if (!kind.ok()) return ToGrpc(kind.status());
+  absl::StatusOr<int> page_size = PageSize(request->page_size());
+  if (!page_size.ok()) return ToGrpc(page_size.status());
+  absl::StatusOr<Page<JobRecord>> page =
+      core_->store().ListJobs(*kind, *page_size, request->page_token());
+  if (!page.ok()) return ToGrpc(page.status());
+  for (const JobRecord& job : page->items) {
+    absl::StatusOr<Operation> op = core_->OperationFor(job);
+    if (!op.ok()) return ToGrpc(op.status());
+    *response->add_operations() = *std::move(op);
+  }
+  response->set_next_page_token(page->next_page_token);
+  return grpc::Status::OK;
+}
+
+grpc::Status OperationsServiceImpl::GetOperation(
+    grpc::ServerContext*, const google::longrunning::GetOperationRequest* request,
+    Operation* response) {
+  absl::StatusOr<std::string> id = ParseResourceName(request->name(), "operations", "name");
+  if (!id.ok()) return ToGrpc(id.status());
+  absl::StatusOr<JobRecord> job = core_->store().GetJob(*id);
+  if (!job.ok()) return ToGrpc(job.status());
+  absl::StatusOr<Operation> op = core_->OperationFor(*job);
+  if (!op.ok()) return ToGrpc(op.status());
+  *response = *std::move(op);
+  return grpc::Status::OK;
+}
+
+grpc::Status OperationsServiceImpl::DeleteOperation(
+    grpc::ServerContext*, const google::longrunning::DeleteOperationRequest*,
+    google::protobuf::Empty*) {
+  return ToGrpc(absl::UnimplementedError(
+      "DeleteOperation: operations live as long as their scene or render job"));
+}
+
+grpc::Status OperationsServiceImpl::CancelOperation(
+    grpc::ServerContext*, const google::longrunning::CancelOperationRequest* request,
+    google::protobuf::Empty*) {
+  absl::StatusOr<std::string> id = ParseResourceName(request->name(), "operations", "name");
+  if (!id.ok()) return ToGrpc(id.status());
+  absl::StatusOr<JobRecord> job = core_->store().CancelJob(*id, core_->NowMs());
+  if (!job.ok()) return ToGrpc(job.status());
+  spdlog::info("CancelOperation {}: now {}", request->name(), JobStateName(job->state));
+  return grpc::Status::OK;
+}
+
+grpc::Status OperationsServiceImpl::WaitOperation(
+    grpc::ServerContext* context, const google::longrunning::WaitOperationRequest* request,
+    Operation* response) {
+  absl::StatusOr<std::string> id = ParseResourceName(request->name(), "operations", "name");
+  if (!id.ok()) return ToGrpc(id.status());
+  int64_t wait_ms = kMaxWaitMs;
+  if (request->has_timeout()) {
+    wait_ms = std::clamp<int64_t>(
+        google::protobuf::util::TimeUtil::DurationToMilliseconds(request->timeout()), 0, kMaxWaitMs);
+  }
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(wait_ms);
+  while (true) {
+    absl::StatusOr<JobRecord> job = core_->store().GetJob(*id);
+    if (!job.ok()) return ToGrpc(job.status());
+    if (IsTerminal(job->state) || std::chrono::steady_clock::now() >= deadline ||
+        context->IsCancelled()) {
+      absl::StatusOr<Operation> op = core_->OperationFor(*job);
+      if (!op.ok()) return ToGrpc(op.status());
+      *response = *std::move(op);
+      return grpc::Status::OK;
+    }
+    std::this_thread::sleep_for(kPollInterval);
+  }
+}
+
+}  // namespace pf

@@ -1,0 +1,163 @@
+// RenderService: CreateRenderJob (optionally creating its scene first),
+// GetRenderJob, ListRenderJobs.
+#include "google/longrunning/operations.pb.h"
+#include "pointforward/v1/service.pb.h"
+#include "server/services.h"
+
+#include <algorithm>
+#include <string>
+#include <vector>
+
+#include "absl/strings/str_cat.h"
+#include "rpc/grpc_status.h"
+#include "spdlog/spdlog.h"
+#include "worker/engine/render/render_outputs.h"
+#include "worker/engine/render/views.h"
+
+namespace pf {
+namespace {
+
+namespace v1 = pointforward::v1;
+
+// Checks the views against what is known of the scene: everything when it
+// is READY; all but the instances named by edits while it is being created
+// (the worker checks those against the scene it renders).
+absl::Status CheckViews(const v1::RenderViews& views, const v1::Scene& scene, int max_views) {
+  if (views.views_size() == 0) return absl::InvalidArgumentError("views.views: no views to render");
+  if (views.views_size() > max_views) {
+    return absl::InvalidArgumentError(absl::StrCat("views.views: ", views.views_size(),
+                                                   " views exceed the limit of ", max_views,
+                                                   " per render job (pf-server --max-views)"));
+  }
+  GaussianScene known;
+  if (scene.state() == v1::Scene::READY) {
+    for (const std::string& id : scene.instances()) known.instances.push_back({id, "", {}});
+  } else {
+    for (const v1::ActorEdit& edit : views.edits()) {
+      known.instances.push_back({edit.instance(), "", {}});
+    }
+  }
+  absl::StatusOr<RenderRequest> parsed = ParseRenderViews(ToJson(views), known);
+  if (!parsed.ok()) {
+    return absl::InvalidArgumentError(absl::StrCat("views.", parsed.status().message()));
+  }
+  return absl::OkStatus();
+}
+
+}  // namespace
+
+grpc::Status RenderServiceImpl::CreateRenderJob(grpc::ServerContext*,
+                                                const v1::CreateRenderJobRequest* request,
+                                                google::longrunning::Operation* response) {
+  if (request->request_id().size() > 128) {
+    return ToGrpc(absl::InvalidArgumentError("request_id: longer than 128 characters"));
+  }
+  if (absl::StatusOr<OutputChannels> channels =
+          ParseOutputChannels({request->outputs().begin(), request->outputs().end()});
+      !channels.ok()) {
+    return ToGrpc(absl::InvalidArgumentError(absl::StrCat("outputs: ", channels.status().message())));
+  }
+  if (request->chunk_frames() < 0) {
+    return ToGrpc(absl::InvalidArgumentError(
+        absl::StrCat("chunk_frames: must be >= 0, got ", request->chunk_frames())));
+  }
+
+  // The scene: named, or created from a clip (or found in the cache).
+  std::string scene_id;
+  switch (request->target_case()) {
+    case v1::CreateRenderJobRequest::kScene: {
+      absl::StatusOr<std::string> id = ParseResourceName(request->scene(), "scenes", "scene");
+      if (!id.ok()) return ToGrpc(id.status());
+      scene_id = *id;
+      break;
+    }
+    case v1::CreateRenderJobRequest::kCreateScene: {
+      absl::StatusOr<CreateSceneOutcome> outcome =
+          core_->CreateScene(request->create_scene(), "");
+      if (!outcome.ok()) {
+        return ToGrpc(absl::Status(outcome.status().code(),
+                                   absl::StrCat("create_scene.", outcome.status().message())));
+      }
+      scene_id = outcome->scene.id.empty() ? outcome->job.scene_id : outcome->scene.id;
+      break;
+    }
+    default:
+      return ToGrpc(absl::InvalidArgumentError("scene: missing; set scene or create_scene"));
+  }
+  absl::StatusOr<SceneRecord> scene = core_->store().GetScene(scene_id);
+  if (!scene.ok()) {
+    return ToGrpc(absl::NotFoundError(absl::StrCat("scene: scenes/", scene_id, " not found")));
+  }
+  absl::StatusOr<v1::Scene> scene_proto = core_->SceneFor(*scene);
+  if (!scene_proto.ok()) return ToGrpc(scene_proto.status());
+  if (absl::Status checked = CheckViews(request->views(), *scene_proto, core_->options().max_views);
+      !checked.ok()) {
+    return ToGrpc(checked);
+  }
+
+  // Frame chunks.
+  const int total = request->views().views_size();
+  const int chunk = request->chunk_frames() > 0 ? request->chunk_frames() : core_->options().chunk_frames;
+  std::vector<NewTask> tasks;
+  for (int first = 0; first < total; first += chunk) {
+    NewTask task;
+    task.first_view = first;
+    task.view_count = std::min(chunk, total - first);
+    v1::Task work;
+    v1::RenderWork* render = work.mutable_render();
+    render->set_scene(absl::StrCat("scenes/", scene_id));
+    render->set_first_view(task.first_view);
+    render->set_view_count(task.view_count);
+    task.work = ToJson(work);
+    tasks.push_back(std::move(task));
+  }
+  v1::CreateRenderJobRequest stored = *request;
+  stored.set_scene(absl::StrCat("scenes/", scene_id));  // Replaces create_scene.
+  bool same_request = false;
+  absl::StatusOr<JobRecord> job =
+      core_->store().CreateRenderJob(scene_id, request->request_id(), ToJson(stored), total, tasks,
+                                     "", core_->NowMs(), &same_request);
+  if (!job.ok()) {
+    return ToGrpc(absl::Status(job.status().code(), absl::StrCat("scene: ", job.status().message())));
+  }
+  spdlog::info("CreateRenderJob renderJobs/{}: {} views of scenes/{} in {} chunks{}", job->id, total,
+               scene_id, tasks.size(), same_request ? " (same request_id as before)" : "");
+  absl::StatusOr<google::longrunning::Operation> op = core_->OperationFor(*job);
+  if (!op.ok()) return ToGrpc(op.status());
+  *response = *std::move(op);
+  return grpc::Status::OK;
+}
+
+grpc::Status RenderServiceImpl::GetRenderJob(grpc::ServerContext*,
+                                             const v1::GetRenderJobRequest* request,
+                                             v1::RenderJob* response) {
+  absl::StatusOr<std::string> id = ParseResourceName(request->name(), "renderJobs", "name");
+  if (!id.ok()) return ToGrpc(id.status());
+  absl::StatusOr<JobRecord> job = core_->store().GetJob(*id);
+  if (!job.ok() || job->kind != JobKind::kRender) {
+    return ToGrpc(absl::NotFoundError(absl::StrCat("name: ", request->name(), " not found")));
+  }
+  absl::StatusOr<v1::RenderJob> out = core_->RenderJobFor(*job);
+  if (!out.ok()) return ToGrpc(out.status());
+  *response = *std::move(out);
+  return grpc::Status::OK;
+}
+
+grpc::Status RenderServiceImpl::ListRenderJobs(grpc::ServerContext*,
+                                               const v1::ListRenderJobsRequest* request,
+                                               v1::ListRenderJobsResponse* response) {
+  absl::StatusOr<int> page_size = PageSize(request->page_size());
+  if (!page_size.ok()) return ToGrpc(page_size.status());
+  absl::StatusOr<Page<JobRecord>> page =
+      core_->store().ListJobs(JobKind::kRender, *page_size, request->page_token());
+  if (!page.ok()) return ToGrpc(page.status());
+  for (const JobRecord& job : page->items) {
+    absl::StatusOr<v1::RenderJob> out = core_->RenderJobFor(job);
+    if (!out.ok()) return ToGrpc(out.status());
+    *response->add_render_jobs() = *std::move(out);
+  }
+  response->set_next_page_token(page->next_page_token);
+  return grpc::Status::OK;
+}
+
+}  // namespace pf

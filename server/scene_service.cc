@@ -1,0 +1,119 @@
+// SceneService: CreateScene, GetScene, ListScenes, DeleteScene, ExportScene.
+#include "google/longrunning/operations.pb.h"
+#include "pointforward/v1/service.pb.h"
+#include "server/services.h"
+
+#include <algorithm>
+#include <string>
+
+#include "absl/strings/str_cat.h"
+#include "common/hash.h"
+#include "rpc/grpc_status.h"
+#include "worker/engine/render/ply_io.h"
+#include "worker/engine/render/scene_file.h"
+
+namespace pf {
+namespace {
+
+namespace v1 = pointforward::v1;
+
+constexpr int64_t kExportChunkBytes = 1 << 20;
+
+}  // namespace
+
+absl::StatusOr<int> PageSize(int requested) {
+  if (requested < 0) {
+    return absl::InvalidArgumentError(absl::StrCat("page_size: must be >= 0, got ", requested));
+  }
+  if (requested == 0) return 50;
+  return std::min(requested, 1000);
+}
+
+grpc::Status SceneServiceImpl::CreateScene(grpc::ServerContext*,
+                                           const v1::CreateSceneRequest* request,
+                                           google::longrunning::Operation* response) {
+  absl::StatusOr<CreateSceneOutcome> outcome = core_->CreateScene(*request, "");
+  if (!outcome.ok()) return ToGrpc(outcome.status());
+  absl::StatusOr<google::longrunning::Operation> op = core_->OperationFor(
+      outcome->job, outcome->kind == CreateSceneOutcome::Kind::kCacheHit);
+  if (!op.ok()) return ToGrpc(op.status());
+  *response = *std::move(op);
+  return grpc::Status::OK;
+}
+
+grpc::Status SceneServiceImpl::GetScene(grpc::ServerContext*, const v1::GetSceneRequest* request,
+                                        v1::Scene* response) {
+  absl::StatusOr<std::string> id = ParseResourceName(request->name(), "scenes", "name");
+  if (!id.ok()) return ToGrpc(id.status());
+  absl::StatusOr<SceneRecord> record = core_->store().GetScene(*id);
+  if (!record.ok()) return ToGrpc(record.status());
+  absl::StatusOr<v1::Scene> scene = core_->SceneFor(*record);
+  if (!scene.ok()) return ToGrpc(scene.status());
+  *response = *std::move(scene);
+  return grpc::Status::OK;
+}
+
+grpc::Status SceneServiceImpl::ListScenes(grpc::ServerContext*,
+                                          const v1::ListScenesRequest* request,
+                                          v1::ListScenesResponse* response) {
+  absl::StatusOr<int> page_size = PageSize(request->page_size());
+  if (!page_size.ok()) return ToGrpc(page_size.status());
+  absl::StatusOr<Page<SceneRecord>> page =
+      core_->store().ListScenes(*page_size, request->page_token());
+  if (!page.ok()) return ToGrpc(page.status());
+  for (const SceneRecord& record : page->items) {
+    absl::StatusOr<v1::Scene> scene = core_->SceneFor(record);
+    if (!scene.ok()) return ToGrpc(scene.status());
+    *response->add_scenes() = *std::move(scene);
+  }
+  response->set_next_page_token(page->next_page_token);
+  return grpc::Status::OK;
+}
+
+grpc::Status SceneServiceImpl::DeleteScene(grpc::ServerContext*,
+                                           const v1::DeleteSceneRequest* request,
+                                           google::protobuf::Empty*) {
+  absl::StatusOr<std::string> id = ParseResourceName(request->name(), "scenes", "name");
+  if (!id.ok()) return ToGrpc(id.status());
+  return ToGrpc(core_->store().DeleteScene(*id, core_->NowMs()));
+}
+
+grpc::Status SceneServiceImpl::ExportScene(grpc::ServerContext* context,
+                                           const v1::ExportSceneRequest* request,
+                                           grpc::ServerWriter<v1::ExportSceneChunk>* writer) {
+  absl::StatusOr<std::string> id = ParseResourceName(request->name(), "scenes", "name");
+  if (!id.ok()) return ToGrpc(id.status());
+  absl::StatusOr<SceneRecord> record = core_->store().GetScene(*id);
+  if (!record.ok()) return ToGrpc(record.status());
+  if (record->state != SceneState::kReady) {
+    return ToGrpc(absl::FailedPreconditionError(absl::StrCat(
+        "name: scene ", request->name(), " is ", SceneStateName(record->state), ", not READY")));
+  }
+  absl::StatusOr<v1::Scene> scene = core_->SceneFor(*record);
+  if (!scene.ok()) return ToGrpc(scene.status());
+  const std::string& sha = scene->scene_file().sha256();
+  if (absl::Status verified = core_->blobs().Verify(sha); !verified.ok()) {
+    return ToGrpc(verified);
+  }
+  absl::StatusOr<std::string> path = core_->blobs().PathOf(sha);
+  if (!path.ok()) return ToGrpc(path.status());
+  absl::StatusOr<GaussianScene> gaussians = LoadScene(*path);
+  if (!gaussians.ok()) return ToGrpc(gaussians.status());
+  PlyExportOptions options;
+  if (request->time_us() != 0) options.timestamp_us = request->time_us();
+  absl::StatusOr<std::string> ply = EncodePly(*gaussians, options);
+  if (!ply.ok()) return ToGrpc(ply.status());
+
+  const std::string digest = Sha256Hex(*ply);
+  for (int64_t offset = 0; offset < static_cast<int64_t>(ply->size()) || offset == 0;
+       offset += kExportChunkBytes) {
+    if (context->IsCancelled()) return grpc::Status::CANCELLED;
+    v1::ExportSceneChunk chunk;
+    chunk.set_data(ply->substr(offset, kExportChunkBytes));
+    if (offset + kExportChunkBytes >= static_cast<int64_t>(ply->size())) chunk.set_sha256(digest);
+    if (!writer->Write(chunk)) return grpc::Status::CANCELLED;
+  }
+  return grpc::Status::OK;
+}
+
+}  // namespace pf

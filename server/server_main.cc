@@ -1,0 +1,212 @@
+// pf-server: the gRPC front end. Holds no state but its job store and blob
+// store; see `pf-server --help` and docs/SERVICE.md.
+#include "google/longrunning/operations.grpc.pb.h"
+#include "server/services.h"
+
+#include <grpcpp/ext/proto_server_reflection_plugin.h>
+#include <grpcpp/health_check_service_interface.h>
+#include <grpcpp/server.h>
+#include <grpcpp/server_builder.h>
+
+#include <atomic>
+#include <chrono>
+#include <csignal>
+#include <cstdio>
+#include <cstdlib>
+#include <memory>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "absl/strings/match.h"
+#include "absl/strings/numbers.h"
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_split.h"
+#include "common/command_line.h"
+#include "common/file_util.h"
+#include "common/logging.h"
+#include "common/status_macros.h"
+#include "common/metrics_http.h"
+#include "server/blobs/blob_service.h"
+#include "server/server_metrics.h"
+#include "server/blobs/blob_store.h"
+#include "server/store/job_store.h"
+#include "spdlog/spdlog.h"
+
+namespace pf {
+namespace {
+
+constexpr char kUsage[] = R"(usage: pf-server [flags]
+
+Serves SceneService, RenderService, google.longrunning.Operations,
+BlobService and WorkerService on one port, with grpc.health.v1 and server
+reflection. Every flag may also come from the environment variable named
+beside it; the flag wins.
+
+  --listen HOST:PORT       address to serve on (PF_LISTEN; default 127.0.0.1:50051;
+                           port 0 picks a free one)
+  --store SPEC             job store: sqlite:PATH (PF_STORE; default sqlite:pf-data/jobs.db)
+  --blobs DIR              content-addressed blob directory (PF_BLOBS; default pf-data/blobs)
+  --trusted-root DIR[,DIR] directories file:// clips may be read from (PF_TRUSTED_ROOTS;
+                           default none)
+  --lease-seconds N        lease a worker holds on a task between heartbeats
+                           (PF_LEASE_SECONDS; default 30)
+  --max-attempts N         attempts before a task and its job fail (PF_MAX_ATTEMPTS; default 3)
+  --chunk-frames N         views per render chunk unless the request says (PF_CHUNK_FRAMES;
+                           default 4)
+  --max-views N            views per render job (PF_MAX_VIEWS; default 10000)
+  --max-upload-bytes N     largest blob one upload may carry (PF_MAX_UPLOAD_BYTES;
+                           default 1073741824)
+  --metrics-listen HOST:PORT
+                           serve Prometheus metrics on http://HOST:PORT/metrics
+                           (PF_METRICS_LISTEN; default off)
+  --port-file PATH         write the port actually bound to PATH (for scripts and tests)
+  --log-level LEVEL        trace|debug|info|warn|error (PF_LOG_LEVEL; default info)
+
+Stops cleanly on SIGTERM or SIGINT: in-flight calls get 5 s to finish.
+)";
+
+std::atomic<bool> g_stop{false};
+
+void OnSignal(int) { g_stop = true; }
+
+// The flag's value, else the environment variable's, else `fallback`.
+std::string Setting(const CommandLine& cl, const std::string& flag, const char* env,
+                    const std::string& fallback) {
+  if (cl.Has(flag)) return cl.Get(flag);
+  const char* value = std::getenv(env);
+  return value != nullptr && *value != '\0' ? std::string(value) : fallback;
+}
+
+absl::StatusOr<int64_t> IntSetting(const CommandLine& cl, const std::string& flag, const char* env,
+                                   int64_t fallback, int64_t min_value) {
+  const std::string text = Setting(cl, flag, env, absl::StrCat(fallback));
+  int64_t value = 0;
+  if (!absl::SimpleAtoi(text, &value) || value < min_value) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("--", flag, ": expected an integer >= ", min_value, ", got '", text, "'"));
+  }
+  return value;
+}
+
+absl::Status Run(const CommandLine& cl) {
+  const std::string listen = Setting(cl, "listen", "PF_LISTEN", "127.0.0.1:50051");
+  const std::string store_spec = Setting(cl, "store", "PF_STORE", "sqlite:pf-data/jobs.db");
+  const std::string blob_dir = Setting(cl, "blobs", "PF_BLOBS", "pf-data/blobs");
+  StoreOptions store_options;
+  ASSIGN_OR_RETURN(const int64_t lease_seconds,
+                   IntSetting(cl, "lease-seconds", "PF_LEASE_SECONDS", 30, 1));
+  store_options.lease_duration_ms = lease_seconds * 1000;
+  ASSIGN_OR_RETURN(const int64_t max_attempts,
+                   IntSetting(cl, "max-attempts", "PF_MAX_ATTEMPTS", 3, 1));
+  store_options.max_attempts = static_cast<int>(max_attempts);
+  ServerOptions options;
+  for (absl::string_view root :
+       absl::StrSplit(Setting(cl, "trusted-root", "PF_TRUSTED_ROOTS", ""), ',', absl::SkipEmpty())) {
+    options.trusted_roots.emplace_back(root);
+  }
+  ASSIGN_OR_RETURN(const int64_t chunk_frames,
+                   IntSetting(cl, "chunk-frames", "PF_CHUNK_FRAMES", 4, 1));
+  options.chunk_frames = static_cast<int>(chunk_frames);
+  ASSIGN_OR_RETURN(const int64_t max_views, IntSetting(cl, "max-views", "PF_MAX_VIEWS", 10000, 1));
+  options.max_views = static_cast<int>(max_views);
+  ASSIGN_OR_RETURN(options.max_upload_bytes,
+                   IntSetting(cl, "max-upload-bytes", "PF_MAX_UPLOAD_BYTES", int64_t{1} << 30, 1));
+
+  if (absl::StartsWith(store_spec, "sqlite:")) {
+    const std::string path = store_spec.substr(7);
+    const size_t slash = path.rfind('/');
+    if (slash != std::string::npos && slash > 0) RETURN_IF_ERROR(MakeDirs(path.substr(0, slash)));
+  }
+  ASSIGN_OR_RETURN(std::unique_ptr<JobStore> store, OpenJobStore(store_spec, store_options));
+  RETURN_IF_ERROR(MakeDirs(blob_dir));
+  BlobStore blobs(blob_dir);
+  ServiceCore core(store.get(), &blobs, options);
+  ServerMetrics& metrics = RegisterServerMetrics(store.get());
+  std::unique_ptr<MetricsHttpServer> metrics_http;
+  if (const std::string address = Setting(cl, "metrics-listen", "PF_METRICS_LISTEN", "");
+      !address.empty()) {
+    metrics_http = std::make_unique<MetricsHttpServer>(address);
+    RETURN_IF_ERROR(metrics_http->Start());
+    spdlog::info("metrics on http://{}/metrics", address);
+  }
+  SceneServiceImpl scene_service(&core);
+  RenderServiceImpl render_service(&core);
+  OperationsServiceImpl operations_service(&core);
+  WorkerServiceImpl worker_service(&core);
+  BlobServiceImpl blob_service(&blobs, options.max_upload_bytes);
+
+  grpc::EnableDefaultHealthCheckService(true);
+  grpc::reflection::InitProtoReflectionServerBuilderPlugin();
+  grpc::ServerBuilder builder;
+  int port = 0;
+  builder.AddListeningPort(listen, grpc::InsecureServerCredentials(), &port);
+  builder.SetMaxReceiveMessageSize(64 << 20);
+  builder.SetMaxSendMessageSize(64 << 20);
+  builder.RegisterService(&scene_service);
+  builder.RegisterService(&render_service);
+  builder.RegisterService(&operations_service);
+  builder.RegisterService(&worker_service);
+  builder.RegisterService(&blob_service);
+  std::unique_ptr<grpc::Server> server = builder.BuildAndStart();
+  if (server == nullptr || port == 0) {
+    return absl::UnavailableError(absl::StrCat("--listen: cannot listen on ", listen));
+  }
+  const std::string host = listen.substr(0, listen.rfind(':'));
+  spdlog::info("pf-server listening on {}:{} (store {}, blobs {}, lease {} s, {} attempts)", host,
+               port, store_spec, blob_dir, lease_seconds, max_attempts);
+  if (cl.Has("port-file")) RETURN_IF_ERROR(WriteFileAtomic(cl.Get("port-file"), absl::StrCat(port, "\n")));
+
+  // Leases of dead workers go back to the queue.
+  std::thread expirer([&] {
+    while (!g_stop) {
+      absl::StatusOr<int> expired = store->ExpireLeases(core.NowMs());
+      if (!expired.ok()) {
+        spdlog::error("expiring leases: {}", std::string(expired.status().message()));
+      } else if (*expired > 0) {
+        metrics.leases_expired->Inc(*expired);
+        spdlog::warn("{} lease(s) expired: tasks requeued or failed", *expired);
+      }
+      for (int i = 0; i < 5 && !g_stop; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    }
+  });
+  while (!g_stop) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  spdlog::info("pf-server stopping");
+  server->Shutdown(std::chrono::system_clock::now() + std::chrono::seconds(5));
+  expirer.join();
+  if (metrics_http) metrics_http->Stop();
+  spdlog::info("pf-server stopped");
+  return absl::OkStatus();
+}
+
+}  // namespace
+}  // namespace pf
+
+int main(int argc, char** argv) {
+  std::vector<std::string> args(argv + 1, argv + argc);
+  for (const std::string& arg : args) {
+    if (arg == "--help" || arg == "-h") {
+      std::fputs(pf::kUsage, stdout);
+      return 0;
+    }
+  }
+  absl::StatusOr<pf::CommandLine> cl = pf::CommandLine::Parse(
+      args, {"listen", "store", "blobs", "trusted-root", "lease-seconds", "max-attempts",
+             "chunk-frames", "max-views", "max-upload-bytes", "port-file", "log-level",
+             "metrics-listen"});
+  if (!cl.ok() || !cl->positional().empty()) {
+    std::fprintf(stderr, "pf-server: %s\n%s",
+                 cl.ok() ? "unexpected arguments" : std::string(cl.status().message()).c_str(),
+                 pf::kUsage);
+    return 2;
+  }
+  pf::InitLogging(cl->Get("log-level"));
+  std::signal(SIGTERM, pf::OnSignal);
+  std::signal(SIGINT, pf::OnSignal);
+  const absl::Status status = pf::Run(*cl);
+  if (!status.ok()) {
+    spdlog::error("pf-server: {}", std::string(status.message()));
+    return status.code() == absl::StatusCode::kInvalidArgument ? 2 : 1;
+  }
+  return 0;
+}

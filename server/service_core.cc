@@ -1,0 +1,292 @@
+// ServiceCore: see service_core.h.
+#include "server/service_core.h"
+
+#include <google/protobuf/util/json_util.h>
+#include <google/protobuf/util/time_util.h>
+
+#include <algorithm>
+#include <chrono>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <unistd.h>
+
+#include "absl/strings/match.h"
+#include "absl/strings/str_cat.h"
+#include "common/status_macros.h"
+#include "server/clip_intake.h"
+#include "server/server_metrics.h"
+#include "spdlog/spdlog.h"
+#include "worker/engine/render/render_outputs.h"
+
+namespace pf {
+namespace {
+
+namespace v1 = pointforward::v1;
+using google::longrunning::Operation;
+using google::protobuf::util::TimeUtil;
+
+v1::Scene::State SceneStateProto(SceneState state) {
+  switch (state) {
+    case SceneState::kCreating:
+      return v1::Scene::CREATING;
+    case SceneState::kReady:
+      return v1::Scene::READY;
+    case SceneState::kFailed:
+      return v1::Scene::FAILED;
+  }
+  return v1::Scene::STATE_UNSPECIFIED;
+}
+
+v1::RenderJob::State RenderJobStateProto(JobState state) {
+  switch (state) {
+    case JobState::kWaitingForScene:
+      return v1::RenderJob::WAITING_FOR_SCENE;
+    case JobState::kQueued:
+      return v1::RenderJob::QUEUED;
+    case JobState::kRunning:
+      return v1::RenderJob::RUNNING;
+    case JobState::kSucceeded:
+      return v1::RenderJob::SUCCEEDED;
+    case JobState::kFailed:
+      return v1::RenderJob::FAILED;
+    case JobState::kCancelled:
+      return v1::RenderJob::CANCELLED;
+  }
+  return v1::RenderJob::STATE_UNSPECIFIED;
+}
+
+std::string TargetName(const JobRecord& job) {
+  return job.kind == JobKind::kReconstruct ? absl::StrCat("scenes/", job.scene_id)
+                                           : absl::StrCat("renderJobs/", job.id);
+}
+
+}  // namespace
+
+std::string ToJson(const google::protobuf::Message& message) {
+  std::string json;
+  google::protobuf::util::JsonPrintOptions options;
+  options.preserve_proto_field_names = false;
+  (void)google::protobuf::util::MessageToJsonString(message, &json, options);
+  return json;
+}
+
+absl::Status FromJson(const std::string& json, google::protobuf::Message* message,
+                      const std::string& what) {
+  const auto status = google::protobuf::util::JsonStringToMessage(json, message);
+  if (!status.ok()) {
+    return absl::InternalError(absl::StrCat(what, ": ", std::string(status.message())));
+  }
+  return absl::OkStatus();
+}
+
+absl::StatusOr<std::string> ParseResourceName(const std::string& name,
+                                              const std::string& collection,
+                                              const std::string& field) {
+  const std::string prefix = collection + "/";
+  std::string id = absl::StartsWith(name, prefix) ? name.substr(prefix.size()) : "";
+  const bool ok = !id.empty() && id.size() <= 64 &&
+                  std::all_of(id.begin(), id.end(), [](char c) {
+                    return (c >= '0' && c <= '9') || (c >= 'a' && c <= 'z') || c == '-';
+                  });
+  if (!ok) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(field, ": expected '", collection, "/{id}', got '", name, "'"));
+  }
+  return id;
+}
+
+std::string TaskLabel(const TaskRecord& task) {
+  if (task.kind == JobKind::kReconstruct) return "reconstruction";
+  return absl::StrCat("chunk ", task.index, " (views ", task.first_view, "-",
+                      task.first_view + task.view_count - 1, ")");
+}
+
+ServiceCore::ServiceCore(JobStore* store, BlobStore* blobs, ServerOptions options)
+    : store_(store), blobs_(blobs), options_(std::move(options)) {
+  if (options_.scratch_dir.empty()) options_.scratch_dir = blobs_->root() + "/scratch";
+}
+
+int64_t ServiceCore::NowMs() const {
+  return std::chrono::duration_cast<std::chrono::milliseconds>(
+             std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+std::string ServiceCore::NewScratchDir() {
+  return absl::StrCat(options_.scratch_dir, "/clip-", getpid(), "-", scratch_counter_++);
+}
+
+absl::StatusOr<CreateSceneOutcome> ServiceCore::CreateScene(const v1::CreateSceneRequest& request,
+                                                            const std::string& owner) {
+  if (request.request_id().size() > 128) {
+    return absl::InvalidArgumentError("request_id: longer than 128 characters");
+  }
+  ASSIGN_OR_RETURN(const v1::ReconstructionOptions options, NormalizeOptions(request.options()));
+  ASSIGN_OR_RETURN(const AcceptedClip clip,
+                   AcceptClip(request.clip(), *blobs_, options_.trusted_roots, NewScratchDir()));
+  const std::string key = SceneCacheKey(clip.uploaded, options);
+  const std::string scene_id = SceneIdForKey(key);
+
+  v1::Scene description;
+  description.set_model(options.model());
+  description.set_content_hash(key);
+  *description.mutable_options() = options;
+
+  v1::Task work;
+  v1::ReconstructWork* reconstruct = work.mutable_reconstruct();
+  reconstruct->set_scene(absl::StrCat("scenes/", scene_id));
+  *reconstruct->mutable_clip() = clip.uploaded;
+  *reconstruct->mutable_options() = options;
+
+  v1::CreateSceneRequest stored = request;
+  *stored.mutable_clip()->mutable_uploaded() = clip.uploaded;
+  *stored.mutable_options() = options;
+
+  ASSIGN_OR_RETURN(CreateSceneOutcome outcome,
+                   store_->CreateSceneJob(scene_id, key, ToJson(description), request.request_id(),
+                                          ToJson(stored), ToJson(work), owner, NowMs()));
+  if (outcome.kind == CreateSceneOutcome::Kind::kCacheHit) GetServerMetrics().cache_hits->Inc();
+  if (outcome.kind == CreateSceneOutcome::Kind::kCreated) GetServerMetrics().cache_misses->Inc();
+  static constexpr const char* kOutcome[] = {"new reconstruction", "cache hit",
+                                             "joined the reconstruction in flight",
+                                             "same request_id as before"};
+  spdlog::info("CreateScene scenes/{} ({}): {}, operations/{}", scene_id, clip.summary,
+               kOutcome[static_cast<int>(outcome.kind)], outcome.job.id);
+  return outcome;
+}
+
+absl::StatusOr<v1::Scene> ServiceCore::SceneFor(const SceneRecord& record) {
+  v1::Scene scene;
+  RETURN_IF_ERROR(FromJson(record.description, &scene, "stored scene"));
+  scene.set_name(absl::StrCat("scenes/", record.id));
+  scene.set_state(SceneStateProto(record.state));
+  scene.set_content_hash(record.content_hash);
+  scene.set_operation(absl::StrCat("operations/", record.job_id));
+  *scene.mutable_create_time() = TimeUtil::MillisecondsToTimestamp(record.create_time_ms);
+  if (record.state == SceneState::kFailed) {
+    scene.mutable_error()->set_code(static_cast<int>(absl::StatusCode::kAborted));
+    scene.mutable_error()->set_message(record.error);
+  }
+  return scene;
+}
+
+absl::StatusOr<v1::RenderJob> ServiceCore::RenderJobFor(const JobRecord& job) {
+  v1::RenderJob out;
+  out.set_name(absl::StrCat("renderJobs/", job.id));
+  out.set_scene(absl::StrCat("scenes/", job.scene_id));
+  out.set_state(RenderJobStateProto(job.state));
+  out.set_frames_total(job.frames_total);
+  out.set_frames_done(job.frames_done);
+  out.set_chunks(job.tasks_total);
+  out.set_operation(absl::StrCat("operations/", job.id));
+  *out.mutable_create_time() = TimeUtil::MillisecondsToTimestamp(job.create_time_ms);
+  *out.mutable_update_time() = TimeUtil::MillisecondsToTimestamp(job.update_time_ms);
+  if (job.state == JobState::kFailed || job.state == JobState::kCancelled) {
+    out.mutable_error()->set_code(job.error_code);
+    out.mutable_error()->set_message(job.error_message);
+  }
+  if (job.state != JobState::kSucceeded) return out;
+
+  // Outputs: each chunk's files in chunk order, then manifest.json with the
+  // views of all chunks.
+  ASSIGN_OR_RETURN(const std::vector<TaskRecord> tasks, store_->ListTasks(job.id));
+  nlohmann::json views = nlohmann::json::array();
+  for (const TaskRecord& task : tasks) {
+    v1::RenderResult result;
+    RETURN_IF_ERROR(FromJson(task.result, &result, absl::StrCat("result of ", TaskLabel(task))));
+    for (const v1::OutputFile& file : result.files()) *out.add_files() = file;
+    const nlohmann::json chunk_views =
+        nlohmann::json::parse(result.manifest_views_json(), nullptr, /*allow_exceptions=*/false);
+    if (!chunk_views.is_array()) {
+      return absl::InternalError(absl::StrCat("manifest views of ", TaskLabel(task), " are not a JSON array"));
+    }
+    for (const nlohmann::json& view : chunk_views) views.push_back(view);
+  }
+  ASSIGN_OR_RETURN(const SceneRecord scene, store_->GetScene(job.scene_id));
+  v1::Scene scene_proto;
+  RETURN_IF_ERROR(FromJson(scene.description, &scene_proto, "stored scene"));
+  nlohmann::json manifest;
+  manifest["scene"] = {{"name", out.scene()}, {"model", scene_proto.model()},
+                       {"contentHash", scene.content_hash}};
+  manifest["renderJob"] = out.name();
+  manifest["software"] = absl::StrCat("PointForward ", SoftwareVersion());
+  manifest["views"] = std::move(views);
+  ASSIGN_OR_RETURN(const BlobDigest digest, blobs_->Put(manifest.dump(2) + "\n"));
+  v1::OutputFile* file = out.add_files();
+  file->set_name("manifest.json");
+  file->mutable_digest()->set_sha256(digest.sha256);
+  file->mutable_digest()->set_size_bytes(digest.size_bytes);
+  return out;
+}
+
+absl::StatusOr<Operation> ServiceCore::OperationFor(const JobRecord& job, bool cache_hit) {
+  Operation op;
+  op.set_name(absl::StrCat("operations/", job.id));
+  v1::OperationMetadata metadata;
+  metadata.set_kind(JobKindName(job.kind));
+  metadata.set_target(TargetName(job));
+  metadata.set_state(JobStateName(job.state));
+  metadata.set_stage(job.stage);
+  metadata.set_fraction(job.fraction);
+  metadata.set_frames_done(job.frames_done);
+  metadata.set_frames_total(job.frames_total);
+  metadata.set_cache_hit(cache_hit);
+  *metadata.mutable_create_time() = TimeUtil::MillisecondsToTimestamp(job.create_time_ms);
+  *metadata.mutable_update_time() = TimeUtil::MillisecondsToTimestamp(job.update_time_ms);
+  ASSIGN_OR_RETURN(const std::vector<TaskRecord> tasks, store_->ListTasks(job.id));
+  for (const TaskRecord& task : tasks) {
+    for (const AttemptRecord& attempt : task.attempts) {
+      v1::Attempt* out = metadata.add_attempts();
+      out->set_task(TaskLabel(task));
+      out->set_number(attempt.number);
+      out->set_worker(attempt.worker_id);
+      out->set_outcome(attempt.outcome);
+    }
+  }
+  op.mutable_metadata()->PackFrom(metadata);
+
+  switch (job.state) {
+    case JobState::kSucceeded:
+      op.set_done(true);
+      if (job.kind == JobKind::kReconstruct) {
+        ASSIGN_OR_RETURN(const SceneRecord scene, store_->GetScene(job.scene_id));
+        ASSIGN_OR_RETURN(const v1::Scene scene_proto, SceneFor(scene));
+        op.mutable_response()->PackFrom(scene_proto);
+      } else {
+        ASSIGN_OR_RETURN(const v1::RenderJob render_job, RenderJobFor(job));
+        op.mutable_response()->PackFrom(render_job);
+      }
+      break;
+    case JobState::kFailed:
+    case JobState::kCancelled:
+      op.set_done(true);
+      op.mutable_error()->set_code(job.error_code);
+      op.mutable_error()->set_message(job.error_message);
+      break;
+    default:
+      op.set_done(false);
+  }
+  return op;
+}
+
+absl::StatusOr<v1::Task> ServiceCore::TaskFor(const TaskLease& lease) {
+  v1::Task task;
+  RETURN_IF_ERROR(FromJson(lease.task.work, &task, "stored task work"));
+  task.set_task_id(lease.task.id);
+  task.set_attempt(lease.task.attempt);
+  task.set_operation(absl::StrCat("operations/", lease.job.id));
+  *task.mutable_lease_deadline() = TimeUtil::MillisecondsToTimestamp(lease.task.lease_deadline_ms);
+  if (task.has_render()) {
+    v1::CreateRenderJobRequest request;
+    RETURN_IF_ERROR(FromJson(lease.job.request, &request, "stored render request"));
+    *task.mutable_render()->mutable_views() = request.views();
+    task.mutable_render()->mutable_outputs()->CopyFrom(request.outputs());
+    ASSIGN_OR_RETURN(const SceneRecord scene, store_->GetScene(lease.task.scene_id));
+    v1::Scene scene_proto;
+    RETURN_IF_ERROR(FromJson(scene.description, &scene_proto, "stored scene"));
+    *task.mutable_render()->mutable_scene_file() = scene_proto.scene_file();
+  }
+  return task;
+}
+
+}  // namespace pf

@@ -1,0 +1,186 @@
+// WorkerService: workers lease tasks (long poll), heartbeat, complete and
+// fail them. Every call after the lease names (task, attempt); the store
+// refuses calls of an attempt that lost its lease.
+#include "pointforward/v1/worker.pb.h"
+#include "server/services.h"
+
+#include <google/protobuf/util/time_util.h>
+
+#include <algorithm>
+#include <chrono>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "absl/strings/match.h"
+#include "absl/strings/str_cat.h"
+#include "rpc/grpc_status.h"
+#include "server/server_metrics.h"
+#include "spdlog/spdlog.h"
+
+namespace pf {
+namespace {
+
+namespace v1 = pointforward::v1;
+using google::protobuf::util::TimeUtil;
+
+constexpr auto kPollInterval = std::chrono::milliseconds(100);
+
+absl::Status CheckWorkerId(const std::string& worker_id) {
+  if (worker_id.empty() || worker_id.size() > 128) {
+    return absl::InvalidArgumentError("worker_id: must be 1 to 128 characters");
+  }
+  return absl::OkStatus();
+}
+
+absl::Status CheckBlob(BlobStore& blobs, const v1::Digest& digest, const std::string& field) {
+  if (!IsValidSha256Hex(digest.sha256()) || !blobs.Contains(digest.sha256())) {
+    return absl::InvalidArgumentError(absl::StrCat(field, ": blob '", digest.sha256(),
+                                                   "' was not uploaded"));
+  }
+  return blobs.Verify(digest.sha256());
+}
+
+bool IsPermanent(int code) {
+  const auto status_code = static_cast<absl::StatusCode>(code);
+  return status_code == absl::StatusCode::kInvalidArgument ||
+         status_code == absl::StatusCode::kFailedPrecondition ||
+         status_code == absl::StatusCode::kNotFound;
+}
+
+}  // namespace
+
+grpc::Status WorkerServiceImpl::LeaseTask(grpc::ServerContext* context,
+                                          const v1::LeaseTaskRequest* request,
+                                          v1::LeaseTaskResponse* response) {
+  if (absl::Status ok = CheckWorkerId(request->worker_id()); !ok.ok()) return ToGrpc(ok);
+  std::vector<std::string> cached;
+  for (const std::string& name : request->cached_scenes()) {
+    if (absl::StartsWith(name, "scenes/")) cached.push_back(name.substr(7));
+  }
+  const int64_t wait_ms = std::clamp<int64_t>(
+      request->has_wait() ? TimeUtil::DurationToMilliseconds(request->wait()) : 0, 0,
+      core_->options().max_lease_wait_ms);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(wait_ms);
+  while (true) {
+    absl::StatusOr<std::optional<TaskLease>> lease =
+        core_->store().LeaseTask(request->worker_id(), cached, core_->NowMs());
+    if (!lease.ok()) return ToGrpc(lease.status());
+    if (lease->has_value()) {
+      const TaskLease& leased = **lease;
+      absl::StatusOr<v1::Task> task = core_->TaskFor(leased);
+      if (!task.ok()) {
+        // The stored work cannot be turned into a task: fail it for good
+        // rather than hand it out again.
+        (void)core_->store().FailTask(leased.task.id, leased.task.attempt,
+                                      std::string(task.status().message()), true, core_->NowMs());
+        return ToGrpc(task.status());
+      }
+      spdlog::info("leased {} of operations/{} (attempt {}) to worker {}", TaskLabel(leased.task),
+                   leased.job.id, leased.task.attempt, request->worker_id());
+      *response->mutable_task() = *std::move(task);
+      return grpc::Status::OK;
+    }
+    if (std::chrono::steady_clock::now() >= deadline || context->IsCancelled()) {
+      return grpc::Status::OK;
+    }
+    std::this_thread::sleep_for(kPollInterval);
+  }
+}
+
+grpc::Status WorkerServiceImpl::Heartbeat(grpc::ServerContext*, const v1::HeartbeatRequest* request,
+                                          v1::HeartbeatResponse* response) {
+  int64_t deadline_ms = 0;
+  absl::StatusOr<bool> cancelled = core_->store().Heartbeat(
+      request->task_id(), request->attempt(), request->progress().stage(),
+      request->progress().fraction(), request->progress().frames_done(), core_->NowMs(),
+      &deadline_ms);
+  if (!cancelled.ok()) return ToGrpc(cancelled.status());
+  GetServerMetrics().heartbeats->Inc();
+  response->set_cancelled(*cancelled);
+  *response->mutable_lease_deadline() = TimeUtil::MillisecondsToTimestamp(deadline_ms);
+  return grpc::Status::OK;
+}
+
+grpc::Status WorkerServiceImpl::CompleteTask(grpc::ServerContext*,
+                                             const v1::CompleteTaskRequest* request,
+                                             v1::CompleteTaskResponse*) {
+  absl::StatusOr<TaskRecord> task = core_->store().GetTask(request->task_id());
+  if (!task.ok()) return ToGrpc(task.status());
+  std::string result;
+  std::string scene_description;
+  if (request->has_reconstruct()) {
+    const v1::Scene& scene = request->reconstruct().scene();
+    if (absl::Status ok = CheckBlob(core_->blobs(), scene.scene_file(),
+                                    "reconstruct.scene.scene_file");
+        !ok.ok()) {
+      return ToGrpc(ok);
+    }
+    // The stored description keeps what CreateScene wrote (options, key)
+    // and takes the worker's statistics.
+    absl::StatusOr<SceneRecord> record = core_->store().GetScene(task->scene_id);
+    if (!record.ok()) return ToGrpc(record.status());
+    v1::Scene merged;
+    if (absl::Status ok = FromJson(record->description, &merged, "stored scene"); !ok.ok()) {
+      return ToGrpc(ok);
+    }
+    const v1::ReconstructionOptions options = merged.options();
+    const std::string content_hash = merged.content_hash();
+    merged.MergeFrom(scene);
+    *merged.mutable_options() = options;
+    merged.set_content_hash(content_hash);
+    merged.clear_name();
+    merged.clear_state();
+    merged.clear_operation();
+    merged.clear_create_time();
+    merged.clear_error();
+    result = ToJson(request->reconstruct());
+    scene_description = ToJson(merged);
+  } else if (request->has_render()) {
+    for (int i = 0; i < request->render().files_size(); ++i) {
+      const v1::OutputFile& file = request->render().files(i);
+      if (absl::Status ok = CheckBlob(core_->blobs(), file.digest(),
+                                      absl::StrCat("render.files[", i, "].digest"));
+          !ok.ok()) {
+        return ToGrpc(ok);
+      }
+    }
+    result = ToJson(request->render());
+  } else {
+    return ToGrpc(absl::InvalidArgumentError("result: missing; set reconstruct or render"));
+  }
+  const absl::Status status = core_->store().CompleteTask(
+      request->task_id(), request->attempt(), result, scene_description, core_->NowMs());
+  if (status.ok()) {
+    spdlog::info("{} of operations/{} (attempt {}) completed by worker {}", TaskLabel(*task),
+                 task->job_id, request->attempt(), request->worker_id());
+    ServerMetrics& metrics = GetServerMetrics();
+    metrics.tasks_completed[static_cast<int>(task->kind)]->Inc();
+    absl::StatusOr<JobRecord> job = core_->store().GetJob(task->job_id);
+    if (job.ok() && job->state == JobState::kSucceeded) {
+      metrics.job_seconds[static_cast<int>(job->kind)]->Observe(
+          (job->update_time_ms - job->create_time_ms) / 1000.0);
+    }
+  } else {
+    spdlog::warn("task {} attempt {} from worker {} not completed: {}", request->task_id(),
+                 request->attempt(), request->worker_id(), std::string(status.message()));
+  }
+  return ToGrpc(status);
+}
+
+grpc::Status WorkerServiceImpl::FailTask(grpc::ServerContext*, const v1::FailTaskRequest* request,
+                                         v1::FailTaskResponse*) {
+  const bool permanent = IsPermanent(request->error().code());
+  if (absl::StatusOr<TaskRecord> task = core_->store().GetTask(request->task_id()); task.ok()) {
+    GetServerMetrics().tasks_failed[static_cast<int>(task->kind)]->Inc();
+  }
+  const absl::Status status =
+      core_->store().FailTask(request->task_id(), request->attempt(), request->error().message(),
+                              permanent, core_->NowMs());
+  spdlog::warn("task {} attempt {} failed on worker {}{}: {}", request->task_id(),
+               request->attempt(), request->worker_id(), permanent ? " (permanent)" : "",
+               request->error().message());
+  return ToGrpc(status);
+}
+
+}  // namespace pf

@@ -1,0 +1,719 @@
+#!/usr/bin/python3
+"""Checks of the deployment files (issue #7) that need no Docker engine and no
+cluster: yamllint, kustomize resolution and the structure of what each overlay
+renders, the compose file, the Dockerfiles' build steps against the README's
+install step and the Makefile's commands, the runtime packages against the
+libraries the built binaries load, and docs/DEPLOY.md's settings table against
+the programs' --help.
+
+Run by ctest (tests/CMakeLists.txt), one ctest per TestCase class:
+  deploy_files_test.py --source-dir DIR --bin-dir DIR [unittest arguments]
+Needs Debian's python3-yaml and yamllint (scripts/install-deps.sh).
+"""
+import argparse
+import copy
+import math
+import os
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+import unittest
+
+import yaml
+
+SOURCE_DIR = ""
+BIN_DIR = ""
+
+NAMESPACE = "pointforward"
+OVERLAYS = ("cpu", "gpu")
+
+
+def src(*parts):
+    return os.path.join(SOURCE_DIR, *parts)
+
+
+def read(*parts):
+    with open(src(*parts), encoding="utf-8") as f:
+        return f.read()
+
+
+def load_yaml_documents(path):
+    with open(path, encoding="utf-8") as f:
+        return [doc for doc in yaml.safe_load_all(f) if doc is not None]
+
+
+# -- docs/DEPLOY.md's settings table ----------------------------------------------
+
+
+def settings_table():
+    """Rows of the Configuration table: dicts program, flag, env, default."""
+    text = read("docs", "DEPLOY.md")
+    section = text.split("\n## Configuration\n", 1)
+    if len(section) != 2:
+        raise AssertionError("docs/DEPLOY.md: no '## Configuration' section")
+    rows = []
+    for line in section[1].splitlines():
+        if line.startswith("## "):
+            break
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        if len(cells) != 5 or cells[0] not in ("pf-server", "pf-worker"):
+            continue
+        flag = re.match(r"`(--[a-z][a-z-]*)", cells[1])
+        if not flag:
+            raise AssertionError(f"docs/DEPLOY.md: flag cell '{cells[1]}' does not start with `--name")
+        env = cells[2].strip("`")
+        default = cells[3]
+        rows.append({
+            "program": cells[0],
+            "flag": flag.group(1),
+            "env": None if env == "—" else env,
+            # A backquoted default is a literal the --help text must show.
+            "default": default.strip("`") if default.startswith("`") else None,
+        })
+    return rows
+
+
+def help_flags(help_text):
+    return set(re.findall(r"^\s{2}(--[a-z][a-z-]*)", help_text, re.MULTILINE)) - {"--help"}
+
+
+def help_entry(help_text, flag):
+    """The lines of --help that describe `flag`: from its line to the next flag's."""
+    found = re.search(r"^\s{2}" + re.escape(flag) + r"\b(.*?)(?=^\s{2}--|\Z)", help_text, re.MULTILINE | re.DOTALL)
+    if not found:
+        raise AssertionError(f"{flag}: not in --help")
+    return found.group(1)
+
+
+def run_help(binary):
+    result = subprocess.run([binary, "--help"], capture_output=True, text=True, timeout=30)
+    if result.returncode != 0:
+        raise AssertionError(f"{binary} --help: exit {result.returncode}: {result.stderr}")
+    return result.stdout
+
+
+# -- A small kustomize --------------------------------------------------------------
+
+
+def strategic_merge(base, patch):
+    """Merges `patch` into `base` as kubectl's strategic merge does for the
+    fields used here: maps merge key by key, lists of maps with a `name`
+    merge item by item on it, any other list is replaced whole."""
+    for key, value in patch.items():
+        if isinstance(value, dict) and isinstance(base.get(key), dict):
+            strategic_merge(base[key], value)
+        elif (isinstance(value, list) and isinstance(base.get(key), list) and value
+              and all(isinstance(item, dict) and "name" in item for item in value)
+              and all(isinstance(item, dict) and "name" in item for item in base[key])):
+            by_name = {item["name"]: item for item in base[key]}
+            for item in value:
+                if item["name"] in by_name:
+                    strategic_merge(by_name[item["name"]], item)
+                else:
+                    base[key].append(copy.deepcopy(item))
+        else:
+            base[key] = copy.deepcopy(value)
+
+
+def pod_containers(obj):
+    spec = obj.get("spec", {}).get("template", {}).get("spec", {})
+    return spec.get("containers", []) + spec.get("initContainers", [])
+
+
+def kustomization_path(directory):
+    path = os.path.join(directory, "kustomization.yaml")
+    if not os.path.isfile(path):
+        raise AssertionError(f"{directory}: no kustomization.yaml")
+    return path
+
+
+def kustomize(directory):
+    """Renders the kustomization in `directory`: resources (files and
+    directories), patches (strategic merge, matched on kind and name),
+    images, labels and namespace."""
+    (k,) = load_yaml_documents(kustomization_path(directory))
+    objects = []
+    for resource in k.get("resources", []):
+        path = os.path.normpath(os.path.join(directory, resource))
+        objects += kustomize(path) if os.path.isdir(path) else load_yaml_documents(path)
+    for patch in k.get("patches", []):
+        for doc in load_yaml_documents(os.path.join(directory, patch["path"])):
+            targets = [o for o in objects if o["kind"] == doc["kind"]
+                       and o["metadata"]["name"] == doc["metadata"]["name"]]
+            if len(targets) != 1:
+                raise AssertionError(f"{directory}: patch {patch['path']} matches {len(targets)} objects")
+            strategic_merge(targets[0], doc)
+    for image in k.get("images", []):
+        for obj in objects:
+            for container in pod_containers(obj):
+                name, _, tag = container["image"].partition(":")
+                if name == image["name"]:
+                    container["image"] = f"{image.get('newName', name)}:{image.get('newTag', tag)}"
+    for labels in k.get("labels", []):
+        for obj in objects:
+            obj["metadata"].setdefault("labels", {}).update(labels["pairs"])
+    if "namespace" in k:
+        for obj in objects:
+            if obj["kind"] != "Namespace":
+                obj["metadata"]["namespace"] = k["namespace"]
+    return objects
+
+
+def kubectl_with_modern_kustomize():
+    """Path of a kubectl whose kustomize is 4.2 or later (patches:, labels:),
+    else None."""
+    kubectl = shutil.which("kubectl")
+    if not kubectl:
+        return None
+    result = subprocess.run([kubectl, "version", "--client"], capture_output=True, text=True, timeout=60)
+    found = re.search(r"Kustomize Version: v(\d+)\.(\d+)", result.stdout)
+    if not found or (int(found.group(1)), int(found.group(2))) < (4, 2):
+        return None
+    return kubectl
+
+
+# -- Checks on one rendered overlay ---------------------------------------------------
+
+
+class RenderedOverlay:
+    def __init__(self, test, overlay, objects):
+        self.test = test
+        self.overlay = overlay
+        self.objects = {(o["kind"], o["metadata"]["name"]): o for o in objects}
+        test.assertEqual(len(self.objects), len(objects), f"{overlay}: duplicate kind/name")
+
+    def get(self, kind, name):
+        obj = self.objects.get((kind, name))
+        self.test.assertIsNotNone(obj, f"overlay {self.overlay}: no {kind} {name}")
+        return obj
+
+    def container(self, kind, name):
+        containers = pod_containers(self.get(kind, name))
+        self.test.assertEqual(len(containers), 1, f"{kind} {name}: expected one container")
+        return containers[0]
+
+
+def flag_value(args, flag):
+    return args[args.index(flag) + 1] if flag in args else None
+
+
+def check_overlay(test, overlay, objects, worker_flags):
+    r = RenderedOverlay(test, overlay, objects)
+    test.assertIn(("Namespace", NAMESPACE), r.objects)
+    for (kind, name), obj in r.objects.items():
+        if kind != "Namespace":
+            test.assertEqual(obj["metadata"].get("namespace"), NAMESPACE, f"{kind} {name}: namespace")
+
+    # Every pod template's labels select it.
+    for (kind, name), obj in r.objects.items():
+        if kind in ("Deployment", "StatefulSet"):
+            selector = obj["spec"]["selector"]["matchLabels"]
+            labels = obj["spec"]["template"]["metadata"]["labels"]
+            test.assertLessEqual(selector.items(), labels.items(), f"{kind} {name}: selector")
+
+    # The Secret holds the keys the pods and the scaler read.
+    secret = r.get("Secret", "pf-postgres")["stringData"]
+    for key in ("POSTGRES_USER", "POSTGRES_PASSWORD", "POSTGRES_DB", "PF_STORE"):
+        test.assertIn(key, secret)
+    store = re.fullmatch(r"postgresql://([^:@/]+):([^@/]+)@([^:/]+):(\d+)/(\w+)", secret["PF_STORE"])
+    test.assertIsNotNone(store, f"PF_STORE '{secret['PF_STORE']}' is not postgresql://USER:PASS@HOST:PORT/DB")
+    test.assertEqual(store.group(1), secret["POSTGRES_USER"])
+    test.assertEqual(store.group(2), secret["POSTGRES_PASSWORD"])
+    test.assertEqual(store.group(5), secret["POSTGRES_DB"])
+    # The full name: KEDA's operator resolves it from its own namespace.
+    test.assertEqual(store.group(3), f"pf-postgres.{NAMESPACE}.svc.cluster.local")
+    pg_service = r.get("Service", "pf-postgres")
+    test.assertIn(int(store.group(4)), [p["port"] for p in pg_service["spec"]["ports"]])
+    pg = r.get("StatefulSet", "pf-postgres")
+    test.assertLessEqual(pg_service["spec"]["selector"].items(),
+                         pg["spec"]["template"]["metadata"]["labels"].items())
+    test.assertTrue(r.container("StatefulSet", "pf-postgres")["image"].startswith("postgres:15"))
+
+    blobs = r.get("PersistentVolumeClaim", "pf-blobs")
+    test.assertEqual(blobs["spec"]["accessModes"], ["ReadWriteMany"])
+
+    # pf-server: 2 replicas, gRPC probes, resources, the store from the Secret,
+    # the shared blob volume.
+    server = r.get("Deployment", "pf-server")
+    test.assertEqual(server["spec"]["replicas"], 2)
+    test.assertEqual(server["spec"]["template"]["spec"]["securityContext"]["runAsUser"], 10001)
+    c = r.container("Deployment", "pf-server")
+    test.assertRegex(c["image"], r"^pointforward/pf-server:\w+")
+    for probe in ("readinessProbe", "livenessProbe"):
+        test.assertEqual(c[probe]["grpc"]["port"], 50051, f"pf-server {probe}")
+    for part in ("requests", "limits"):
+        test.assertIn("memory", c["resources"][part], f"pf-server resources.{part}")
+    test.assertIn("cpu", c["resources"]["requests"])
+    test.assertEqual({p["containerPort"] for p in c["ports"]}, {50051, 9090})
+    env = {e["name"]: e for e in c["env"]}
+    test.assertEqual(env["PF_STORE"]["valueFrom"]["secretKeyRef"], {"name": "pf-postgres", "key": "PF_STORE"})
+    blob_mounts = [m for m in c["volumeMounts"] if m["mountPath"] == env["PF_BLOBS"]["value"]]
+    test.assertEqual(len(blob_mounts), 1, "PF_BLOBS is not a mounted volume")
+    volumes = {v["name"]: v for v in server["spec"]["template"]["spec"]["volumes"]}
+    test.assertEqual(volumes[blob_mounts[0]["name"]]["persistentVolumeClaim"]["claimName"], "pf-blobs")
+
+    service = r.get("Service", "pf-server")
+    test.assertEqual({p["port"] for p in service["spec"]["ports"]}, {50051, 9090})
+    test.assertLessEqual(service["spec"]["selector"].items(),
+                         server["spec"]["template"]["metadata"]["labels"].items())
+
+    # pf-worker: the overlay's image, device and resources; a grace period
+    # long enough to finish a task; probes; flags that pf-worker has.
+    worker = r.get("Deployment", "pf-worker")
+    test.assertNotIn("replicas", worker["spec"], "KEDA owns the worker count; re-applying must not reset it")
+    pod = worker["spec"]["template"]["spec"]
+    test.assertGreaterEqual(pod["terminationGracePeriodSeconds"], 300)
+    c = r.container("Deployment", "pf-worker")
+    env = {e["name"]: e for e in c["env"]}
+    test.assertEqual(env["PF_SERVER"]["value"], "pf-server:50051")
+    test.assertIn("livenessProbe", c)
+    test.assertEqual(c["livenessProbe"]["httpGet"]["path"], "/healthz")
+    args = c["args"]
+    for word in args:
+        if word.startswith("--"):
+            test.assertIn(word, worker_flags, f"pf-worker args: {word} is not in docs/DEPLOY.md's table")
+    test.assertEqual(flag_value(args, "--id"), "$(POD_NAME)")
+    test.assertIn(flag_value(args, "--work-dir"), [m["mountPath"] for m in c["volumeMounts"]])
+    resources = c["resources"]
+    for part in ("requests", "limits"):
+        test.assertIn("memory", resources[part], f"pf-worker resources.{part}")
+        test.assertIn("cpu", resources[part], f"pf-worker resources.{part}")
+    cache = int(flag_value(args, "--cache-bytes"))
+    test.assertLess(cache, parse_quantity(resources["limits"]["memory"]), "scene cache above the memory limit")
+    if overlay == "cpu":
+        test.assertEqual(c["image"], "pointforward/pf-worker:dev")
+        test.assertEqual(flag_value(args, "--device"), "cpu")
+        test.assertNotIn("nvidia.com/gpu", resources["limits"])
+    else:
+        test.assertEqual(c["image"], "pointforward/pf-worker-gpu:dev")
+        test.assertEqual(flag_value(args, "--device"), "cuda:0")
+        test.assertEqual(int(resources["limits"]["nvidia.com/gpu"]), 1)
+        test.assertEqual(pod["nodeSelector"], {"nvidia.com/gpu.present": "true"})
+        test.assertIn("nvidia.com/gpu", [t["key"] for t in pod["tolerations"]])
+
+    # Autoscaling: KEDA on the store's task table, to zero and back.
+    scaled = r.get("ScaledObject", "pf-worker")["spec"]
+    test.assertEqual(scaled["scaleTargetRef"]["name"], "pf-worker")
+    test.assertEqual(scaled["minReplicaCount"], 0)
+    test.assertEqual(scaled["maxReplicaCount"], 20 if overlay == "cpu" else 4)
+    (trigger,) = scaled["triggers"]
+    test.assertEqual(trigger["type"], "postgresql")
+    auth = r.get("TriggerAuthentication", trigger["authenticationRef"]["name"])
+    (ref,) = auth["spec"]["secretTargetRef"]
+    test.assertEqual(ref["parameter"], "connection")
+    test.assertIn(ref["key"], r.get("Secret", ref["name"])["stringData"])
+    test.assertGreater(float(trigger["metadata"]["targetQueryValue"]), 0)
+    return trigger["metadata"]["query"]
+
+
+def parse_quantity(text):
+    units = {"Ki": 2**10, "Mi": 2**20, "Gi": 2**30, "Ti": 2**40, "": 1}
+    number, unit = re.fullmatch(r"(\d+)([KMGT]i|)", str(text)).groups()
+    return int(number) * units[unit]
+
+
+# -- The tests ----------------------------------------------------------------------
+
+
+class YamllintTest(unittest.TestCase):
+    def yamllint(self, target):
+        if not shutil.which("yamllint"):
+            self.fail("yamllint is not installed: run scripts/install-deps.sh")
+        return subprocess.run(["yamllint", "-f", "parsable", "-c", src("deploy", ".yamllint"), target],
+                              capture_output=True, text=True, timeout=120)
+
+    def test_deploy_directory_passes(self):
+        result = self.yamllint(src("deploy"))
+        self.assertEqual(result.returncode, 0, result.stdout + result.stderr)
+
+    def test_every_yaml_file_parses(self):
+        count = 0
+        for root, _, files in os.walk(src("deploy")):
+            for name in files:
+                if name.endswith((".yaml", ".yml")):
+                    self.assertTrue(load_yaml_documents(os.path.join(root, name)), f"{name}: empty")
+                    count += 1
+        self.assertGreaterEqual(count, 15)
+
+    def test_config_allows_missing_document_start_and_rejects_long_lines(self):
+        with tempfile.TemporaryDirectory() as tmp:
+            good = os.path.join(tmp, "good.yaml")
+            with open(good, "w", encoding="utf-8") as f:
+                f.write("key: " + "x" * 100 + "\n")
+            self.assertEqual(self.yamllint(good).returncode, 0)
+            bad = os.path.join(tmp, "bad.yaml")
+            with open(bad, "w", encoding="utf-8") as f:
+                f.write("key: " + "x" * 120 + "\n")
+            result = self.yamllint(bad)
+            self.assertNotEqual(result.returncode, 0)
+            self.assertIn("line too long (125 > 120 characters)", result.stdout)
+
+
+class KustomizeTest(unittest.TestCase):
+    def worker_flags(self):
+        return {row["flag"] for row in settings_table() if row["program"] == "pf-worker"}
+
+    def test_kustomizations_name_existing_files(self):
+        found = 0
+        for root, _, files in os.walk(src("deploy", "k8s")):
+            if "kustomization.yaml" not in files:
+                continue
+            found += 1
+            (k,) = load_yaml_documents(os.path.join(root, "kustomization.yaml"))
+            self.assertEqual(k["kind"], "Kustomization")
+            for resource in k.get("resources", []):
+                path = os.path.normpath(os.path.join(root, resource))
+                if os.path.isdir(path):
+                    self.assertTrue(os.path.isfile(os.path.join(path, "kustomization.yaml")),
+                                    f"{root}: base {resource} has no kustomization.yaml")
+                else:
+                    self.assertTrue(os.path.isfile(path), f"{root}: resource {resource} does not exist")
+            for patch in k.get("patches", []):
+                self.assertTrue(os.path.isfile(os.path.join(root, patch["path"])),
+                                f"{root}: patch {patch['path']} does not exist")
+            # Every YAML file beside it is used (no forgotten manifest).
+            named = set(k.get("resources", [])) | {p["path"] for p in k.get("patches", [])}
+            for name in files:
+                if name.endswith(".yaml") and name != "kustomization.yaml":
+                    self.assertIn(name, named, f"{root}/{name} is not in its kustomization.yaml")
+        self.assertEqual(found, 3)
+        for overlay in OVERLAYS:
+            (k,) = load_yaml_documents(src("deploy", "k8s", "overlays", overlay, "kustomization.yaml"))
+            self.assertIn("../../base", k["resources"])
+
+    def test_overlays_render_with_own_resolver(self):
+        for overlay in OVERLAYS:
+            with self.subTest(overlay=overlay):
+                objects = kustomize(src("deploy", "k8s", "overlays", overlay))
+                check_overlay(self, overlay, objects, self.worker_flags())
+
+    def test_overlays_render_with_kubectl(self):
+        kubectl = kubectl_with_modern_kustomize()
+        if not kubectl:
+            self.skipTest("no kubectl with kustomize >= 4.2 (Debian 12's kubernetes-client is 1.20); "
+                          "the own resolver's test covers the overlays")
+        for overlay in OVERLAYS:
+            with self.subTest(overlay=overlay):
+                result = subprocess.run([kubectl, "kustomize", src("deploy", "k8s", "overlays", overlay)],
+                                        capture_output=True, text=True, timeout=120)
+                self.assertEqual(result.returncode, 0, result.stderr)
+                objects = [d for d in yaml.safe_load_all(result.stdout) if d is not None]
+                check_overlay(self, overlay, objects, self.worker_flags())
+                # Same objects as the own resolver, and the same pod specs.
+                own = {(o["kind"], o["metadata"]["name"]): o for o in kustomize(
+                    src("deploy", "k8s", "overlays", overlay))}
+                theirs = {(o["kind"], o["metadata"]["name"]): o for o in objects}
+                self.assertEqual(set(own), set(theirs))
+                for key in (("Deployment", "pf-server"), ("Deployment", "pf-worker")):
+                    self.assertEqual(own[key]["spec"]["template"], theirs[key]["spec"]["template"], key)
+
+    def test_scaler_query_matches_store_schema(self):
+        objects = kustomize(src("deploy", "k8s", "base"))
+        (scaled,) = [o for o in objects if o["kind"] == "ScaledObject"]
+        query = scaled["spec"]["triggers"][0]["metadata"]["query"]
+        parsed = re.fullmatch(r"SELECT COUNT\(\*\) FROM (\w+) WHERE (\w+) IN \(([^)]*)\)", query)
+        self.assertIsNotNone(parsed, f"unexpected query shape: {query}")
+        table, column, states = parsed.group(1), parsed.group(2), re.findall(r"'(\w+)'", parsed.group(3))
+        self.assertEqual(sorted(states), ["LEASED", "QUEUED"])
+        schema = read("server", "store", "sql_job_store.cc")
+        create = re.search(r"CREATE TABLE " + table + r" \((.*?)\)\)sql", schema, re.DOTALL)
+        self.assertIsNotNone(create, f"server/store/sql_job_store.cc: no table '{table}'")
+        self.assertRegex(create.group(1), r"\b" + column + r" TEXT NOT NULL")
+        names = read("server", "store", "job_store.cc")
+        task_states = re.search(r"TaskStateName\(TaskState state\) \{(.*?)\n\}", names, re.DOTALL)
+        self.assertIsNotNone(task_states, "server/store/job_store.cc: no TaskStateName")
+        for state in states:
+            self.assertIn(f'"{state}"', task_states.group(1))
+
+    def test_scaling_rule(self):
+        # workers = ceil(outstanding / target), clamped: the rule of
+        # docs/DEPLOY.md, computed as the HPA does from the ScaledObject.
+        objects = kustomize(src("deploy", "k8s", "overlays", "gpu"))
+        (scaled,) = [o["spec"] for o in objects if o["kind"] == "ScaledObject"]
+        target = float(scaled["triggers"][0]["metadata"]["targetQueryValue"])
+
+        def workers(outstanding):
+            if outstanding <= float(scaled["triggers"][0]["metadata"]["activationTargetQueryValue"]):
+                return scaled["minReplicaCount"]
+            return min(scaled["maxReplicaCount"], max(1, math.ceil(outstanding / target)))
+
+        self.assertEqual([workers(n) for n in (0, 1, 2, 3, 7, 100)], [0, 1, 1, 2, 4, 4])
+        self.assertIn("workers = clamp(ceil(outstanding / 2), 0, maxReplicaCount)", read("docs", "DEPLOY.md"))
+
+
+class ComposeTest(unittest.TestCase):
+    def test_services(self):
+        (compose,) = load_yaml_documents(src("deploy", "compose.yaml"))
+        services = compose["services"]
+        pg = services["postgres"]
+        self.assertEqual(pg["image"], "postgres:15")
+        self.assertIn("pg_isready", " ".join(pg["healthcheck"]["test"]))
+        self.assertIn("pgdata:/var/lib/postgresql/data", pg["volumes"])
+
+        servers = [s for s in services.values() if s.get("build", {}).get("target") == "server"]
+        self.assertEqual(len(servers), 2)
+        stores = {s["environment"]["PF_STORE"] for s in servers}
+        self.assertEqual(len(stores), 1, "the two servers must share one store")
+        self.assertRegex(stores.pop(), r"^postgresql://pf:[^@]+@postgres:5432/pf$")
+        self.assertEqual({tuple(s["volumes"]) for s in servers}, {("blobs:/var/lib/pf/blobs",)})
+        for s in servers:
+            self.assertEqual(s["environment"]["PF_BLOBS"], "/var/lib/pf/blobs")
+            self.assertEqual(s["depends_on"]["postgres"]["condition"], "service_healthy")
+            self.assertIn("pf-server", s["networks"]["default"]["aliases"])
+        published = [p.split(":")[0] for s in servers for p in s["ports"]]
+        self.assertEqual(len(published), len(set(published)), "host ports collide")
+        self.assertIn("blobs", compose["volumes"])
+        self.assertIn("pgdata", compose["volumes"])
+
+        worker = services["worker"]
+        self.assertEqual(worker["build"]["target"], "worker")
+        self.assertGreaterEqual(worker["deploy"]["replicas"], 2)
+        self.assertEqual(worker["environment"]["PF_SERVER"], "pf-server:50051")
+        self.assertNotIn("ports", worker, "replicated workers cannot publish a host port")
+        self.assertEqual(worker["stop_grace_period"], "10m")
+        flags = {row["flag"] for row in settings_table() if row["program"] == "pf-worker"}
+        for word in worker["command"]:
+            if word.startswith("--"):
+                self.assertIn(word, flags)
+
+    def test_compose_schema(self):
+        # Debian 12's docker-compose (1.29, not in install-deps.sh) validates
+        # against the Compose schema offline; it predates the top-level
+        # `name:`, which is left out of the copy it checks.
+        compose = shutil.which("docker-compose")
+        if not compose:
+            self.skipTest("docker-compose is not installed; the structural checks cover the file")
+        with tempfile.TemporaryDirectory() as tmp:
+            copy_path = os.path.join(tmp, "compose.yaml")
+            with open(copy_path, "w", encoding="utf-8") as f:
+                f.write(re.sub(r"^name: .*\n", "", read("deploy", "compose.yaml"), flags=re.MULTILINE))
+            result = subprocess.run(
+                [compose, "--project-directory", src("deploy"), "-f", copy_path, "config", "--quiet"],
+                capture_output=True, text=True, timeout=120)
+        self.assertEqual(result.returncode, 0, result.stderr)
+
+    def test_environment_variables_are_documented(self):
+        documented = {row["env"] for row in settings_table() if row["env"]}
+        used = set()
+        for root, _, files in os.walk(src("deploy")):
+            for name in files:
+                if name.endswith(".yaml") or name.startswith("Dockerfile"):
+                    with open(os.path.join(root, name), encoding="utf-8") as f:
+                        used |= set(re.findall(r"\b(PF_[A-Z_]+)\b", f.read()))
+        used |= set(re.findall(r"\b(PF_[A-Z_]+)\b", read("Dockerfile")))
+        used -= {"PF_DB_PASSWORD"}  # compose's own interpolation variable
+        self.assertTrue(used)
+        self.assertLessEqual(used, documented, f"undocumented: {sorted(used - documented)}")
+
+
+class DockerfileTest(unittest.TestCase):
+    CONFIGURE = "cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release"
+    BUILD = "ninja -C build pf pf-server pf-worker"
+
+    @staticmethod
+    def stages(text):
+        """{stage name: (base image, text of its instructions)}, in order."""
+        text = re.sub(r"\\\n", " ", text)
+        result = {}
+        name = None
+        for line in text.splitlines():
+            line = line.strip()
+            if not line or line.startswith("#"):
+                continue
+            found = re.match(r"FROM\s+(\S+)\s+AS\s+(\S+)", line, re.IGNORECASE)
+            if found:
+                name = found.group(2)
+                result[name] = [found.group(1), ""]
+            elif name:
+                result[name][1] += line + "\n"
+        return {k: tuple(v) for k, v in result.items()}
+
+    def check_build_stage(self, path):
+        stages = self.stages(read(path))
+        base, body = stages["build"]
+        self.assertEqual(base, "debian:bookworm", path)
+        # The README's install step is scripts/install-deps.sh (via make).
+        self.assertIn("scripts/install-deps.sh", read("README.md"))
+        self.assertIn("@scripts/install-deps.sh", read("Makefile"))
+        self.assertRegex(body, r"RUN scripts/install-deps.sh( |$)", path)
+        self.assertLess(body.index("scripts/install-deps.sh"), body.index("COPY . ."), path)
+        # The Makefile's configure line, with the build directory and type
+        # filled in; the three programs.
+        make_configure = re.search(r"@(cmake -S \. -B .*)>/dev/null", read("Makefile")).group(1).strip()
+        expected = make_configure.replace("$(BUILD_DIR)", "build").replace("$(BUILD_TYPE)", "Release")
+        self.assertEqual(expected, self.CONFIGURE)
+        self.assertIn(self.CONFIGURE, body, path)
+        self.assertIn(self.BUILD, body, path)
+        for target, cmake in (("pf", "client"), ("pf-server", "server"), ("pf-worker", "worker")):
+            self.assertRegex(read(cmake, "CMakeLists.txt"), r"add_executable\(" + re.escape(target) + r"\b")
+        return stages
+
+    def test_build_stage_is_the_readme_build(self):
+        self.check_build_stage("Dockerfile")
+
+    def test_gpu_build_stage_is_the_same(self):
+        stages = self.check_build_stage(os.path.join("deploy", "gpu", "Dockerfile.gpu"))
+        base, body = stages["worker"]
+        self.assertEqual(base, "debian:bookworm-slim")
+        self.assertIn("/opt/libtorch/lib", body)
+        self.assertIn("NVIDIA_VISIBLE_DEVICES=all", body)
+        self.assertIn('ENTRYPOINT ["pf-worker"]', body)
+        # The CPU image's runtime libraries, plus the CUDA runtime.
+        cpu_packages = self.runtime_packages(self.stages(read("Dockerfile"))["runtime"][1])
+        self.assertEqual(self.runtime_packages(body), cpu_packages | {"cuda-cudart-${CUDA_PKG}"})
+
+    def test_runtime_targets(self):
+        text = read("Dockerfile")
+        stages = self.stages(text)
+        self.assertEqual(list(stages), ["build", "runtime", "worker", "server"])  # server is the default
+        self.assertEqual(stages["runtime"][0], "debian:bookworm-slim")
+        body = stages["runtime"][1]
+        self.assertIn("useradd --uid 10001", body)
+        self.assertIn("USER pf", body)
+        self.assertIn("COPY --from=build /src/build/bin/pf /src/build/bin/pf-server /src/build/bin/pf-worker",
+                      body)
+        self.assertEqual(stages["server"][0], "runtime")
+        self.assertEqual(stages["worker"][0], "runtime")
+        self.assertIn('ENTRYPOINT ["pf-server"]', stages["server"][1])
+        self.assertIn("EXPOSE 50051 9090", stages["server"][1])
+        self.assertIn('ENTRYPOINT ["pf-worker"]', stages["worker"][1])
+        self.assertIsNone(re.search(r"^HEALTHCHECK", text, re.MULTILINE))
+        ignore = read(".dockerignore").split()
+        for entry in (".git", "build", "build-*"):
+            self.assertIn(entry, ignore)
+
+    @staticmethod
+    def runtime_packages(body):
+        found = re.search(r"apt-get install -y --no-install-recommends (.*?) &&", body)
+        return set(found.group(1).split())
+
+    def test_runtime_packages_cover_the_binaries(self):
+        packages = self.runtime_packages(self.stages(read("Dockerfile"))["runtime"][1])
+        for package in packages:
+            status = subprocess.run(["dpkg-query", "-W", "-f=${db:Status-Status}", package],
+                                    capture_output=True, text=True)
+            self.assertEqual(status.stdout, "installed", f"{package}: not a Debian 12 package installed here")
+        checked = 0
+        for program in ("pf", "pf-server", "pf-worker"):
+            binary = os.path.join(BIN_DIR, program)
+            if not os.path.exists(binary):
+                print(f"deploy_files_test: {binary} not built; its libraries are not checked", file=sys.stderr)
+                continue
+            checked += 1
+            for library, package in self.needed_packages(binary).items():
+                self.assertTrue(package == "libc6" or package in packages,
+                                f"{program} needs {library} from {package}, missing in the Dockerfile")
+        if checked == 0:
+            self.skipTest(f"no binaries in {BIN_DIR}")
+
+    @staticmethod
+    def needed_packages(binary):
+        """{soname: Debian package} of the binary's direct dependencies."""
+        dynamic = subprocess.run(["readelf", "-d", binary], capture_output=True, text=True, check=True).stdout
+        needed = re.findall(r"\(NEEDED\)\s+Shared library: \[(.*?)\]", dynamic)
+        ldd = subprocess.run(["ldd", binary], capture_output=True, text=True, check=True).stdout
+        paths = dict(re.findall(r"^\s*(\S+) => (\S+)", ldd, re.MULTILINE))
+        resolved = {}
+        for soname in needed:
+            path = paths.get(soname)
+            if path is None or path == "not":
+                raise AssertionError(f"{binary}: {soname} does not resolve")
+            resolved[soname] = (path, os.path.realpath(path))
+        # One dpkg -S for every path (it is slow per call); a library may be
+        # registered under its symlink's path or its real path.
+        search = subprocess.run(["dpkg", "-S"] + sorted({p for pair in resolved.values() for p in pair}),
+                                capture_output=True, text=True)
+        owners = {}
+        for line in search.stdout.splitlines():
+            package, _, path = line.partition(": ")
+            owners[path] = package.split(",")[0].split(":")[0]
+        result = {}
+        for soname, (path, real) in resolved.items():
+            owner = owners.get(path) or owners.get(real)
+            if owner is None:
+                raise AssertionError(f"{binary}: {path} belongs to no Debian package")
+            result[soname] = owner
+        return result
+
+
+class SettingsTableTest(unittest.TestCase):
+    def check_program(self, program):
+        binary = os.path.join(BIN_DIR, program)
+        if not os.path.exists(binary):
+            self.skipTest(f"{binary} is not built; its rows of docs/DEPLOY.md are not checked")
+        help_text = run_help(binary)
+        rows = [row for row in settings_table() if row["program"] == program]
+        self.assertTrue(rows)
+        flags = [row["flag"] for row in rows]
+        self.assertEqual(len(flags), len(set(flags)), f"{program}: a flag is in the table twice")
+        self.assertEqual(set(flags), help_flags(help_text),
+                         f"{program}: table and --help differ")
+        for row in rows:
+            entry = " ".join(help_entry(help_text, row["flag"]).split())
+            if row["env"]:
+                self.assertRegex(entry, r"\b" + row["env"] + r"\b",
+                                 f"{program} {row['flag']}: --help names another environment variable")
+            if row["default"]:
+                self.assertRegex(entry, r"default:? " + re.escape(row["default"]) + r"(?=[);,\s]|$)",
+                                 f"{program} {row['flag']}: the table's default is not the --help one")
+
+    def test_pf_server(self):
+        self.check_program("pf-server")
+
+    def test_pf_worker(self):
+        self.check_program("pf-worker")
+
+    def test_table_parser_sees_every_row(self):
+        text = read("docs", "DEPLOY.md").split("\n## Configuration\n", 1)[1].split("\n## ", 1)[0]
+        rows = [line for line in text.splitlines() if re.match(r"\| pf-(server|worker) \|", line)]
+        self.assertEqual(len(settings_table()), len(rows))
+        self.assertGreaterEqual(len(rows), 20)
+
+
+class MetricsDocTest(unittest.TestCase):
+    """docs/DEPLOY.md's metrics table names exactly the metrics the programs
+    register (a metric added or renamed without its documentation fails)."""
+
+    @staticmethod
+    def documented():
+        text = read("docs", "DEPLOY.md").split("\n## Metrics\n", 1)[1].split("\n## ", 1)[0]
+        return set(re.findall(r"^\| `(pf_[a-z0-9_]+)", text, re.MULTILINE))
+
+    @staticmethod
+    def registered():
+        names = set()
+        for program in ("server", "worker"):
+            for root, dirs, files in os.walk(src(program)):
+                dirs[:] = [d for d in dirs if d != "engine"]
+                for name in files:
+                    if name.endswith(".cc") and not name.endswith("_test.cc"):
+                        with open(os.path.join(root, name), encoding="utf-8") as f:
+                            names |= set(re.findall(r"\b(?:Counter|Gauge|Histogram|CallbackGauge)\(\s*\"(pf_[a-z0-9_]+)\"",
+                                                    f.read()))
+        return names
+
+    def test_every_metric_is_documented(self):
+        registered = self.registered()
+        self.assertTrue(registered, "no metric registration found in server/ or worker/")
+        self.assertEqual(self.documented(), registered)
+
+    def test_autoscaling_metric_is_documented_as_such(self):
+        self.assertIn("pf_queue_depth", self.documented())
+        self.assertIn("`pf_queue_depth` counts", read("docs", "DEPLOY.md"))
+
+
+def main():
+    global SOURCE_DIR, BIN_DIR
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--source-dir", required=True)
+    parser.add_argument("--bin-dir", required=True)
+    args, rest = parser.parse_known_args()
+    SOURCE_DIR = os.path.abspath(args.source_dir)
+    BIN_DIR = os.path.abspath(args.bin_dir)
+    unittest.main(argv=[sys.argv[0]] + rest, verbosity=2)
+
+
+if __name__ == "__main__":
+    main()

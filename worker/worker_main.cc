@@ -1,0 +1,119 @@
+// pf-worker: pulls reconstruction and render tasks from pf-server and runs
+// them on the engine (worker_loop.h). This file parses the flags and wires
+// SIGTERM / SIGINT to a clean stop.
+#include <atomic>
+#include <csignal>
+#include <cstdio>
+#include <cstdlib>
+#include <string>
+#include <vector>
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+#include "absl/strings/str_cat.h"
+#include "common/command_line.h"
+#include "common/logging.h"
+#include "common/status_macros.h"
+#include "worker/worker_loop.h"
+
+namespace {
+
+constexpr char kUsage[] = R"(usage: pf-worker --server HOST:PORT [flags]
+
+Pulls tasks (reconstructions and render chunks) from pf-server, runs them and
+uploads the results. Logs to stderr; SIGTERM or SIGINT stops it after the
+running task.
+
+  --server HOST:PORT   pf-server to pull from (default: $PF_SERVER)
+  --device D           where the engine runs; only "cpu" in this build (default cpu)
+  --cache-bytes N      memory budget of the scene cache in bytes (default 2147483648)
+  --work-dir DIR       scratch directory, emptied at start; each attempt works in
+                       DIR/<task>-<attempt>/ (default /tmp/pf-worker-<id>)
+  --id NAME            worker id shown by the server (default <hostname>-<pid>)
+  --heartbeat-ms N     milliseconds between heartbeats of a running task (default 1000)
+  --lease-wait-ms N    how long one lease request waits for work (default 5000)
+  --stage-delay-ms N   test hook: sleep N ms at every progress report of a task, so a
+                       test can stop a worker in the middle of one (default 0)
+  --help               print this text
+)";
+
+std::atomic<bool> g_stop{false};
+
+void OnSignal(int) { g_stop.store(true); }
+
+// Returns the value of integer flag `name` in [min, max].
+absl::StatusOr<int64_t> IntFlag(const pf::CommandLine& cl, const std::string& name,
+                                int64_t fallback, int64_t min, int64_t max) {
+  ASSIGN_OR_RETURN(const int64_t value, cl.GetInt(name, fallback));
+  if (value < min || value > max) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("--", name, ": must be in [", min, ", ", max, "], got ", cl.Get(name)));
+  }
+  return value;
+}
+
+absl::StatusOr<pf::WorkerOptions> ParseFlags(const pf::CommandLine& cl) {
+  if (!cl.positional().empty()) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("unexpected argument '", cl.positional()[0], "'"));
+  }
+  pf::WorkerOptions options;
+  const char* env_server = std::getenv("PF_SERVER");
+  options.server = cl.Get("server", env_server != nullptr ? env_server : "");
+  if (options.server.empty()) {
+    return absl::InvalidArgumentError(
+        "--server: required (or set PF_SERVER), e.g. localhost:50051");
+  }
+  options.device = cl.Get("device", "cpu");
+  if (options.device != "cpu") {
+    return absl::InvalidArgumentError(
+        absl::StrCat("--device: '", options.device,
+                     "' is not available: this build runs the engine on the CPU only"));
+  }
+  ASSIGN_OR_RETURN(options.cache_bytes,
+                   IntFlag(cl, "cache-bytes", options.cache_bytes, 0, int64_t{1} << 50));
+  options.work_dir = cl.Get("work-dir");
+  if (cl.Has("work-dir") && options.work_dir.empty()) {
+    return absl::InvalidArgumentError("--work-dir: must not be empty");
+  }
+  if (options.work_dir == "/") {
+    return absl::InvalidArgumentError("--work-dir: '/' would be emptied; name a scratch directory");
+  }
+  options.worker_id = cl.Get("id");
+  if (cl.Has("id") && options.worker_id.empty()) {
+    return absl::InvalidArgumentError("--id: must not be empty");
+  }
+  ASSIGN_OR_RETURN(options.heartbeat_ms,
+                   IntFlag(cl, "heartbeat-ms", options.heartbeat_ms, 10, 600000));
+  ASSIGN_OR_RETURN(options.lease_wait_ms,
+                   IntFlag(cl, "lease-wait-ms", options.lease_wait_ms, 0, 600000));
+  ASSIGN_OR_RETURN(options.stage_delay_ms,
+                   IntFlag(cl, "stage-delay-ms", options.stage_delay_ms, 0, 600000));
+  return options;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const std::vector<std::string> words(argv + 1, argv + argc);
+  absl::StatusOr<pf::CommandLine> cl =
+      pf::CommandLine::Parse(words,
+                             {"server", "device", "cache-bytes", "work-dir", "id", "heartbeat-ms",
+                              "lease-wait-ms", "stage-delay-ms"},
+                             {"help"});
+  if (cl.ok() && cl->Has("help")) {
+    std::fputs(kUsage, stdout);
+    return 0;
+  }
+  absl::StatusOr<pf::WorkerOptions> options =
+      cl.ok() ? ParseFlags(*cl) : absl::StatusOr<pf::WorkerOptions>(cl.status());
+  if (!options.ok()) {
+    std::fprintf(stderr, "pf-worker: %s\n(pf-worker --help lists the flags)\n",
+                 std::string(options.status().message()).c_str());
+    return 2;
+  }
+  pf::InitLogging();
+  std::signal(SIGTERM, OnSignal);
+  std::signal(SIGINT, OnSignal);
+  return pf::RunWorker(*options, &g_stop);
+}
