@@ -5,7 +5,7 @@ BUILD_TYPE ?= RelWithDebInfo
 JOBS ?= $(shell nproc)
 CTEST_JOBS ?= $(JOBS)
 
-.PHONY: all deps configure build test demo format format-check clean
+.PHONY: all deps configure build test demo format format-check clean fuzz-smoke test-sanitizers
 
 all: build
 
@@ -34,3 +34,30 @@ format-check: deps
 
 clean:
 	rm -rf $(BUILD_DIR)
+
+# libFuzzer targets (fuzz/, needs clang) for 20 s each on seeds made with the
+# regular build's pf; fails if any crashes. docs/RELIABILITY.md, "Fuzzing".
+fuzz-smoke: build
+	@CC=clang CXX=clang++ cmake -S . -B build-fuzz -G Ninja -DPF_FUZZ=ON \
+		-DCMAKE_BUILD_TYPE=RelWithDebInfo >/dev/null
+	@cmake --build build-fuzz -j $(JOBS) --target pf_fuzzers
+	PF=$(abspath $(BUILD_DIR))/bin/pf fuzz/run_fuzzers.sh build-fuzz 20
+
+# The whole suite under AddressSanitizer + UBSan (build-asan), then the
+# multi-threaded server, store, blob, RPC, worker and service tests under
+# ThreadSanitizer (build-tsan). docs/RELIABILITY.md, "Sanitizers".
+TSAN_TESTS = job_store_test blob_store_test blob_transfer_test scene_cache_test \
+	task_runner_test worker_loop_test service_e2e_test remote_loopback_test \
+	metrics_test common_test
+TSAN_REGEX = ^(JobStoreTest|OpenJobStore|SqlJobStoreMigrations|SqliteDatabase|PostgresDatabase|BlobStore|BlobTransfer|GrpcStatus|SceneCache|TaskRunner|WorkerLoop|WorkerMain|ServiceE2e|RemoteLoopbackTest|Metrics|ThreadPool)
+test-sanitizers: deps
+	@cmake -S . -B build-asan -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+		-DCMAKE_CXX_FLAGS="-fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined" >/dev/null
+	@cmake --build build-asan -j $(JOBS)
+	cd build-asan && ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
+		ctest --output-on-failure -j $(CTEST_JOBS)
+	@cmake -S . -B build-tsan -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+		-DCMAKE_CXX_FLAGS="-fsanitize=thread -fno-omit-frame-pointer" >/dev/null
+	@cmake --build build-tsan -j $(JOBS) --target $(TSAN_TESTS)
+	cd build-tsan && TSAN_OPTIONS="halt_on_error=1 second_deadlock_stack=1" \
+		ctest -R '$(TSAN_REGEX)' --output-on-failure -j $(CTEST_JOBS)

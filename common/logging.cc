@@ -24,9 +24,11 @@ void InitLogging(std::string_view level) {
 }
 
 std::shared_ptr<spdlog::logger> JobLogger(std::string_view job_id) {
+  // A sink of its own: a pattern set on a logger is set on its sinks, and
+  // sharing the default logger's sink would change that logger's lines too.
   auto base = spdlog::default_logger();
-  auto logger = std::make_shared<spdlog::logger>(std::string(job_id), base->sinks().begin(),
-                                                 base->sinks().end());
+  auto logger = std::make_shared<spdlog::logger>(
+      std::string(job_id), std::make_shared<spdlog::sinks::stderr_color_sink_mt>());
   logger->set_pattern("%Y-%m-%dT%H:%M:%S.%e %^%l%$ [%n] %v");
   logger->set_level(base->level());
   return logger;

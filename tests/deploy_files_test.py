@@ -16,10 +16,15 @@ import math
 import os
 import re
 import shutil
+import signal
+import socket
 import subprocess
 import sys
 import tempfile
+import time
 import unittest
+import urllib.error
+import urllib.request
 
 import yaml
 
@@ -195,8 +200,16 @@ class RenderedOverlay:
         return containers[0]
 
 
-def flag_value(args, flag):
-    return args[args.index(flag) + 1] if flag in args else None
+def keyed_by_name(value):
+    """`value` with every list of named maps turned into a map by name, so
+    two renderings compare equal whatever order their merges left."""
+    if isinstance(value, dict):
+        return {k: keyed_by_name(v) for k, v in value.items()}
+    if isinstance(value, list) and value and all(isinstance(i, dict) and "name" in i for i in value):
+        return {i["name"]: keyed_by_name(i) for i in value}
+    if isinstance(value, list):
+        return [keyed_by_name(i) for i in value]
+    return value
 
 
 def check_overlay(test, overlay, objects, worker_flags):
@@ -270,25 +283,24 @@ def check_overlay(test, overlay, objects, worker_flags):
     test.assertEqual(env["PF_SERVER"]["value"], "pf-server:50051")
     test.assertIn("livenessProbe", c)
     test.assertEqual(c["livenessProbe"]["httpGet"]["path"], "/healthz")
-    args = c["args"]
-    for word in args:
+    for word in c.get("args", []):
         if word.startswith("--"):
             test.assertIn(word, worker_flags, f"pf-worker args: {word} is not in docs/DEPLOY.md's table")
-    test.assertEqual(flag_value(args, "--id"), "$(POD_NAME)")
-    test.assertIn(flag_value(args, "--work-dir"), [m["mountPath"] for m in c["volumeMounts"]])
+    test.assertEqual(env["PF_WORKER_ID"]["valueFrom"]["fieldRef"]["fieldPath"], "metadata.name")
+    test.assertIn(env["PF_WORK_DIR"]["value"], [m["mountPath"] for m in c["volumeMounts"]])
     resources = c["resources"]
     for part in ("requests", "limits"):
         test.assertIn("memory", resources[part], f"pf-worker resources.{part}")
         test.assertIn("cpu", resources[part], f"pf-worker resources.{part}")
-    cache = int(flag_value(args, "--cache-bytes"))
+    cache = int(env["PF_CACHE_BYTES"]["value"])
     test.assertLess(cache, parse_quantity(resources["limits"]["memory"]), "scene cache above the memory limit")
     if overlay == "cpu":
         test.assertEqual(c["image"], "pointforward/pf-worker:dev")
-        test.assertEqual(flag_value(args, "--device"), "cpu")
+        test.assertEqual(env["PF_DEVICE"]["value"], "cpu")
         test.assertNotIn("nvidia.com/gpu", resources["limits"])
     else:
         test.assertEqual(c["image"], "pointforward/pf-worker-gpu:dev")
-        test.assertEqual(flag_value(args, "--device"), "cuda:0")
+        test.assertEqual(env["PF_DEVICE"]["value"], "cuda:0")
         test.assertEqual(int(resources["limits"]["nvidia.com/gpu"]), 1)
         test.assertEqual(pod["nodeSelector"], {"nvidia.com/gpu.present": "true"})
         test.assertIn("nvidia.com/gpu", [t["key"] for t in pod["tolerations"]])
@@ -407,7 +419,8 @@ class KustomizeTest(unittest.TestCase):
                 theirs = {(o["kind"], o["metadata"]["name"]): o for o in objects}
                 self.assertEqual(set(own), set(theirs))
                 for key in (("Deployment", "pf-server"), ("Deployment", "pf-worker")):
-                    self.assertEqual(own[key]["spec"]["template"], theirs[key]["spec"]["template"], key)
+                    self.assertEqual(keyed_by_name(own[key]["spec"]["template"]),
+                                     keyed_by_name(theirs[key]["spec"]["template"]), key)
 
     def test_scaler_query_matches_store_schema(self):
         objects = kustomize(src("deploy", "k8s", "base"))
@@ -426,6 +439,9 @@ class KustomizeTest(unittest.TestCase):
         self.assertIsNotNone(task_states, "server/store/job_store.cc: no TaskStateName")
         for state in states:
             self.assertIn(f'"{state}"', task_states.group(1))
+        # pf_queue_depth (the store's CountQueuedTasks) is the QUEUED part of
+        # the same count, as docs/DEPLOY.md says.
+        self.assertRegex(schema, r"SELECT COUNT\(\*\) FROM " + table + r" WHERE " + column + r" = 'QUEUED'")
 
     def test_scaling_rule(self):
         # workers = ceil(outstanding / target), clamped: the rule of
@@ -473,8 +489,9 @@ class ComposeTest(unittest.TestCase):
         self.assertEqual(worker["environment"]["PF_SERVER"], "pf-server:50051")
         self.assertNotIn("ports", worker, "replicated workers cannot publish a host port")
         self.assertEqual(worker["stop_grace_period"], "10m")
+        self.assertEqual(worker["environment"]["PF_DEVICE"], "cpu")
         flags = {row["flag"] for row in settings_table() if row["program"] == "pf-worker"}
-        for word in worker["command"]:
+        for word in worker.get("command", []):
             if word.startswith("--"):
                 self.assertIn(word, flags)
 
@@ -650,11 +667,17 @@ class SettingsTableTest(unittest.TestCase):
         self.assertEqual(len(flags), len(set(flags)), f"{program}: a flag is in the table twice")
         self.assertEqual(set(flags), help_flags(help_text),
                          f"{program}: table and --help differ")
+        # The same environment variables; where --help names one in a flag's
+        # entry (pf-server does; pf-worker lists them all in a paragraph), it
+        # is that flag's row.
+        self.assertEqual({row["env"] for row in rows if row["env"]},
+                         set(re.findall(r"\b(PF_[A-Z_]+)\b", help_text)),
+                         f"{program}: environment variables of the table and --help differ")
         for row in rows:
             entry = " ".join(help_entry(help_text, row["flag"]).split())
-            if row["env"]:
-                self.assertRegex(entry, r"\b" + row["env"] + r"\b",
-                                 f"{program} {row['flag']}: --help names another environment variable")
+            named = re.findall(r"\b(PF_[A-Z_]+)\b", entry)
+            if named:
+                self.assertEqual(named, [row["env"]], f"{program} {row['flag']}: environment variable")
             if row["default"]:
                 self.assertRegex(entry, r"default:? " + re.escape(row["default"]) + r"(?=[);,\s]|$)",
                                  f"{program} {row['flag']}: the table's default is not the --help one")
@@ -702,6 +725,173 @@ class MetricsDocTest(unittest.TestCase):
     def test_autoscaling_metric_is_documented_as_such(self):
         self.assertIn("pf_queue_depth", self.documented())
         self.assertIn("`pf_queue_depth` counts", read("docs", "DEPLOY.md"))
+
+
+def free_port():
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as sock:
+        sock.bind(("127.0.0.1", 0))
+        return sock.getsockname()[1]
+
+
+def http_get(port, path):
+    """(status, body) of GET http://127.0.0.1:port/path; status 0 when the
+    port does not answer."""
+    try:
+        with urllib.request.urlopen(f"http://127.0.0.1:{port}{path}", timeout=5) as response:
+            return response.status, response.read().decode()
+    except urllib.error.HTTPError as error:
+        return error.code, ""
+    except OSError:
+        return 0, ""
+
+
+def grpc_health_check(port):
+    """Status of grpc.health.v1.Health/Check for service "" (what a
+    Kubernetes `grpc:` probe asks), as the raw enum value (1 = SERVING).
+    The messages are encoded by hand: the request is empty, the response is
+    field 1 (status) as a varint."""
+    import grpc  # Debian's python3-grpcio; imported here so the other tests do not need it.
+    with grpc.insecure_channel(f"127.0.0.1:{port}") as channel:
+        check = channel.unary_unary("/grpc.health.v1.Health/Check",
+                                    request_serializer=lambda _: b"", response_deserializer=lambda raw: raw)
+        raw = check(None, timeout=5)
+    if raw == b"":
+        return 0  # UNKNOWN, the default value, is not encoded.
+    if len(raw) != 2 or raw[0] != 0x08:
+        raise AssertionError(f"unexpected HealthCheckResponse bytes {raw!r}")
+    return raw[1]
+
+
+def wait_until(predicate, seconds, what):
+    deadline = time.monotonic() + seconds
+    while time.monotonic() < deadline:
+        if predicate():
+            return
+        time.sleep(0.1)
+    raise AssertionError(f"timed out after {seconds} s waiting for {what}")
+
+
+def container_environment(container, substitutions):
+    """The container's env as a dict, each value taken from `substitutions`
+    when named there (for secret and field references, and cluster
+    addresses), else the manifest's literal value."""
+    env = {}
+    for entry in container.get("env", []):
+        name = entry["name"]
+        if name in substitutions:
+            env[name] = substitutions[name]
+        elif "value" in entry:
+            env[name] = str(entry["value"])
+        else:
+            raise AssertionError(f"{container['name']}: env {name} has no value and no substitution")
+    return env
+
+
+class ManifestSmokeTest(unittest.TestCase):
+    """Runs the real pf-server and pf-worker on loopback configured by the
+    environment of the cpu overlay's containers (only addresses, paths and
+    secrets substituted), and asks them what the overlay's probes ask: the
+    server's gRPC health, the worker's GET /healthz on its metrics port. Then
+    SIGTERM: both exit 0. The gpu overlay's worker settings are refused with
+    a message naming --device, as docs/DEPLOY.md says (until the CUDA path is
+    built)."""
+
+    def setUp(self):
+        for program in ("pf-server", "pf-worker"):
+            if not os.path.exists(os.path.join(BIN_DIR, program)):
+                self.skipTest(f"{os.path.join(BIN_DIR, program)} is not built")
+        self.tmp = tempfile.mkdtemp(prefix="pf-deploy-smoke-")
+        self.processes = []
+
+    def tearDown(self):
+        for process in self.processes:
+            if process.poll() is None:
+                process.kill()
+                process.wait()
+        shutil.rmtree(self.tmp, ignore_errors=True)
+
+    def start(self, program, env, log_name):
+        log = open(os.path.join(self.tmp, log_name), "w", encoding="utf-8")
+        self.addCleanup(log.close)
+        base = {k: v for k, v in os.environ.items() if not k.startswith("PF_")}
+        process = subprocess.Popen([os.path.join(BIN_DIR, program)] + env.pop("__args__", []),
+                                   env={**base, **env}, stdout=log, stderr=subprocess.STDOUT)
+        self.processes.append(process)
+        return process
+
+    def log(self, name):
+        with open(os.path.join(self.tmp, name), encoding="utf-8") as f:
+            return f.read()
+
+    def rendered(self, overlay):
+        return {(o["kind"], o["metadata"]["name"]): o for o in kustomize(src("deploy", "k8s", "overlays", overlay))}
+
+    def test_cpu_overlay_settings_run_and_answer_the_probes(self):
+        objects = self.rendered("cpu")
+        server_container = pod_containers(objects[("Deployment", "pf-server")])[0]
+        worker_container = pod_containers(objects[("Deployment", "pf-worker")])[0]
+
+        metrics_port = free_port()
+        port_file = os.path.join(self.tmp, "port")
+        server_env = container_environment(server_container, {
+            "PF_LISTEN": "127.0.0.1:0",
+            "PF_METRICS_LISTEN": f"127.0.0.1:{metrics_port}",
+            "PF_STORE": "sqlite:" + os.path.join(self.tmp, "jobs.db"),
+            "PF_BLOBS": os.path.join(self.tmp, "blobs"),
+        })
+        server_env["__args__"] = ["--port-file", port_file]
+        server = self.start("pf-server", server_env, "server.log")
+        wait_until(lambda: os.path.exists(port_file) or server.poll() is not None, 30, "pf-server's port file")
+        self.assertIsNone(server.poll(), self.log("server.log"))
+        with open(port_file, encoding="utf-8") as f:
+            grpc_port = int(f.read())
+
+        # The server's probes: gRPC health on the port the manifest probes
+        # (50051 there, the bound port here), and its metrics.
+        self.assertEqual(server_container["readinessProbe"]["grpc"]["port"], 50051)
+        self.assertEqual(grpc_health_check(grpc_port), 1, "grpc.health.v1 is not SERVING")
+        wait_until(lambda: http_get(metrics_port, "/metrics")[0] == 200, 10, "the server's /metrics")
+        status, body = http_get(metrics_port, "/metrics")
+        self.assertRegex(body, r'(?m)^pf_queue_depth\{kind="render"\} 0$')
+
+        worker_metrics = free_port()
+        worker_env = container_environment(worker_container, {
+            "PF_SERVER": f"127.0.0.1:{grpc_port}",
+            "PF_METRICS_LISTEN": f"127.0.0.1:{worker_metrics}",
+            "PF_WORKER_ID": "pf-worker-smoke-0",
+            "PF_WORK_DIR": os.path.join(self.tmp, "work"),
+        })
+        worker = self.start("pf-worker", worker_env, "worker.log")
+        probe = worker_container["livenessProbe"]["httpGet"]
+        self.assertEqual(probe["port"], "metrics")
+        wait_until(lambda: http_get(worker_metrics, probe["path"])[0] == 200 or worker.poll() is not None, 30,
+                   f"the worker's {probe['path']}")
+        self.assertIsNone(worker.poll(), self.log("worker.log"))
+        self.assertEqual(http_get(worker_metrics, "/metrics")[0], 200)
+        self.assertRegex(http_get(worker_metrics, "/metrics")[1], r"(?m)^pf_scene_cache_bytes 0$")
+
+        # Graceful shutdown: an idle worker and the server exit 0 on SIGTERM.
+        for process, name, seconds in ((worker, "worker.log", 20), (server, "server.log", 20)):
+            process.send_signal(signal.SIGTERM)
+            try:
+                code = process.wait(timeout=seconds)
+            except subprocess.TimeoutExpired:
+                self.fail(f"no exit {seconds} s after SIGTERM:\n{self.log(name)}")
+            self.assertEqual(code, 0, self.log(name))
+        self.assertIn("pf-worker-smoke-0", self.log("worker.log"))
+
+    def test_gpu_overlay_device_is_refused_until_the_cuda_path_exists(self):
+        worker_container = pod_containers(self.rendered("gpu")[("Deployment", "pf-worker")])[0]
+        env = container_environment(worker_container, {
+            "PF_SERVER": "127.0.0.1:1",
+            "PF_METRICS_LISTEN": f"127.0.0.1:{free_port()}",
+            "PF_WORKER_ID": "pf-worker-gpu-0",
+            "PF_WORK_DIR": os.path.join(self.tmp, "work"),
+        })
+        self.assertEqual(env["PF_DEVICE"], "cuda:0")
+        worker = self.start("pf-worker", env, "gpu.log")
+        self.assertEqual(worker.wait(timeout=20), 2)
+        self.assertIn("--device: 'cuda:0' is not available", self.log("gpu.log"))
 
 
 def main():

@@ -18,6 +18,7 @@
 #include "absl/strings/str_cat.h"
 #include "common/file_util.h"
 #include "common/logging.h"
+#include "common/metrics.h"
 #include "common/status_macros.h"
 #include "pointforward/v1/worker.grpc.pb.h"
 #include "pointforward/v1/worker.pb.h"
@@ -136,7 +137,34 @@ class Worker {
   grpc::ClientContext* lease_context_ = nullptr;  // Guarded by lease_mu_.
 };
 
+// pf-worker's Prometheus metrics (docs/DEPLOY.md).
+struct WorkerMetrics {
+  explicit WorkerMetrics(MetricsRegistry& registry)
+      : cache_hits(registry.Counter("pf_scene_cache_hits_total",
+                                    "Render chunks whose scene was already in memory.")),
+        cache_misses(registry.Counter("pf_scene_cache_misses_total",
+                                      "Render chunks that had to download and open their scene.")),
+        heartbeats(registry.Counter("pf_worker_heartbeats_total", "Heartbeats sent.")),
+        busy(registry.Gauge("pf_worker_busy", "1 while the worker runs a task, else 0.")) {}
+  pf::Counter& Tasks(const pb::Task& task, const std::string& outcome) {
+    return DefaultMetrics().Counter("pf_worker_tasks_total", "Tasks this worker ran, by outcome.",
+                                    {{"kind", task.has_reconstruct() ? "reconstruct" : "render"},
+                                     {"outcome", outcome}});
+  }
+  pf::Counter& cache_hits;
+  pf::Counter& cache_misses;
+  pf::Counter& heartbeats;
+  pf::Gauge& busy;
+};
+
+WorkerMetrics& Metrics() {
+  static WorkerMetrics* metrics = new WorkerMetrics(DefaultMetrics());
+  return *metrics;
+}
+
 int Worker::Run() {
+  DefaultMetrics().CallbackGauge("pf_scene_cache_bytes", "Bytes of scenes held in memory.", {},
+                                 [this] { return static_cast<double>(cache_.bytes()); });
   if (const absl::Status status = EmptyWorkDir(); !status.ok()) {
     spdlog::error("work dir {}: {}", options_.work_dir, std::string(status.message()));
     return 1;
@@ -272,6 +300,7 @@ void Worker::RunTask(const pb::Task& task) {
       absl::StrCat(options_.work_dir, "/", FileNameSafe(task.task_id()), "-", task.attempt());
 
   TaskState state;
+  Metrics().busy.Set(1);
   std::thread runner([&] {
     Execute(task, dir, *log, &state);
     std::lock_guard<std::mutex> lock(state.mu);
@@ -296,6 +325,7 @@ void Worker::RunTask(const pb::Task& task) {
                 std::max<std::chrono::milliseconds>(2 * heartbeat_every, std::chrono::seconds(5)));
     pb::HeartbeatResponse response;
     const grpc::Status status = stub_->Heartbeat(&context, request, &response);
+    Metrics().heartbeats.Inc();
     if (status.ok()) {
       ServerUp();
       if (response.cancelled()) {
@@ -318,10 +348,15 @@ void Worker::RunTask(const pb::Task& task) {
   lock.unlock();
   runner.join();
 
-  if (!dropped) Report(task, &state, *log);
+  if (!dropped) {
+    Report(task, &state, *log);
+  } else {
+    Metrics().Tasks(task, "dropped").Inc();
+  }
   std::error_code error;
   fs::remove_all(dir, error);
   if (error) log->warn("cannot remove {}: {}", dir, error.message());
+  Metrics().busy.Set(0);
 }
 
 void Worker::Execute(const pb::Task& task, const std::string& dir, spdlog::logger& log,
@@ -372,6 +407,7 @@ absl::Status Worker::Render(const pb::Task& task, const std::string& dir, spdlog
   const auto start = Clock::now();
   std::shared_ptr<const OpenedScene> scene = cache_.Get(work.scene());
   if (scene != nullptr) {
+    Metrics().cache_hits.Inc();
     log.info("scene cache hit {}", work.scene());
   } else {
     if (work.scene_file().sha256().empty()) {
@@ -384,6 +420,7 @@ absl::Status Worker::Render(const pb::Task& task, const std::string& dir, spdlog
     ASSIGN_OR_RETURN(OpenedScene opened, OpenScene(path));
     const size_t gaussians = opened.scene.size();
     scene = cache_.Put(work.scene(), std::move(opened));
+    Metrics().cache_misses.Inc();
     log.info("scene cache miss {}: downloaded and opened {} gaussians in {:.2f} s", work.scene(),
              gaussians, SecondsSince(start));
   }
@@ -443,6 +480,7 @@ void Worker::Report(const pb::Task& task, TaskState* state, spdlog::logger& log)
     if (status.ok()) {
       ServerUp();
       if (outcome.ok()) log.info("task {} attempt {} completed", task.task_id(), task.attempt());
+      Metrics().Tasks(task, outcome.ok() ? "succeeded" : "failed").Inc();
       return;
     }
     if (status.error_code() == grpc::StatusCode::FAILED_PRECONDITION) {

@@ -1,18 +1,23 @@
 // pf-worker: pulls reconstruction and render tasks from pf-server and runs
 // them on the engine (worker_loop.h). This file parses the flags and wires
 // SIGTERM / SIGINT to a clean stop.
+#include <algorithm>
 #include <atomic>
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
+#include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
+#include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
 #include "common/command_line.h"
 #include "common/logging.h"
+#include "common/metrics_http.h"
 #include "common/status_macros.h"
 #include "worker/worker_loop.h"
 
@@ -34,8 +39,38 @@ running task.
   --lease-wait-ms N    how long one lease request waits for work (default 5000)
   --stage-delay-ms N   test hook: sleep N ms at every progress report of a task, so a
                        test can stop a worker in the middle of one (default 0)
+  --metrics-listen H:P serve Prometheus metrics on http://H:P/metrics (default off)
   --help               print this text
+
+Each flag may also come from the environment: PF_SERVER, PF_DEVICE,
+PF_CACHE_BYTES, PF_WORK_DIR, PF_WORKER_ID, PF_HEARTBEAT_MS, PF_LEASE_WAIT_MS,
+PF_STAGE_DELAY_MS, PF_METRICS_LISTEN; the flag wins.
 )";
+
+// Environment variables standing in for flags that were not given.
+constexpr std::pair<const char*, const char*> kEnvFallbacks[] = {
+    {"server", "PF_SERVER"},         {"device", "PF_DEVICE"},
+    {"cache-bytes", "PF_CACHE_BYTES"}, {"work-dir", "PF_WORK_DIR"},
+    {"id", "PF_WORKER_ID"},          {"heartbeat-ms", "PF_HEARTBEAT_MS"},
+    {"lease-wait-ms", "PF_LEASE_WAIT_MS"}, {"stage-delay-ms", "PF_STAGE_DELAY_MS"},
+    {"metrics-listen", "PF_METRICS_LISTEN"}};
+
+// `words` with "--flag value" appended for every fallback variable set
+// whose flag is absent.
+std::vector<std::string> WithEnvironment(std::vector<std::string> words) {
+  for (const auto& [flag, env] : kEnvFallbacks) {
+    const std::string dashed = absl::StrCat("--", flag);
+    const bool given = std::any_of(words.begin(), words.end(), [&](const std::string& w) {
+      return w == dashed || absl::StartsWith(w, dashed + "=");
+    });
+    const char* value = std::getenv(env);
+    if (!given && value != nullptr && *value != '\0') {
+      words.push_back(dashed);
+      words.push_back(value);
+    }
+  }
+  return words;
+}
 
 std::atomic<bool> g_stop{false};
 
@@ -58,8 +93,7 @@ absl::StatusOr<pf::WorkerOptions> ParseFlags(const pf::CommandLine& cl) {
         absl::StrCat("unexpected argument '", cl.positional()[0], "'"));
   }
   pf::WorkerOptions options;
-  const char* env_server = std::getenv("PF_SERVER");
-  options.server = cl.Get("server", env_server != nullptr ? env_server : "");
+  options.server = cl.Get("server");
   if (options.server.empty()) {
     return absl::InvalidArgumentError(
         "--server: required (or set PF_SERVER), e.g. localhost:50051");
@@ -95,11 +129,11 @@ absl::StatusOr<pf::WorkerOptions> ParseFlags(const pf::CommandLine& cl) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  const std::vector<std::string> words(argv + 1, argv + argc);
+  const std::vector<std::string> words = WithEnvironment({argv + 1, argv + argc});
   absl::StatusOr<pf::CommandLine> cl =
       pf::CommandLine::Parse(words,
                              {"server", "device", "cache-bytes", "work-dir", "id", "heartbeat-ms",
-                              "lease-wait-ms", "stage-delay-ms"},
+                              "lease-wait-ms", "stage-delay-ms", "metrics-listen"},
                              {"help"});
   if (cl.ok() && cl->Has("help")) {
     std::fputs(kUsage, stdout);
@@ -113,6 +147,14 @@ int main(int argc, char** argv) {
     return 2;
   }
   pf::InitLogging();
+  std::unique_ptr<pf::MetricsHttpServer> metrics;
+  if (cl->Has("metrics-listen")) {
+    metrics = std::make_unique<pf::MetricsHttpServer>(cl->Get("metrics-listen"));
+    if (const absl::Status started = metrics->Start(); !started.ok()) {
+      std::fprintf(stderr, "pf-worker: %s\n", std::string(started.message()).c_str());
+      return 2;
+    }
+  }
   std::signal(SIGTERM, OnSignal);
   std::signal(SIGINT, OnSignal);
   return pf::RunWorker(*options, &g_stop);
