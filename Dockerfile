@@ -59,6 +59,8 @@ RUN groupadd --gid 10001 pf \
  && mkdir -p /var/lib/pf/blobs \
  && chown -R 10001:10001 /var/lib/pf
 WORKDIR /var/lib/pf
+# By name here; the Kubernetes manifests also set runAsUser: 10001, since
+# runAsNonRoot can only verify a numeric user.
 USER pf
 # Metrics of either process: Prometheus text at http://HOST:9090/metrics.
 ENV PF_METRICS_LISTEN=0.0.0.0:9090

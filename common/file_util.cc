@@ -4,11 +4,13 @@
 #include <unistd.h>
 
 #include <atomic>
+#include <cctype>
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <random>
 #include <sstream>
 
 #include "absl/strings/str_cat.h"
@@ -29,11 +31,26 @@ absl::StatusOr<std::string> ReadFileToString(const std::string& path) {
   return std::move(buffer).str();
 }
 
+const std::string& ProcessToken() {
+  static const std::string token = [] {
+    char host[256] = {};
+    if (gethostname(host, sizeof(host) - 1) != 0) host[0] = '\0';
+    std::random_device random;
+    std::string name;
+    for (const char* c = host; *c != '\0' && name.size() < 32; ++c) {
+      name += std::isalnum(static_cast<unsigned char>(*c)) ? *c : '_';
+    }
+    return absl::StrCat(name.empty() ? "host" : name, "-", ::getpid(), "-",
+                        absl::Hex(random(), absl::kZeroPad8));
+  }();
+  return token;
+}
+
 std::string TempPathFor(const std::string& path) {
   static std::atomic<int> counter{0};
   const fs::path p(path);
   return (p.parent_path() /
-          absl::StrCat(".pf-tmp-", ::getpid(), "-", counter++, "-", p.filename().string()))
+          absl::StrCat(".pf-tmp-", ProcessToken(), "-", counter++, "-", p.filename().string()))
       .string();
 }
 

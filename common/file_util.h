@@ -26,6 +26,10 @@ absl::Status WriteFileAtomic(const std::string& path, std::string_view contents)
 // end, so libraries that pick a format by extension still do.
 std::string TempPathFor(const std::string& path);
 
+// A name for this process unique across machines and containers sharing a
+// volume (where every process may be PID 1): "<hostname>-<pid>-<random>".
+const std::string& ProcessToken();
+
 // Renames `temp_path` to `path`; removes `temp_path` and returns an error
 // naming `path` if that fails.
 absl::Status CommitTempFile(const std::string& temp_path, const std::string& path);

@@ -60,7 +60,8 @@ absl::Status ValidateStaged(const std::string& manifest_path, const std::string&
 }
 
 absl::StatusOr<AcceptedClip> AcceptUploaded(const v1::UploadedClip& uploaded, BlobStore& blobs,
-                                            const std::string& staging_root) {
+                                            const std::string& staging_root,
+                                            const ClipLimits& limits) {
   const std::string& manifest_sha = uploaded.manifest().sha256();
   if (!IsValidSha256Hex(manifest_sha)) {
     return absl::InvalidArgumentError(
@@ -87,6 +88,7 @@ absl::StatusOr<AcceptedClip> AcceptUploaded(const v1::UploadedClip& uploaded, Bl
         absl::StrCat("clip.uploaded.manifest: ",
                      lines.empty() ? std::string(loaded.status().message()) : absl::StrJoin(lines, "\n")));
   }
+  RETURN_IF_ERROR(CheckClipLimits(loaded->clip, limits));
   std::map<std::string, std::string> referenced;  // path -> field
   for (const ClipFileRef& ref : ReferencedFiles(loaded->clip)) referenced[ref.path] = ref.field;
   for (const auto& [path, digest] : uploaded.files()) {
@@ -162,8 +164,14 @@ absl::StatusOr<std::string> ResolveTrustedUri(const std::string& uri,
 
 absl::StatusOr<AcceptedClip> AcceptUri(const std::string& uri, BlobStore& blobs,
                                        const std::vector<std::string>& roots,
-                                       const std::string& staging_dir) {
+                                       const std::string& staging_dir, const ClipLimits& limits) {
   ASSIGN_OR_RETURN(const std::string manifest_path, ResolveTrustedUri(uri, roots));
+  // The limits first, from the manifest alone: no image is read before.
+  {
+    std::vector<ClipProblem> problems;
+    absl::StatusOr<LoadedClip> manifest = LoadClip(manifest_path, &problems);
+    if (manifest.ok()) RETURN_IF_ERROR(CheckClipLimits(manifest->clip, limits));
+  }
   // The validator refuses paths that leave the clip's directory, and the
   // directory is under a trusted root, so every file read is too.
   RETURN_IF_ERROR(ValidateStaged(manifest_path, "clip"));
@@ -180,19 +188,40 @@ absl::StatusOr<AcceptedClip> AcceptUri(const std::string& uri, BlobStore& blobs,
     out.set_size_bytes(digest.size_bytes);
   }
   // Checked once more from the blob store: what was hashed is what is used.
-  return AcceptUploaded(uploaded, blobs, staging_dir);
+  return AcceptUploaded(uploaded, blobs, staging_dir, limits);
 }
 
 }  // namespace
 
+absl::Status CheckClipLimits(const v1::Clip& clip, const ClipLimits& limits) {
+  if (limits.max_images_per_clip > 0 && clip.frames_size() > limits.max_images_per_clip) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "clip: ", clip.frames_size(), " images exceed the limit of ", limits.max_images_per_clip,
+        " per clip (--max-images-per-clip)"));
+  }
+  if (limits.max_pixels_per_image > 0) {
+    for (int i = 0; i < clip.cameras_size(); ++i) {
+      const v1::Camera& camera = clip.cameras(i);
+      const int64_t pixels = int64_t{camera.width()} * int64_t{camera.height()};
+      if (pixels > limits.max_pixels_per_image) {
+        return absl::InvalidArgumentError(absl::StrCat(
+            "clip.cameras[", i, "]: ", camera.width(), "x", camera.height(), " = ", pixels,
+            " pixels per image exceed the limit of ", limits.max_pixels_per_image,
+            " (--max-pixels-per-image)"));
+      }
+    }
+  }
+  return absl::OkStatus();
+}
+
 absl::StatusOr<AcceptedClip> AcceptClip(const v1::ClipSource& source, BlobStore& blobs,
                                         const std::vector<std::string>& trusted_roots,
-                                        const std::string& staging_dir) {
+                                        const std::string& staging_dir, const ClipLimits& limits) {
   switch (source.source_case()) {
     case v1::ClipSource::kUploaded:
-      return AcceptUploaded(source.uploaded(), blobs, staging_dir);
+      return AcceptUploaded(source.uploaded(), blobs, staging_dir, limits);
     case v1::ClipSource::kUri:
-      return AcceptUri(source.uri(), blobs, trusted_roots, staging_dir);
+      return AcceptUri(source.uri(), blobs, trusted_roots, staging_dir, limits);
     default:
       return absl::InvalidArgumentError("clip: missing; set clip.uploaded or clip.uri");
   }

@@ -12,10 +12,12 @@
 #ifndef POINTFORWARD_SERVER_CLIP_INTAKE_H_
 #define POINTFORWARD_SERVER_CLIP_INTAKE_H_
 
+#include <cstdint>
 #include <string>
 #include <vector>
 
 #include "absl/status/statusor.h"
+#include "pointforward/v1/clip.pb.h"
 #include "pointforward/v1/resources.pb.h"
 #include "server/blobs/blob_store.h"
 
@@ -26,16 +28,29 @@ struct AcceptedClip {
   std::string summary;                      // ClipSummary::ToString().
 };
 
+// Limits on what one clip may hold (pf-server flags); 0 means no limit.
+struct ClipLimits {
+  int64_t max_images_per_clip = 1000;         // --max-images-per-clip: frames.
+  int64_t max_pixels_per_image = 50'000'000;  // --max-pixels-per-image: camera width x height.
+};
+
+// INVALID_ARGUMENT naming the limit and its flag when `clip` exceeds
+// `limits`, e.g. "clip: 400 images exceed the limit of 256 per clip
+// (--max-images-per-clip)". Looks at the manifest only.
+absl::Status CheckClipLimits(const pointforward::v1::Clip& clip, const ClipLimits& limits);
+
 // Checks `source` and returns the clip as blobs. Errors are INVALID_ARGUMENT
 // naming the field: "clip.uploaded.manifest: blob ... not uploaded",
 // "clip.uploaded.files[\"../x\"]: ...", "clip.uri: ... not under a trusted
 // root", or "clip: 2 problems\nframes[0].image: ..." with the validator's
 // findings; FAILED_PRECONDITION for a file:// URI when no root is trusted.
-// `staging_dir` is a scratch directory (created and removed here).
+// `limits` are checked on the manifest before any other file is staged or
+// read. `staging_dir` is a scratch directory (created and removed here).
 absl::StatusOr<AcceptedClip> AcceptClip(const pointforward::v1::ClipSource& source,
                                         BlobStore& blobs,
                                         const std::vector<std::string>& trusted_roots,
-                                        const std::string& staging_dir);
+                                        const std::string& staging_dir,
+                                        const ClipLimits& limits = {});
 
 // Fills empty options with the engine defaults ("analytic", "softmax") and
 // checks them: INVALID_ARGUMENT naming options.model, options.fusion,

@@ -13,6 +13,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "rpc/grpc_status.h"
+#include "server/ownership.h"
 #include "spdlog/spdlog.h"
 
 namespace pf {
@@ -34,14 +35,19 @@ absl::StatusOr<std::optional<JobKind>> ParseFilter(const std::string& filter) {
 }  // namespace
 
 grpc::Status OperationsServiceImpl::ListOperations(
-    grpc::ServerContext*, const google::longrunning::ListOperationsRequest* request,
+    grpc::ServerContext* context, const google::longrunning::ListOperationsRequest* request,
     google::longrunning::ListOperationsResponse* response) {
+  absl::StatusOr<Caller> caller = core_->CallerOf(*context);
+  if (!caller.ok()) return ToGrpc(caller.status());
   absl::StatusOr<std::optional<JobKind>> kind = ParseFilter(request->filter());
   if (!kind.ok()) return ToGrpc(kind.status());
   absl::StatusOr<int> page_size = PageSize(request->page_size());
   if (!page_size.ok()) return ToGrpc(page_size.status());
+  // An admin lists every operation; anyone else those it may see.
   absl::StatusOr<Page<JobRecord>> page =
-      core_->store().ListJobs(*kind, *page_size, request->page_token());
+      caller->admin()
+          ? core_->store().ListJobs(*kind, *page_size, request->page_token())
+          : core_->store().ListJobsOf(caller->owner, *kind, *page_size, request->page_token());
   if (!page.ok()) return ToGrpc(page.status());
   for (const JobRecord& job : page->items) {
     absl::StatusOr<Operation> op = core_->OperationFor(job);
@@ -53,12 +59,17 @@ grpc::Status OperationsServiceImpl::ListOperations(
 }
 
 grpc::Status OperationsServiceImpl::GetOperation(
-    grpc::ServerContext*, const google::longrunning::GetOperationRequest* request,
+    grpc::ServerContext* context, const google::longrunning::GetOperationRequest* request,
     Operation* response) {
+  absl::StatusOr<Caller> caller = core_->CallerOf(*context);
+  if (!caller.ok()) return ToGrpc(caller.status());
   absl::StatusOr<std::string> id = ParseResourceName(request->name(), "operations", "name");
   if (!id.ok()) return ToGrpc(id.status());
   absl::StatusOr<JobRecord> job = core_->store().GetJob(*id);
   if (!job.ok()) return ToGrpc(job.status());
+  if (absl::Status ok = CheckCanSeeJob(*caller, *job, core_->store(), request->name()); !ok.ok()) {
+    return ToGrpc(ok);
+  }
   absl::StatusOr<Operation> op = core_->OperationFor(*job);
   if (!op.ok()) return ToGrpc(op.status());
   *response = *std::move(op);
@@ -66,17 +77,26 @@ grpc::Status OperationsServiceImpl::GetOperation(
 }
 
 grpc::Status OperationsServiceImpl::DeleteOperation(
-    grpc::ServerContext*, const google::longrunning::DeleteOperationRequest*,
+    grpc::ServerContext* context, const google::longrunning::DeleteOperationRequest*,
     google::protobuf::Empty*) {
+  absl::StatusOr<Caller> caller = core_->CallerOf(*context);
+  if (!caller.ok()) return ToGrpc(caller.status());
   return ToGrpc(absl::UnimplementedError(
       "DeleteOperation: operations live as long as their scene or render job"));
 }
 
 grpc::Status OperationsServiceImpl::CancelOperation(
-    grpc::ServerContext*, const google::longrunning::CancelOperationRequest* request,
+    grpc::ServerContext* context, const google::longrunning::CancelOperationRequest* request,
     google::protobuf::Empty*) {
+  absl::StatusOr<Caller> caller = core_->CallerOf(*context);
+  if (!caller.ok()) return ToGrpc(caller.status());
   absl::StatusOr<std::string> id = ParseResourceName(request->name(), "operations", "name");
   if (!id.ok()) return ToGrpc(id.status());
+  absl::StatusOr<JobRecord> owned = core_->store().GetJob(*id);
+  if (!owned.ok()) return ToGrpc(owned.status());
+  if (absl::Status ok = CheckCanCancelJob(*caller, *owned, request->name()); !ok.ok()) {
+    return ToGrpc(ok);
+  }
   absl::StatusOr<JobRecord> job = core_->store().CancelJob(*id, core_->NowMs());
   if (!job.ok()) return ToGrpc(job.status());
   spdlog::info("CancelOperation {}: now {}", request->name(), JobStateName(job->state));
@@ -86,8 +106,16 @@ grpc::Status OperationsServiceImpl::CancelOperation(
 grpc::Status OperationsServiceImpl::WaitOperation(
     grpc::ServerContext* context, const google::longrunning::WaitOperationRequest* request,
     Operation* response) {
+  absl::StatusOr<Caller> caller = core_->CallerOf(*context);
+  if (!caller.ok()) return ToGrpc(caller.status());
   absl::StatusOr<std::string> id = ParseResourceName(request->name(), "operations", "name");
   if (!id.ok()) return ToGrpc(id.status());
+  if (absl::StatusOr<JobRecord> job = core_->store().GetJob(*id); job.ok()) {
+    if (absl::Status ok = CheckCanSeeJob(*caller, *job, core_->store(), request->name());
+        !ok.ok()) {
+      return ToGrpc(ok);
+    }
+  }
   int64_t wait_ms = kMaxWaitMs;
   if (request->has_timeout()) {
     wait_ms = std::clamp<int64_t>(

@@ -10,6 +10,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "rpc/grpc_status.h"
+#include "server/ownership.h"
 #include "spdlog/spdlog.h"
 #include "worker/engine/render/render_outputs.h"
 #include "worker/engine/render/views.h"
@@ -46,9 +47,11 @@ absl::Status CheckViews(const v1::RenderViews& views, const v1::Scene& scene, in
 
 }  // namespace
 
-grpc::Status RenderServiceImpl::CreateRenderJob(grpc::ServerContext*,
+grpc::Status RenderServiceImpl::CreateRenderJob(grpc::ServerContext* context,
                                                 const v1::CreateRenderJobRequest* request,
                                                 google::longrunning::Operation* response) {
+  absl::StatusOr<Caller> caller = core_->CallerOf(*context);
+  if (!caller.ok()) return ToGrpc(caller.status());
   if (request->request_id().size() > 128) {
     return ToGrpc(absl::InvalidArgumentError("request_id: longer than 128 characters"));
   }
@@ -62,6 +65,8 @@ grpc::Status RenderServiceImpl::CreateRenderJob(grpc::ServerContext*,
         absl::StrCat("chunk_frames: must be >= 0, got ", request->chunk_frames())));
   }
 
+  if (absl::Status limit = core_->CheckJobLimit(caller->owner); !limit.ok()) return ToGrpc(limit);
+
   // The scene: named, or created from a clip (or found in the cache).
   std::string scene_id;
   switch (request->target_case()) {
@@ -69,11 +74,15 @@ grpc::Status RenderServiceImpl::CreateRenderJob(grpc::ServerContext*,
       absl::StatusOr<std::string> id = ParseResourceName(request->scene(), "scenes", "scene");
       if (!id.ok()) return ToGrpc(id.status());
       scene_id = *id;
+      if (absl::Status ok = CheckCanUseScene(*caller, scene_id, core_->store(), request->scene());
+          !ok.ok()) {
+        return ToGrpc(absl::Status(ok.code(), absl::StrCat("scene: ", ok.message())));
+      }
       break;
     }
     case v1::CreateRenderJobRequest::kCreateScene: {
       absl::StatusOr<CreateSceneOutcome> outcome =
-          core_->CreateScene(request->create_scene(), "");
+          core_->CreateScene(request->create_scene(), caller->owner);
       if (!outcome.ok()) {
         return ToGrpc(absl::Status(outcome.status().code(),
                                    absl::StrCat("create_scene.", outcome.status().message())));
@@ -116,9 +125,13 @@ grpc::Status RenderServiceImpl::CreateRenderJob(grpc::ServerContext*,
   bool same_request = false;
   absl::StatusOr<JobRecord> job =
       core_->store().CreateRenderJob(scene_id, request->request_id(), ToJson(stored), total, tasks,
-                                     "", core_->NowMs(), &same_request);
+                                     caller->owner, core_->NowMs(), &same_request);
   if (!job.ok()) {
     return ToGrpc(absl::Status(job.status().code(), absl::StrCat("scene: ", job.status().message())));
+  }
+  if (same_request && !CheckCanCancelJob(*caller, *job, "").ok()) {
+    return ToGrpc(absl::PermissionDeniedError(absl::StrCat(
+        "request_id: '", request->request_id(), "' names a request of another owner")));
   }
   spdlog::info("CreateRenderJob renderJobs/{}: {} views of scenes/{} in {} chunks{}", job->id, total,
                scene_id, tasks.size(), same_request ? " (same request_id as before)" : "");
@@ -128,14 +141,19 @@ grpc::Status RenderServiceImpl::CreateRenderJob(grpc::ServerContext*,
   return grpc::Status::OK;
 }
 
-grpc::Status RenderServiceImpl::GetRenderJob(grpc::ServerContext*,
+grpc::Status RenderServiceImpl::GetRenderJob(grpc::ServerContext* context,
                                              const v1::GetRenderJobRequest* request,
                                              v1::RenderJob* response) {
+  absl::StatusOr<Caller> caller = core_->CallerOf(*context);
+  if (!caller.ok()) return ToGrpc(caller.status());
   absl::StatusOr<std::string> id = ParseResourceName(request->name(), "renderJobs", "name");
   if (!id.ok()) return ToGrpc(id.status());
   absl::StatusOr<JobRecord> job = core_->store().GetJob(*id);
   if (!job.ok() || job->kind != JobKind::kRender) {
     return ToGrpc(absl::NotFoundError(absl::StrCat("name: ", request->name(), " not found")));
+  }
+  if (absl::Status ok = CheckCanCancelJob(*caller, *job, request->name()); !ok.ok()) {
+    return ToGrpc(ok);  // A render job is seen by its owner only, as it is cancelled.
   }
   absl::StatusOr<v1::RenderJob> out = core_->RenderJobFor(*job);
   if (!out.ok()) return ToGrpc(out.status());
@@ -143,13 +161,18 @@ grpc::Status RenderServiceImpl::GetRenderJob(grpc::ServerContext*,
   return grpc::Status::OK;
 }
 
-grpc::Status RenderServiceImpl::ListRenderJobs(grpc::ServerContext*,
+grpc::Status RenderServiceImpl::ListRenderJobs(grpc::ServerContext* context,
                                                const v1::ListRenderJobsRequest* request,
                                                v1::ListRenderJobsResponse* response) {
+  absl::StatusOr<Caller> caller = core_->CallerOf(*context);
+  if (!caller.ok()) return ToGrpc(caller.status());
   absl::StatusOr<int> page_size = PageSize(request->page_size());
   if (!page_size.ok()) return ToGrpc(page_size.status());
   absl::StatusOr<Page<JobRecord>> page =
-      core_->store().ListJobs(JobKind::kRender, *page_size, request->page_token());
+      caller->admin()
+          ? core_->store().ListJobs(JobKind::kRender, *page_size, request->page_token())
+          : core_->store().ListJobsOf(caller->owner, JobKind::kRender, *page_size,
+                                      request->page_token());
   if (!page.ok()) return ToGrpc(page.status());
   for (const JobRecord& job : page->items) {
     absl::StatusOr<v1::RenderJob> out = core_->RenderJobFor(job);

@@ -9,6 +9,7 @@
 #include "absl/strings/str_cat.h"
 #include "common/hash.h"
 #include "rpc/grpc_status.h"
+#include "server/ownership.h"
 #include "worker/engine/render/ply_io.h"
 #include "worker/engine/render/scene_file.h"
 
@@ -29,11 +30,18 @@ absl::StatusOr<int> PageSize(int requested) {
   return std::min(requested, 1000);
 }
 
-grpc::Status SceneServiceImpl::CreateScene(grpc::ServerContext*,
+grpc::Status SceneServiceImpl::CreateScene(grpc::ServerContext* context,
                                            const v1::CreateSceneRequest* request,
                                            google::longrunning::Operation* response) {
-  absl::StatusOr<CreateSceneOutcome> outcome = core_->CreateScene(*request, "");
+  absl::StatusOr<Caller> caller = core_->CallerOf(*context);
+  if (!caller.ok()) return ToGrpc(caller.status());
+  absl::StatusOr<CreateSceneOutcome> outcome = core_->CreateScene(*request, caller->owner);
   if (!outcome.ok()) return ToGrpc(outcome.status());
+  if (outcome->kind == CreateSceneOutcome::Kind::kSameRequest &&
+      !CheckCanSeeJob(*caller, outcome->job, core_->store(), "").ok()) {
+    return ToGrpc(absl::PermissionDeniedError(absl::StrCat(
+        "request_id: '", request->request_id(), "' names a request of another owner")));
+  }
   absl::StatusOr<google::longrunning::Operation> op = core_->OperationFor(
       outcome->job, outcome->kind == CreateSceneOutcome::Kind::kCacheHit);
   if (!op.ok()) return ToGrpc(op.status());
@@ -41,10 +49,15 @@ grpc::Status SceneServiceImpl::CreateScene(grpc::ServerContext*,
   return grpc::Status::OK;
 }
 
-grpc::Status SceneServiceImpl::GetScene(grpc::ServerContext*, const v1::GetSceneRequest* request,
-                                        v1::Scene* response) {
+grpc::Status SceneServiceImpl::GetScene(grpc::ServerContext* context,
+                                        const v1::GetSceneRequest* request, v1::Scene* response) {
+  absl::StatusOr<Caller> caller = core_->CallerOf(*context);
+  if (!caller.ok()) return ToGrpc(caller.status());
   absl::StatusOr<std::string> id = ParseResourceName(request->name(), "scenes", "name");
   if (!id.ok()) return ToGrpc(id.status());
+  if (absl::Status ok = CheckCanUseScene(*caller, *id, core_->store(), request->name()); !ok.ok()) {
+    return ToGrpc(ok);
+  }
   absl::StatusOr<SceneRecord> record = core_->store().GetScene(*id);
   if (!record.ok()) return ToGrpc(record.status());
   absl::StatusOr<v1::Scene> scene = core_->SceneFor(*record);
@@ -53,13 +66,18 @@ grpc::Status SceneServiceImpl::GetScene(grpc::ServerContext*, const v1::GetScene
   return grpc::Status::OK;
 }
 
-grpc::Status SceneServiceImpl::ListScenes(grpc::ServerContext*,
+grpc::Status SceneServiceImpl::ListScenes(grpc::ServerContext* context,
                                           const v1::ListScenesRequest* request,
                                           v1::ListScenesResponse* response) {
+  absl::StatusOr<Caller> caller = core_->CallerOf(*context);
+  if (!caller.ok()) return ToGrpc(caller.status());
   absl::StatusOr<int> page_size = PageSize(request->page_size());
   if (!page_size.ok()) return ToGrpc(page_size.status());
+  // An admin lists every scene; anyone else those it has access to.
   absl::StatusOr<Page<SceneRecord>> page =
-      core_->store().ListScenes(*page_size, request->page_token());
+      caller->admin()
+          ? core_->store().ListScenes(*page_size, request->page_token())
+          : core_->store().ListScenesOf(caller->owner, *page_size, request->page_token());
   if (!page.ok()) return ToGrpc(page.status());
   for (const SceneRecord& record : page->items) {
     absl::StatusOr<v1::Scene> scene = core_->SceneFor(record);
@@ -70,19 +88,29 @@ grpc::Status SceneServiceImpl::ListScenes(grpc::ServerContext*,
   return grpc::Status::OK;
 }
 
-grpc::Status SceneServiceImpl::DeleteScene(grpc::ServerContext*,
+grpc::Status SceneServiceImpl::DeleteScene(grpc::ServerContext* context,
                                            const v1::DeleteSceneRequest* request,
                                            google::protobuf::Empty*) {
+  absl::StatusOr<Caller> caller = core_->CallerOf(*context);
+  if (!caller.ok()) return ToGrpc(caller.status());
   absl::StatusOr<std::string> id = ParseResourceName(request->name(), "scenes", "name");
   if (!id.ok()) return ToGrpc(id.status());
+  if (absl::Status ok = CheckCanUseScene(*caller, *id, core_->store(), request->name()); !ok.ok()) {
+    return ToGrpc(ok);
+  }
   return ToGrpc(core_->store().DeleteScene(*id, core_->NowMs()));
 }
 
 grpc::Status SceneServiceImpl::ExportScene(grpc::ServerContext* context,
                                            const v1::ExportSceneRequest* request,
                                            grpc::ServerWriter<v1::ExportSceneChunk>* writer) {
+  absl::StatusOr<Caller> caller = core_->CallerOf(*context);
+  if (!caller.ok()) return ToGrpc(caller.status());
   absl::StatusOr<std::string> id = ParseResourceName(request->name(), "scenes", "name");
   if (!id.ok()) return ToGrpc(id.status());
+  if (absl::Status ok = CheckCanUseScene(*caller, *id, core_->store(), request->name()); !ok.ok()) {
+    return ToGrpc(ok);
+  }
   absl::StatusOr<SceneRecord> record = core_->store().GetScene(*id);
   if (!record.ok()) return ToGrpc(record.status());
   if (record->state != SceneState::kReady) {

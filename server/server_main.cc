@@ -13,6 +13,7 @@
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
+#include <limits>
 #include <memory>
 #include <string>
 #include <thread>
@@ -37,6 +38,7 @@ namespace pf {
 namespace {
 
 constexpr char kUsage[] = R"(usage: pf-server [flags]
+       pf-server hash-token < TOKEN    (prints the token file line's hash of TOKEN)
 
 Serves SceneService, RenderService, google.longrunning.Operations,
 BlobService and WorkerService on one port, with grpc.health.v1 and server
@@ -57,18 +59,56 @@ beside it; the flag wins.
   --max-views N            views per render job (PF_MAX_VIEWS; default 10000)
   --max-upload-bytes N     largest blob one upload may carry (PF_MAX_UPLOAD_BYTES;
                            default 1073741824)
+  --max-request-bytes N    largest gRPC message the server accepts; larger ones are
+                           refused with RESOURCE_EXHAUSTED (PF_MAX_REQUEST_BYTES;
+                           default 67108864; at least 2097152)
+  --max-images-per-clip N  frames (images) one clip may hold (PF_MAX_IMAGES_PER_CLIP;
+                           default 1000; 0 = no limit)
+  --max-pixels-per-image N width x height of a clip's cameras (PF_MAX_PIXELS_PER_IMAGE;
+                           default 50000000; 0 = no limit)
+  --max-gaussians N        Gaussians one reconstructed scene may hold; the worker fails a
+                           reconstruction over it (PF_MAX_GAUSSIANS; default 20000000;
+                           0 = no limit)
+  --max-jobs-per-owner N   unfinished jobs (scenes being built, render jobs) one owner may
+                           have (PF_MAX_JOBS_PER_OWNER; default 100; 0 = no limit)
   --metrics-listen HOST:PORT
                            serve Prometheus metrics on http://HOST:PORT/metrics
                            (PF_METRICS_LISTEN; default off)
   --port-file PATH         write the port actually bound to PATH (for scripts and tests)
   --log-level LEVEL        trace|debug|info|warn|error (PF_LOG_LEVEL; default info)
+  --auth-token-file PATH   bearer tokens callers must send, one '<sha256-hex> <owner>
+                           [admin|worker]' per line, re-read within 1 s of a change
+                           (PF_AUTH_TOKEN_FILE; default none: authentication off)
+  --tls-cert PEM           serve TLS with this certificate chain (PF_TLS_CERT; default
+                           none: plaintext); needs --tls-key
+  --tls-key PEM            the certificate's private key (PF_TLS_KEY)
+  --tls-client-ca PEM      mutual TLS: every client must present a certificate signed by
+                           this CA (PF_TLS_CLIENT_CA; default none); needs --tls-cert
 
 Stops cleanly on SIGTERM or SIGINT: in-flight calls get 5 s to finish.
 )";
 
+// Blob uploads travel in 1 MiB chunks: a request limit must let one through.
+constexpr int64_t kMinRequestBytes = int64_t{2} << 20;
+
 std::atomic<bool> g_stop{false};
 
 void OnSignal(int) { g_stop = true; }
+
+// `pf-server hash-token`: the token file hash of the token on stdin (one
+// line; surrounding whitespace ignored).
+int HashTokenCommand() {
+  std::string input;
+  char buffer[4096];
+  while (size_t read = std::fread(buffer, 1, sizeof(buffer), stdin)) input.append(buffer, read);
+  absl::StatusOr<std::string> hash = HashToken(absl::StripAsciiWhitespace(input));
+  if (!hash.ok()) {
+    std::fprintf(stderr, "pf-server hash-token: %s\n", std::string(hash.status().message()).c_str());
+    return 2;
+  }
+  std::printf("%s\n", hash->c_str());
+  return 0;
+}
 
 // The flag's value, else the environment variable's, else `fallback`.
 std::string Setting(const CommandLine& cl, const std::string& flag, const char* env,
@@ -112,6 +152,22 @@ absl::Status Run(const CommandLine& cl) {
   options.max_views = static_cast<int>(max_views);
   ASSIGN_OR_RETURN(options.max_upload_bytes,
                    IntSetting(cl, "max-upload-bytes", "PF_MAX_UPLOAD_BYTES", int64_t{1} << 30, 1));
+  ASSIGN_OR_RETURN(const int64_t max_request_bytes,
+                   IntSetting(cl, "max-request-bytes", "PF_MAX_REQUEST_BYTES", int64_t{64} << 20,
+                              kMinRequestBytes));
+  if (max_request_bytes > std::numeric_limits<int>::max()) {
+    return absl::InvalidArgumentError(absl::StrCat("--max-request-bytes: at most ",
+                                                   std::numeric_limits<int>::max(), ", got ",
+                                                   max_request_bytes));
+  }
+  ASSIGN_OR_RETURN(options.clip_limits.max_images_per_clip,
+                   IntSetting(cl, "max-images-per-clip", "PF_MAX_IMAGES_PER_CLIP", 1000, 0));
+  ASSIGN_OR_RETURN(options.clip_limits.max_pixels_per_image,
+                   IntSetting(cl, "max-pixels-per-image", "PF_MAX_PIXELS_PER_IMAGE", 50'000'000, 0));
+  ASSIGN_OR_RETURN(options.max_gaussians,
+                   IntSetting(cl, "max-gaussians", "PF_MAX_GAUSSIANS", 20'000'000, 0));
+  ASSIGN_OR_RETURN(options.max_jobs_per_owner,
+                   IntSetting(cl, "max-jobs-per-owner", "PF_MAX_JOBS_PER_OWNER", 100, 0));
 
   if (absl::StartsWith(store_spec, "sqlite:")) {
     const std::string path = store_spec.substr(7);
@@ -138,10 +194,18 @@ absl::Status Run(const CommandLine& cl) {
 
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
+  std::unique_ptr<Authenticator> authenticator;
+  if (const std::string path = Setting(cl, "auth-token-file", "PF_AUTH_TOKEN_FILE", "");
+      !path.empty()) {
+    ASSIGN_OR_RETURN(authenticator, Authenticator::FromFile(path));
+  }
+  ASSIGN_OR_RETURN(const std::shared_ptr<grpc::ServerCredentials> credentials,
+                   ServerCredentialsFromSettings(cl));
+
   grpc::ServerBuilder builder;
   int port = 0;
-  builder.AddListeningPort(listen, grpc::InsecureServerCredentials(), &port);
-  builder.SetMaxReceiveMessageSize(64 << 20);
+  builder.AddListeningPort(listen, credentials, &port);
+  builder.SetMaxReceiveMessageSize(static_cast<int>(max_request_bytes));
   builder.SetMaxSendMessageSize(64 << 20);
   builder.RegisterService(&scene_service);
   builder.RegisterService(&render_service);
@@ -193,7 +257,8 @@ int main(int argc, char** argv) {
   absl::StatusOr<pf::CommandLine> cl = pf::CommandLine::Parse(
       args, {"listen", "store", "blobs", "trusted-root", "lease-seconds", "max-attempts",
              "chunk-frames", "max-views", "max-upload-bytes", "port-file", "log-level",
-             "metrics-listen"});
+             "metrics-listen", "max-request-bytes", "max-images-per-clip", "max-pixels-per-image",
+             "max-gaussians", "max-jobs-per-owner"});
   if (!cl.ok() || !cl->positional().empty()) {
     std::fprintf(stderr, "pf-server: %s\n%s",
                  cl.ok() ? "unexpected arguments" : std::string(cl.status().message()).c_str(),

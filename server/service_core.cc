@@ -12,6 +12,7 @@
 
 #include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
+#include "common/file_util.h"
 #include "common/status_macros.h"
 #include "server/clip_intake.h"
 #include "server/server_metrics.h"
@@ -112,8 +113,13 @@ int64_t ServiceCore::NowMs() const {
       .count();
 }
 
+absl::StatusOr<Caller> ServiceCore::CallerOf(const grpc::ServerContext& context) {
+  if (options_.authenticator == nullptr) return Caller{"", Role::kAdmin};
+  return options_.authenticator->Authenticate(context);
+}
+
 std::string ServiceCore::NewScratchDir() {
-  return absl::StrCat(options_.scratch_dir, "/clip-", getpid(), "-", scratch_counter_++);
+  return absl::StrCat(options_.scratch_dir, "/clip-", ProcessToken(), "-", scratch_counter_++);
 }
 
 absl::StatusOr<CreateSceneOutcome> ServiceCore::CreateScene(const v1::CreateSceneRequest& request,
@@ -123,9 +129,15 @@ absl::StatusOr<CreateSceneOutcome> ServiceCore::CreateScene(const v1::CreateScen
   }
   ASSIGN_OR_RETURN(const v1::ReconstructionOptions options, NormalizeOptions(request.options()));
   ASSIGN_OR_RETURN(const AcceptedClip clip,
-                   AcceptClip(request.clip(), *blobs_, options_.trusted_roots, NewScratchDir()));
+                   AcceptClip(request.clip(), *blobs_, options_.trusted_roots, NewScratchDir(),
+                              options_.clip_limits));
   const std::string key = SceneCacheKey(clip.uploaded, options);
   const std::string scene_id = SceneIdForKey(key);
+  // A scene READY or being created adds no job; anything else may.
+  if (absl::StatusOr<SceneRecord> known = store_->GetScene(scene_id);
+      !known.ok() || known->state == SceneState::kFailed) {
+    RETURN_IF_ERROR(CheckJobLimit(owner));
+  }
 
   v1::Scene description;
   description.set_model(options.model());
@@ -137,6 +149,7 @@ absl::StatusOr<CreateSceneOutcome> ServiceCore::CreateScene(const v1::CreateScen
   reconstruct->set_scene(absl::StrCat("scenes/", scene_id));
   *reconstruct->mutable_clip() = clip.uploaded;
   *reconstruct->mutable_options() = options;
+  reconstruct->set_max_gaussians(options_.max_gaussians);
 
   v1::CreateSceneRequest stored = request;
   *stored.mutable_clip()->mutable_uploaded() = clip.uploaded;
@@ -287,6 +300,74 @@ absl::StatusOr<v1::Task> ServiceCore::TaskFor(const TaskLease& lease) {
     *task.mutable_render()->mutable_scene_file() = scene_proto.scene_file();
   }
   return task;
+}
+
+absl::Status ServiceCore::CheckJobLimit(const std::string& owner) {
+  if (options_.max_jobs_per_owner <= 0) return absl::OkStatus();
+  ASSIGN_OR_RETURN(const int unfinished, store_->CountUnfinishedJobs(owner));
+  if (unfinished < options_.max_jobs_per_owner) return absl::OkStatus();
+  return absl::ResourceExhaustedError(absl::StrCat(
+      "jobs: ", owner.empty() ? "this caller" : absl::StrCat("owner '", owner, "'"), " has ",
+      unfinished, " unfinished jobs, the limit of ", options_.max_jobs_per_owner,
+      " per owner (--max-jobs-per-owner); wait for some to end or cancel them"));
+}
+
+absl::Status ServiceCore::CheckSceneFile(const std::string& scene_id,
+                                         const v1::Digest& scene_file) {
+  const std::string& sha256 = scene_file.sha256();
+  {
+    std::lock_guard<std::mutex> lock(verified_mu_);
+    if (verified_scene_files_.count(sha256) > 0) return absl::OkStatus();
+  }
+  absl::Status intact = IsValidSha256Hex(sha256) && blobs_->Contains(sha256)
+                            ? blobs_->Verify(sha256)  // Removes a corrupt file.
+                            : absl::NotFoundError(absl::StrCat("blob ", sha256, " is missing"));
+  if (intact.ok()) {
+    std::lock_guard<std::mutex> lock(verified_mu_);
+    verified_scene_files_.insert(sha256);
+    return absl::OkStatus();
+  }
+  const std::string reason = absl::StrCat("scene file ", sha256, ": ", intact.message());
+  RETURN_IF_ERROR(RebuildScene(scene_id, reason));
+  return absl::DataLossError(reason);
+}
+
+absl::StatusOr<bool> ServiceCore::RebuildIfSceneFileLost(const std::string& scene_id) {
+  ASSIGN_OR_RETURN(const SceneRecord record, store_->GetScene(scene_id));
+  // Not READY: already being rebuilt (another chunk told first), and this
+  // chunk's lease ended with it.
+  if (record.state != SceneState::kReady) return false;
+  v1::Scene scene;
+  RETURN_IF_ERROR(FromJson(record.description, &scene, "stored scene"));
+  const std::string& sha256 = scene.scene_file().sha256();
+  {
+    std::lock_guard<std::mutex> lock(verified_mu_);
+    verified_scene_files_.erase(sha256);  // Check again: the worker saw it bad.
+  }
+  const absl::Status intact = CheckSceneFile(scene_id, scene.scene_file());
+  if (intact.ok()) return false;
+  if (intact.code() == absl::StatusCode::kDataLoss) return true;
+  return intact;
+}
+
+absl::Status ServiceCore::RebuildScene(const std::string& scene_id, const std::string& reason) {
+  ASSIGN_OR_RETURN(const SceneRecord record, store_->GetScene(scene_id));
+  v1::Scene old;
+  RETURN_IF_ERROR(FromJson(record.description, &old, "stored scene"));
+  {
+    std::lock_guard<std::mutex> lock(verified_mu_);
+    verified_scene_files_.erase(old.scene_file().sha256());
+  }
+  // What CreateScene stored before the first build: no statistics yet.
+  v1::Scene description;
+  description.set_model(old.model());
+  description.set_content_hash(old.content_hash());
+  *description.mutable_options() = old.options();
+  ASSIGN_OR_RETURN(const SceneRecord rebuilt,
+                   store_->RebuildScene(scene_id, reason, ToJson(description), NowMs()));
+  spdlog::warn("scenes/{}: {}; rebuilding it in operations/{}, its render jobs wait for it",
+               scene_id, reason, rebuilt.job_id);
+  return absl::OkStatus();
 }
 
 }  // namespace pf

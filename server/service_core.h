@@ -6,6 +6,8 @@
 
 #include <atomic>
 #include <cstdint>
+#include <mutex>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -14,7 +16,9 @@
 #include "pointforward/v1/service.pb.h"
 #include "pointforward/v1/worker.pb.h"
 #include "absl/status/statusor.h"
+#include "server/auth.h"
 #include "server/blobs/blob_store.h"
+#include "server/clip_intake.h"
 #include "server/store/job_store.h"
 
 namespace pf {
@@ -24,8 +28,12 @@ struct ServerOptions {
   int chunk_frames = 4;                    // Views per render chunk by default.
   int max_views = 10000;                   // Views per render job.
   int64_t max_upload_bytes = int64_t{1} << 30;
+  ClipLimits clip_limits;                  // --max-images-per-clip, --max-pixels-per-image.
+  int64_t max_gaussians = 20'000'000;      // Per scene; the worker checks (0: none).
+  int64_t max_jobs_per_owner = 100;        // Unfinished jobs per owner (0: none).
   int64_t max_lease_wait_ms = 10000;  // Longest LeaseTask long-poll.
   std::string scratch_dir;            // Staging of clips being checked.
+  Authenticator* authenticator = nullptr;  // --auth-token-file; null: authentication off.
 };
 
 class ServiceCore {
@@ -36,6 +44,11 @@ class ServiceCore {
   BlobStore& blobs() { return *blobs_; }
   const ServerOptions& options() const { return options_; }
   int64_t NowMs() const;
+
+  // Who makes the call (auth.h): UNAUTHENTICATED without a valid token when
+  // authentication is on; Caller{"", admin} when it is off. Every handler
+  // starts with it.
+  absl::StatusOr<Caller> CallerOf(const grpc::ServerContext& context);
 
   // CreateScene: checks the clip and options, computes the cache key, and
   // finds or starts the reconstruction.
@@ -54,13 +67,34 @@ class ServiceCore {
   // chunks, the job's views and the scene file.
   absl::StatusOr<pointforward::v1::Task> TaskFor(const TaskLease& lease);
 
+  // RESOURCE_EXHAUSTED naming --max-jobs-per-owner when `owner` ("" when
+  // authentication is off) has that many unfinished jobs already.
+  absl::Status CheckJobLimit(const std::string& owner);
+
+  // Integrity of READY scene `scene_id`'s file `scene_file`, checked against
+  // its hash at most once per process (then the workers' download check is
+  // relied on). OK when intact; when it is corrupt or missing, the file is
+  // dropped, the scene rebuilt (RebuildScene) and DATA_LOSS returned.
+  absl::Status CheckSceneFile(const std::string& scene_id,
+                              const pointforward::v1::Digest& scene_file);
+  // A worker failed a render chunk of `scene_id` with DATA_LOSS or
+  // NOT_FOUND (its scene file could not be downloaded intact). Checks the
+  // server's copy again: true when it is corrupt or gone and the scene is
+  // being rebuilt (the chunk's attempt ended, the chunk waits for the
+  // scene); false when the file is intact or the scene is not READY.
+  absl::StatusOr<bool> RebuildIfSceneFileLost(const std::string& scene_id);
+
  private:
   std::string NewScratchDir();
+  // Puts scene `scene_id` back to CREATING under a new reconstruction.
+  absl::Status RebuildScene(const std::string& scene_id, const std::string& reason);
 
   JobStore* store_;
   BlobStore* blobs_;
   ServerOptions options_;
   std::atomic<int64_t> scratch_counter_{0};
+  std::mutex verified_mu_;
+  std::set<std::string> verified_scene_files_;  // SHA-256s checked intact this process.
 };
 
 // "scenes/X" -> X; INVALID_ARGUMENT naming `field` when malformed.

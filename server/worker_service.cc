@@ -15,6 +15,7 @@
 #include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
 #include "rpc/grpc_status.h"
+#include "server/ownership.h"
 #include "server/server_metrics.h"
 #include "spdlog/spdlog.h"
 
@@ -41,6 +42,13 @@ absl::Status CheckBlob(BlobStore& blobs, const v1::Digest& digest, const std::st
   return blobs.Verify(digest.sha256());
 }
 
+// Only tokens with the worker or admin role may act as a worker.
+absl::Status AuthorizeWorker(ServiceCore& core, const grpc::ServerContext& context) {
+  absl::StatusOr<Caller> caller = core.CallerOf(context);
+  if (!caller.ok()) return caller.status();
+  return CheckWorker(*caller);
+}
+
 bool IsPermanent(int code) {
   const auto status_code = static_cast<absl::StatusCode>(code);
   return status_code == absl::StatusCode::kInvalidArgument ||
@@ -53,6 +61,7 @@ bool IsPermanent(int code) {
 grpc::Status WorkerServiceImpl::LeaseTask(grpc::ServerContext* context,
                                           const v1::LeaseTaskRequest* request,
                                           v1::LeaseTaskResponse* response) {
+  if (absl::Status ok = AuthorizeWorker(*core_, *context); !ok.ok()) return ToGrpc(ok);
   if (absl::Status ok = CheckWorkerId(request->worker_id()); !ok.ok()) return ToGrpc(ok);
   std::vector<std::string> cached;
   for (const std::string& name : request->cached_scenes()) {
@@ -76,6 +85,18 @@ grpc::Status WorkerServiceImpl::LeaseTask(grpc::ServerContext* context,
                                       std::string(task.status().message()), true, core_->NowMs());
         return ToGrpc(task.status());
       }
+      // A scene file found corrupt is never handed out: the scene is
+      // rebuilt, this chunk waits for it, and another task is leased.
+      if (task->has_render()) {
+        const absl::Status intact =
+            core_->CheckSceneFile(leased.task.scene_id, task->render().scene_file());
+        if (intact.code() == absl::StatusCode::kDataLoss) continue;
+        if (!intact.ok()) {
+          (void)core_->store().FailTask(leased.task.id, leased.task.attempt,
+                                        std::string(intact.message()), true, core_->NowMs());
+          return ToGrpc(intact);
+        }
+      }
       spdlog::info("leased {} of operations/{} (attempt {}) to worker {}", TaskLabel(leased.task),
                    leased.job.id, leased.task.attempt, request->worker_id());
       *response->mutable_task() = *std::move(task);
@@ -88,8 +109,10 @@ grpc::Status WorkerServiceImpl::LeaseTask(grpc::ServerContext* context,
   }
 }
 
-grpc::Status WorkerServiceImpl::Heartbeat(grpc::ServerContext*, const v1::HeartbeatRequest* request,
+grpc::Status WorkerServiceImpl::Heartbeat(grpc::ServerContext* context,
+                                          const v1::HeartbeatRequest* request,
                                           v1::HeartbeatResponse* response) {
+  if (absl::Status ok = AuthorizeWorker(*core_, *context); !ok.ok()) return ToGrpc(ok);
   int64_t deadline_ms = 0;
   absl::StatusOr<bool> cancelled = core_->store().Heartbeat(
       request->task_id(), request->attempt(), request->progress().stage(),
@@ -102,9 +125,10 @@ grpc::Status WorkerServiceImpl::Heartbeat(grpc::ServerContext*, const v1::Heartb
   return grpc::Status::OK;
 }
 
-grpc::Status WorkerServiceImpl::CompleteTask(grpc::ServerContext*,
+grpc::Status WorkerServiceImpl::CompleteTask(grpc::ServerContext* context,
                                              const v1::CompleteTaskRequest* request,
                                              v1::CompleteTaskResponse*) {
+  if (absl::Status ok = AuthorizeWorker(*core_, *context); !ok.ok()) return ToGrpc(ok);
   absl::StatusOr<TaskRecord> task = core_->store().GetTask(request->task_id());
   if (!task.ok()) return ToGrpc(task.status());
   std::string result;
@@ -168,11 +192,31 @@ grpc::Status WorkerServiceImpl::CompleteTask(grpc::ServerContext*,
   return ToGrpc(status);
 }
 
-grpc::Status WorkerServiceImpl::FailTask(grpc::ServerContext*, const v1::FailTaskRequest* request,
+grpc::Status WorkerServiceImpl::FailTask(grpc::ServerContext* context,
+                                         const v1::FailTaskRequest* request,
                                          v1::FailTaskResponse*) {
+  if (absl::Status ok = AuthorizeWorker(*core_, *context); !ok.ok()) return ToGrpc(ok);
   const bool permanent = IsPermanent(request->error().code());
-  if (absl::StatusOr<TaskRecord> task = core_->store().GetTask(request->task_id()); task.ok()) {
-    GetServerMetrics().tasks_failed[static_cast<int>(task->kind)]->Inc();
+  absl::StatusOr<TaskRecord> task = core_->store().GetTask(request->task_id());
+  if (task.ok()) GetServerMetrics().tasks_failed[static_cast<int>(task->kind)]->Inc();
+  // A render chunk whose scene file did not arrive intact: when the
+  // server's copy is corrupt or gone, the scene is rebuilt and the chunk
+  // waits for it instead of failing.
+  const auto code = static_cast<absl::StatusCode>(request->error().code());
+  if (task.ok() && task->kind == JobKind::kRender && task->attempt == request->attempt() &&
+      task->state == TaskState::kLeased &&
+      (code == absl::StatusCode::kDataLoss || code == absl::StatusCode::kNotFound)) {
+    absl::StatusOr<bool> rebuilding = core_->RebuildIfSceneFileLost(task->scene_id);
+    if (rebuilding.ok() && *rebuilding) {
+      spdlog::warn("task {} attempt {} on worker {} found scenes/{} corrupt: {}",
+                   request->task_id(), request->attempt(), request->worker_id(), task->scene_id,
+                   request->error().message());
+      return grpc::Status::OK;
+    }
+    if (!rebuilding.ok()) {
+      spdlog::error("checking the scene file of scenes/{}: {}", task->scene_id,
+                    std::string(rebuilding.status().message()));
+    }
   }
   const absl::Status status =
       core_->store().FailTask(request->task_id(), request->attempt(), request->error().message(),

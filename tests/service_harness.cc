@@ -146,12 +146,12 @@ bool ServerProcess::Restart() {
                                    "--listen",
                                    "127.0.0.1:" + std::to_string(port_),
                                    "--store",
-                                   "sqlite:" + dir_ + "/jobs.db",
+                                   store_.empty() ? "sqlite:" + dir_ + "/jobs.db" : store_,
                                    "--blobs",
-                                   dir_ + "/blobs"};
+                                   blobs_.empty() ? dir_ + "/blobs" : blobs_};
   argv.insert(argv.end(), extra_.begin(), extra_.end());
   ++starts_;
-  if (!process_.Start(argv, dir_ + "/server.log")) return false;
+  if (!process_.Start(argv, dir_ + "/" + name_ + ".log")) return false;
   return WaitFor([&] { return process_.running() && Serving(address()); },
                  std::chrono::seconds(20));
 }

@@ -47,22 +47,31 @@ class ChildProcess {
 };
 
 // pf-server on 127.0.0.1 with a SQLite store and blob directory under
-// `dir`; the port is kept across restarts.
+// `dir` (or the store and blob directory given, for several replicas on one
+// PostgreSQL); the port is kept across restarts. Logs to `dir`/<name>.log.
 class ServerProcess {
  public:
-  explicit ServerProcess(std::string dir) : dir_(std::move(dir)) {}
+  explicit ServerProcess(std::string dir, std::string name = "server", std::string store = "",
+                         std::string blobs = "")
+      : dir_(std::move(dir)), name_(std::move(name)), store_(std::move(store)),
+        blobs_(std::move(blobs)) {}
   // Starts pf-server with `extra` flags and waits until it answers health
   // checks (at most 20 s).
   bool Start(const std::vector<std::string>& extra = {});
   // Same store, blobs, port and flags as the last Start.
   bool Restart();
   int Kill(int signal) { return process_.Kill(signal); }
+  // The running pf-server's process id (-1 before the first Start).
+  pid_t pid() const { return process_.pid(); }
   std::string address() const;
   std::string Log() const { return process_.Log(); }
   const std::string& dir() const { return dir_; }
 
  private:
   std::string dir_;
+  std::string name_;
+  std::string store_;
+  std::string blobs_;
   int port_ = 0;
   int starts_ = 0;
   std::vector<std::string> extra_;

@@ -162,7 +162,20 @@ WorkerMetrics& Metrics() {
   return *metrics;
 }
 
+// Creates every metric up front, so a scrape of an idle worker lists them.
+void RegisterWorkerMetrics() {
+  WorkerMetrics& metrics = Metrics();
+  pb::Task reconstruct;
+  reconstruct.mutable_reconstruct();
+  pb::Task render;
+  render.mutable_render();
+  for (const pb::Task* task : {&reconstruct, &render}) {
+    for (const char* outcome : {"succeeded", "failed", "dropped"}) metrics.Tasks(*task, outcome);
+  }
+}
+
 int Worker::Run() {
+  RegisterWorkerMetrics();
   DefaultMetrics().CallbackGauge("pf_scene_cache_bytes", "Bytes of scenes held in memory.", {},
                                  [this] { return static_cast<double>(cache_.bytes()); });
   if (const absl::Status status = EmptyWorkDir(); !status.ok()) {

@@ -206,9 +206,12 @@ absl::StatusOr<int> Export(RemoteContext& ctx, const std::vector<std::string>& w
     return bytes.status();
   }
   RETURN_IF_ERROR(CommitTempFile(temp_path, out));
-  std::fprintf(ctx.out(), "wrote %s: %lld bytes of %s at %lld us (sha256 checked)\n", out.c_str(),
-               static_cast<long long>(*bytes), request.name().c_str(),
-               static_cast<long long>(time_us));
+  // Without --time-us the server places actors at the scene's time origin,
+  // which the client does not know.
+  const std::string when =
+      cl.Has("time-us") ? absl::StrCat(time_us, " us") : std::string("the scene's time origin");
+  std::fprintf(ctx.out(), "wrote %s: %lld bytes of %s at %s (sha256 checked)\n", out.c_str(),
+               static_cast<long long>(*bytes), request.name().c_str(), when.c_str());
   return kExitOk;
 }
 

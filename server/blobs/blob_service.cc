@@ -52,12 +52,25 @@ class FdCloser {
 
 }  // namespace
 
-BlobServiceImpl::BlobServiceImpl(BlobStore* store, int64_t max_upload_bytes)
-    : store_(store), max_upload_bytes_(max_upload_bytes) {}
+namespace {
+
+// The caller of the call; Caller{"", admin} when authentication is off.
+absl::StatusOr<Caller> CallerOf(Authenticator* auth, const grpc::ServerContext& context) {
+  if (auth == nullptr) return Caller{"", Role::kAdmin};
+  return auth->Authenticate(context);
+}
+
+}  // namespace
+
+BlobServiceImpl::BlobServiceImpl(BlobStore* store, int64_t max_upload_bytes, Authenticator* auth)
+    : store_(store), max_upload_bytes_(max_upload_bytes), auth_(auth) {}
 
 grpc::Status BlobServiceImpl::WriteBlob(grpc::ServerContext* context,
                                         grpc::ServerReader<v1::WriteBlobRequest>* reader,
                                         v1::WriteBlobResponse* response) {
+  if (absl::StatusOr<Caller> caller = CallerOf(auth_, *context); !caller.ok()) {
+    return ToGrpc(caller.status());
+  }
   v1::WriteBlobRequest request;
   if (!reader->Read(&request) || !request.has_digest()) {
     return InvalidArgument("digest: missing in the first message");
@@ -101,6 +114,9 @@ grpc::Status BlobServiceImpl::WriteBlob(grpc::ServerContext* context,
 grpc::Status BlobServiceImpl::ReadBlob(grpc::ServerContext* context,
                                        const v1::ReadBlobRequest* request,
                                        grpc::ServerWriter<v1::ReadBlobResponse>* writer) {
+  if (absl::StatusOr<Caller> caller = CallerOf(auth_, *context); !caller.ok()) {
+    return ToGrpc(caller.status());
+  }
   const std::string& sha256 = request->sha256();
   if (!IsValidSha256Hex(sha256)) return InvalidArgument("sha256: not 64 lowercase hex digits");
   absl::StatusOr<std::string> path = store_->PathOf(sha256);
@@ -176,9 +192,12 @@ grpc::Status BlobServiceImpl::ReadBlob(grpc::ServerContext* context,
   return grpc::Status::OK;
 }
 
-grpc::Status BlobServiceImpl::FindMissingBlobs(grpc::ServerContext* /*context*/,
+grpc::Status BlobServiceImpl::FindMissingBlobs(grpc::ServerContext* context,
                                                const v1::FindMissingBlobsRequest* request,
                                                v1::FindMissingBlobsResponse* response) {
+  if (absl::StatusOr<Caller> caller = CallerOf(auth_, *context); !caller.ok()) {
+    return ToGrpc(caller.status());
+  }
   for (int i = 0; i < request->digests_size(); ++i) {
     const v1::Digest& digest = request->digests(i);
     if (!IsValidSha256Hex(digest.sha256())) {

@@ -10,6 +10,7 @@
 #include <cstdint>
 
 #include "pointforward/v1/blobs.grpc.pb.h"
+#include "server/auth.h"
 #include "server/blobs/blob_store.h"
 
 namespace pf {
@@ -17,8 +18,11 @@ namespace pf {
 class BlobServiceImpl final : public pointforward::v1::BlobService::Service {
  public:
   // `store` must outlive the service. Uploads larger than
-  // `max_upload_bytes` (> 0) are refused; 0 means no limit.
-  BlobServiceImpl(BlobStore* store, int64_t max_upload_bytes);
+  // `max_upload_bytes` (> 0) are refused; 0 means no limit. With `auth`
+  // (pf-server --auth-token-file), every call needs a valid token of any
+  // role; blobs are named by their SHA-256, so reading one needs its digest,
+  // which only the resources of its owner reveal.
+  BlobServiceImpl(BlobStore* store, int64_t max_upload_bytes, Authenticator* auth = nullptr);
 
   // The first message must carry the digest; the content is kept only when
   // its size and hash match it. A cancelled stream keeps nothing.
@@ -37,6 +41,7 @@ class BlobServiceImpl final : public pointforward::v1::BlobService::Service {
  private:
   BlobStore* store_;
   int64_t max_upload_bytes_;
+  Authenticator* auth_;  // Null: authentication off.
 };
 
 }  // namespace pf

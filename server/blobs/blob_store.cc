@@ -8,6 +8,7 @@
 #include <atomic>
 #include <cerrno>
 #include <cstring>
+#include <chrono>
 #include <filesystem>
 #include <string>
 #include <system_error>
@@ -25,6 +26,9 @@ namespace {
 namespace fs = std::filesystem;
 
 constexpr size_t kReadBufferBytes = 1 << 20;
+
+// Age after which an unfinished upload in tmp/ is taken for a dead one.
+constexpr std::chrono::hours kStaleUploadAge(1);
 
 std::string TmpDir(const std::string& root) { return (fs::path(root) / "tmp").string(); }
 
@@ -188,11 +192,17 @@ BlobStore::BlobStore(std::string root) : root_(std::move(root)) {
     spdlog::error("blob store: {}", std::string(made.message()));
     return;
   }
-  // Whatever is in tmp/ belongs to a process that died mid-upload.
+  // What has sat in tmp/ untouched for an hour belongs to a process that died
+  // mid-upload. Younger files may be uploads in progress in another server
+  // sharing this directory (replicas on one volume): they are left alone.
   std::error_code ec;
   int removed = 0;
+  const auto stale_before = fs::file_time_type::clock::now() - kStaleUploadAge;
   for (fs::directory_iterator it(tmp, ec); !ec && it != fs::directory_iterator();
        it.increment(ec)) {
+    std::error_code time_ec;
+    const fs::file_time_type written = fs::last_write_time(it->path(), time_ec);
+    if (time_ec || written > stale_before) continue;
     std::error_code remove_ec;
     if (fs::remove_all(it->path(), remove_ec) > 0) ++removed;
   }
@@ -217,7 +227,7 @@ absl::StatusOr<BlobWriter> BlobStore::StartWrite(const BlobDigest& expected,
   const std::string tmp = TmpDir(root_);
   RETURN_IF_ERROR(MakeDirs(tmp));
   const std::string temp_path =
-      (fs::path(tmp) / absl::StrCat(::getpid(), "-", counter++, "-", expected.sha256.substr(0, 16)))
+      (fs::path(tmp) / absl::StrCat(ProcessToken(), "-", counter++, "-", expected.sha256.substr(0, 16)))
           .string();
   const int fd = ::open(temp_path.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
   if (fd < 0) return ErrnoError(absl::StrCat(temp_path, ": cannot create"), errno);

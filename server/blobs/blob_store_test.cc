@@ -4,6 +4,7 @@
 
 #include <sys/stat.h>
 
+#include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -252,15 +253,21 @@ TEST(BlobStore, AbandonedWriterLeavesNothing) {
   EXPECT_FALSE(store.Contains(Sha256Hex("abc")));
 }
 
-TEST(BlobStore, LeftoversOfACrashedProcessAreRemovedAtStart) {
+TEST(BlobStore, StaleLeftoversOfACrashedProcessAreRemovedAtStart) {
   const std::string root = testing::MakeTempDir("blob_store");
   const BlobDigest kept = BlobStore(root).Put("kept").value();
   ASSERT_TRUE(WriteFileAtomic(root + "/tmp/12345-0-deadbeef", "half an upload").ok());
   ASSERT_TRUE(MakeDirs(root + "/tmp/odd-directory").ok());
-  ASSERT_EQ(CountEntries(root + "/tmp"), 2);
+  // An upload another server sharing the directory is writing right now.
+  ASSERT_TRUE(WriteFileAtomic(root + "/tmp/777-0-cafe", "in progress").ok());
+  const auto two_hours_ago = std::filesystem::file_time_type::clock::now() - std::chrono::hours(2);
+  std::filesystem::last_write_time(root + "/tmp/12345-0-deadbeef", two_hours_ago);
+  std::filesystem::last_write_time(root + "/tmp/odd-directory", two_hours_ago);
+  ASSERT_EQ(CountEntries(root + "/tmp"), 3);
 
   BlobStore reopened(root);
-  EXPECT_EQ(CountEntries(root + "/tmp"), 0);
+  EXPECT_EQ(CountEntries(root + "/tmp"), 1);
+  EXPECT_TRUE(std::filesystem::exists(root + "/tmp/777-0-cafe"));
   EXPECT_EQ(reopened.Get(kept.sha256).value(), "kept");
 }
 

@@ -85,7 +85,7 @@ struct JobRecord {
   std::string request;     // CreateSceneRequest / CreateRenderJobRequest JSON.
   int error_code = 0;      // absl::StatusCode when kFailed / kCancelled.
   std::string error_message;
-  std::string owner;       // Who submitted it (authentication, later); may be empty.
+  std::string owner;       // Who submitted it (the token's owner; "" with authentication off).
   int frames_total = 0;    // Render: views; reconstruct: 0.
   // Aggregated over the tasks on every read:
   int frames_done = 0;     // Done chunks' views + progress of leased chunks.
@@ -257,6 +257,46 @@ class JobStore {
   virtual absl::StatusOr<int> CountQueuedTasks(JobKind kind) = 0;
   // Jobs of `kind` in `state` (metrics: running jobs).
   virtual absl::StatusOr<int> CountJobs(JobKind kind, JobState state) = 0;
+
+  // -- Owners (authentication) -----------------------------------------------
+  //
+  // An owner has access to a scene once CreateSceneJob (any outcome but
+  // kSameRequest, whose job is already the owner's) or CreateRenderJob was
+  // called on it with that owner: submitting the clip proves the owner holds
+  // the data the scene is made of. Access outlives a deletion of the scene
+  // (the same content makes the same scene id again).
+
+  virtual absl::StatusOr<bool> HasSceneAccess(const std::string& owner,
+                                              const std::string& scene_id) = 0;
+  // ListScenes restricted to the scenes `owner` has access to.
+  virtual absl::StatusOr<Page<SceneRecord>> ListScenesOf(const std::string& owner, int page_size,
+                                                         const std::string& page_token) = 0;
+  // ListJobs restricted to what `owner` may see: its own jobs, and the
+  // reconstructions of the scenes it has access to.
+  virtual absl::StatusOr<Page<JobRecord>> ListJobsOf(const std::string& owner,
+                                                     std::optional<JobKind> kind, int page_size,
+                                                     const std::string& page_token) = 0;
+
+  // -- Limits and integrity ----------------------------------------------------
+
+  // Jobs of either kind submitted by `owner` ("" when authentication is
+  // off) that have not ended: the --max-jobs-per-owner limit.
+  virtual absl::StatusOr<int> CountUnfinishedJobs(const std::string& owner) = 0;
+
+  // Rebuilds scene `scene_id` whose scene file was found corrupt or missing
+  // (`reason` says how). A READY scene goes back to CREATING under a new
+  // reconstruction job (QUEUED, its task with the work of the job that
+  // built it, no request_id); then, READY or already CREATING, every
+  // unfinished render job of the scene waits for it (WAITING_FOR_SCENE)
+  // and so do its unfinished chunks: a leased chunk's attempt ends as
+  // "scene file corrupt: <reason>" and its worker loses the lease. Returns
+  // the scene as it now is. NOT_FOUND when absent; FAILED_PRECONDITION when
+  // the scene FAILED. `description` replaces the scene's JSON while it is
+  // rebuilt (what CreateSceneJob was given: no statistics of the old build).
+  virtual absl::StatusOr<SceneRecord> RebuildScene(const std::string& scene_id,
+                                                   const std::string& reason,
+                                                   const std::string& description,
+                                                   int64_t now_ms) = 0;
 };
 
 // Opens the store a --store flag names: "sqlite:PATH" (created if absent,

@@ -802,6 +802,123 @@ TEST_P(JobStoreTest, ConcurrentCreatesOfOneSceneMakeOneReconstruction) {
   EXPECT_EQ(jobs->items.size(), 1u);
 }
 
+// -- Limits and integrity ----------------------------------------------------------
+
+TEST_P(JobStoreTest, CountUnfinishedJobsCountsOnlyTheOwnersJobsThatHaveNotEnded) {
+  // alice submits scenes, bob render jobs (the fixture's owners).
+  EXPECT_EQ(*store_->CountUnfinishedJobs("alice"), 0);
+  MakeReadyScene("s1");  // Its reconstruction SUCCEEDED: not counted.
+  CreateScene("s2");     // QUEUED.
+  EXPECT_EQ(*store_->CountUnfinishedJobs("alice"), 1);
+  const JobRecord waiting = CreateRender("s2", 1);  // WAITING_FOR_SCENE.
+  const JobRecord queued = CreateRender("s1", 1);   // QUEUED.
+  const JobRecord cancelled = CreateRender("s1", 1);
+  ASSERT_TRUE(store_->CancelJob(cancelled.id, kT0).ok());
+  EXPECT_EQ(*store_->CountUnfinishedJobs("bob"), 2);
+  EXPECT_EQ(*store_->CountUnfinishedJobs("alice"), 1);
+  EXPECT_EQ(*store_->CountUnfinishedJobs(""), 0);
+  EXPECT_EQ(*store_->CountUnfinishedJobs("carol"), 0);
+
+  // A RUNNING job still counts; a finished one no longer does.
+  TaskLease lease = Lease("w1", {"s1"});
+  ASSERT_EQ(lease.job.id, queued.id);
+  EXPECT_EQ(*store_->CountUnfinishedJobs("bob"), 2);
+  ASSERT_TRUE(store_->CompleteTask(lease.task.id, lease.task.attempt, "{}", "", kT0).ok());
+  EXPECT_EQ(*store_->CountUnfinishedJobs("bob"), 1);
+  EXPECT_EQ(Job(waiting.id).state, JobState::kWaitingForScene);
+}
+
+TEST_P(JobStoreTest, RebuildSceneQueuesANewReconstructionAndRenderChunksWaitForIt) {
+  MakeReadyScene("s1");
+  const SceneRecord before = Scene("s1");
+  const JobRecord render = CreateRender("s1", 3);
+  const std::vector<TaskRecord> chunks = Tasks(render.id);
+  // Chunk 0 done, chunk 1 leased, chunk 2 queued.
+  TaskLease first = Lease("w1", {"s1"});
+  ASSERT_EQ(first.task.id, chunks[0].id);
+  ASSERT_TRUE(store_->CompleteTask(first.task.id, first.task.attempt, "{\"files\":0}", "", kT0).ok());
+  TaskLease second = Lease("w2", {"s1"});
+  ASSERT_EQ(second.task.id, chunks[1].id);
+
+  absl::StatusOr<SceneRecord> rebuilt =
+      store_->RebuildScene("s1", "hash mismatch", "{\"name\":\"s1\",\"fresh\":true}", kT0 + 5);
+  ASSERT_TRUE(rebuilt.ok()) << rebuilt.status();
+  EXPECT_EQ(rebuilt->state, SceneState::kCreating);
+  EXPECT_NE(rebuilt->job_id, before.job_id);
+  EXPECT_EQ(rebuilt->description, "{\"name\":\"s1\",\"fresh\":true}");
+  EXPECT_EQ(rebuilt->content_hash, before.content_hash);
+
+  // The old build's job is untouched; the new one repeats its work.
+  EXPECT_EQ(Job(before.job_id).state, JobState::kSucceeded);
+  const JobRecord rebuild = Job(rebuilt->job_id);
+  EXPECT_EQ(rebuild.kind, JobKind::kReconstruct);
+  EXPECT_EQ(rebuild.state, JobState::kQueued);
+  EXPECT_EQ(rebuild.request, Job(before.job_id).request);
+  EXPECT_EQ(rebuild.owner, "alice");
+  ASSERT_EQ(Tasks(rebuild.id).size(), 1u);
+  EXPECT_EQ(Tasks(rebuild.id)[0].work, Tasks(before.job_id)[0].work);
+
+  // The render job and its unfinished chunks wait; the leased attempt ended
+  // and its worker lost the lease.
+  EXPECT_EQ(Job(render.id).state, JobState::kWaitingForScene);
+  EXPECT_EQ(Task(chunks[0].id).state, TaskState::kDone);
+  const TaskRecord lost = Task(chunks[1].id);
+  EXPECT_EQ(lost.state, TaskState::kWaitingForScene);
+  ASSERT_EQ(lost.attempts.size(), 1u);
+  EXPECT_EQ(lost.attempts[0].outcome, "scene file corrupt: hash mismatch");
+  EXPECT_EQ(lost.attempts[0].end_ms, kT0 + 5);
+  EXPECT_EQ(Task(chunks[2].id).state, TaskState::kWaitingForScene);
+  EXPECT_EQ(store_->CompleteTask(second.task.id, second.task.attempt, "{}", "", kT0 + 6).code(),
+            absl::StatusCode::kFailedPrecondition);
+  EXPECT_EQ(*store_->CountQueuedTasks(JobKind::kRender), 0);
+
+  // A second report while it is rebuilt changes nothing more.
+  absl::StatusOr<SceneRecord> again = store_->RebuildScene("s1", "again", "{}", kT0 + 7);
+  ASSERT_TRUE(again.ok()) << again.status();
+  EXPECT_EQ(again->job_id, rebuilt->job_id);
+
+  // The rebuild completes: the scene is READY again and the chunks run to
+  // the end of the job.
+  TaskLease build = Lease("w3");
+  ASSERT_EQ(build.job.id, rebuilt->job_id);
+  ASSERT_TRUE(store_
+                  ->CompleteTask(build.task.id, build.task.attempt, "{}",
+                                 "{\"name\":\"s1\",\"rebuilt\":true}", kT0 + 8)
+                  .ok());
+  EXPECT_EQ(Scene("s1").state, SceneState::kReady);
+  EXPECT_EQ(Scene("s1").job_id, rebuilt->job_id);
+  EXPECT_EQ(Job(render.id).state, JobState::kQueued);
+  for (int i = 0; i < 2; ++i) {
+    TaskLease chunk = Lease("w1", {"s1"}, kT0 + 9);
+    EXPECT_EQ(chunk.job.id, render.id);
+    ASSERT_TRUE(store_->CompleteTask(chunk.task.id, chunk.task.attempt, "{}", "", kT0 + 9).ok());
+  }
+  EXPECT_EQ(Job(render.id).state, JobState::kSucceeded);
+  EXPECT_EQ(Task(chunks[1].id).attempts.size(), 2u);
+}
+
+TEST_P(JobStoreTest, RebuildSceneRefusesAbsentAndFailedScenes) {
+  EXPECT_EQ(store_->RebuildScene("nope", "x", "{}", kT0).status().code(),
+            absl::StatusCode::kNotFound);
+  const CreateSceneOutcome created = CreateScene("s1");
+  ASSERT_TRUE(store_->CancelJob(created.job.id, kT0).ok());
+  ASSERT_EQ(Scene("s1").state, SceneState::kFailed);
+  EXPECT_EQ(store_->RebuildScene("s1", "x", "{}", kT0).status().code(),
+            absl::StatusCode::kFailedPrecondition);
+}
+
+TEST_P(JobStoreTest, AFailedRebuildFailsTheRenderJobsWaitingForIt) {
+  MakeReadyScene("s1");
+  const JobRecord render = CreateRender("s1", 1);
+  ASSERT_TRUE(store_->RebuildScene("s1", "gone", "{}", kT0).ok());
+  TaskLease build = Lease("w1");
+  ASSERT_EQ(build.task.kind, JobKind::kReconstruct);
+  ASSERT_TRUE(store_->FailTask(build.task.id, build.task.attempt, "bad input", true, kT0).ok());
+  EXPECT_EQ(Scene("s1").state, SceneState::kFailed);
+  EXPECT_EQ(Job(render.id).state, JobState::kFailed);
+  EXPECT_EQ(Job(render.id).error_code, static_cast<int>(absl::StatusCode::kFailedPrecondition));
+}
+
 INSTANTIATE_TEST_SUITE_P(Backends, JobStoreTest, ::testing::ValuesIn(kBackends),
                          [](const ::testing::TestParamInfo<StoreBackend>& info) {
                            return info.param.name;

@@ -123,6 +123,16 @@ const std::vector<Migration>& Migrations() {
                    end_ms BIGINT NOT NULL DEFAULT 0,
                    PRIMARY KEY (task_id, number)))sql",
        }},
+      // Authentication: which owners may see which scenes (job_store.h,
+      // "Owners"). Jobs already carry their owner.
+      {2,
+       {
+           R"sql(CREATE TABLE scene_access (
+                   owner TEXT NOT NULL,
+                   scene_id TEXT NOT NULL,
+                   PRIMARY KEY (owner, scene_id)))sql",
+           "CREATE INDEX scene_access_by_scene ON scene_access (scene_id)",
+       }},
   };
   return *migrations;
 }
@@ -516,6 +526,81 @@ absl::Status FailAttempt(SqlExecutor& tx, const StoreOptions& options, const Tas
                 message, now_ms);
 }
 
+// Gives `owner` access to scene `scene_id` (job_store.h, "Owners").
+absl::Status GrantSceneAccess(SqlExecutor& tx, const std::string& owner,
+                              const std::string& scene_id) {
+  return Run(tx,
+             "INSERT INTO scene_access (owner, scene_id) VALUES ($1, $2) "
+             "ON CONFLICT (owner, scene_id) DO NOTHING",
+             {owner, scene_id});
+}
+
+// Scenes newest first from `page_token` on; only those `owner` has access
+// to when set.
+absl::StatusOr<Page<SceneRecord>> ListScenesFor(SqlExecutor& db,
+                                                const std::optional<std::string>& owner,
+                                                int page_size, const std::string& page_token) {
+  ASSIGN_OR_RETURN(PagePosition after, ParsePageToken("scenes", page_token));
+  const int size = ClampPageSize(page_size);
+  std::vector<SqlValue> params = {after.seq, after.id, size + 1};
+  std::string owner_clause;
+  if (owner) {
+    params.push_back(*owner);
+    owner_clause = " AND id IN (SELECT scene_id FROM scene_access WHERE owner = $4)";
+  }
+  // One row more than the page tells whether another page follows.
+  ASSIGN_OR_RETURN(SqlRows rows,
+                   db.Exec(absl::StrCat("SELECT ", kSceneColumns,
+                                        " FROM scenes WHERE (seq < $1 OR (seq = $1 AND id < $2))",
+                                        owner_clause, " ORDER BY seq DESC, id DESC LIMIT $3"),
+                           params));
+  Page<SceneRecord> page;
+  for (int i = 0; i < std::min<int>(size, rows.size()); ++i) {
+    ASSIGN_OR_RETURN(SceneRecord scene, SceneFromRow(rows[i]));
+    page.items.push_back(std::move(scene));
+  }
+  if (static_cast<int>(rows.size()) > size) {
+    page.next_page_token = MakePageToken("scenes", rows[size - 1][8].AsInt(), page.items.back().id);
+  }
+  return page;
+}
+
+// Jobs newest first from `page_token` on, of `kind` when set; only those
+// `owner` may see when set (its own, and the reconstructions of scenes it
+// has access to).
+absl::StatusOr<Page<JobRecord>> ListJobsFor(SqlExecutor& db,
+                                            const std::optional<std::string>& owner,
+                                            std::optional<JobKind> kind, int page_size,
+                                            const std::string& page_token) {
+  ASSIGN_OR_RETURN(PagePosition after, ParsePageToken("jobs", page_token));
+  const int size = ClampPageSize(page_size);
+  std::string sql = absl::StrCat(kSelectJob, " WHERE (j.seq < $1 OR (j.seq = $1 AND j.id < $2))");
+  std::vector<SqlValue> params = {after.seq, after.id, size + 1};
+  if (kind) {
+    params.push_back(JobKindName(*kind));
+    absl::StrAppend(&sql, " AND j.kind = $", params.size());
+  }
+  if (owner) {
+    params.push_back(*owner);
+    const std::string placeholder = absl::StrCat("$", params.size());
+    absl::StrAppend(&sql, " AND (j.owner = ", placeholder,
+                    " OR (j.kind = 'reconstruct' AND j.scene_id IN"
+                    " (SELECT scene_id FROM scene_access WHERE owner = ",
+                    placeholder, ")))");
+  }
+  absl::StrAppend(&sql, " ORDER BY j.seq DESC, j.id DESC LIMIT $3");
+  ASSIGN_OR_RETURN(SqlRows rows, db.Exec(sql, params));
+  Page<JobRecord> page;
+  for (int i = 0; i < std::min<int>(size, rows.size()); ++i) {
+    ASSIGN_OR_RETURN(JobRecord job, JobFromRow(rows[i]));
+    page.items.push_back(std::move(job));
+  }
+  if (static_cast<int>(rows.size()) > size) {
+    page.next_page_token = MakePageToken("jobs", rows[size - 1][12].AsInt(), page.items.back().id);
+  }
+  return page;
+}
+
 // Returns OK if `attempt` holds the lease on `task`, else
 // FAILED_PRECONDITION saying what happened to it.
 absl::Status CheckHoldsLease(const TaskRecord& task, int attempt) {
@@ -628,7 +713,7 @@ absl::StatusOr<CreateSceneOutcome> SqlJobStore::CreateSceneJob(
                                                         : CreateSceneOutcome::Kind::kJoined;
       ASSIGN_OR_RETURN(outcome.job, LoadJob(tx, scene->job_id));
       outcome.scene = *std::move(scene);
-      return absl::OkStatus();
+      return GrantSceneAccess(tx, owner, scene_id);
     }
 
     // Absent or FAILED: a new reconstruction job with its one task.
@@ -659,6 +744,7 @@ absl::StatusOr<CreateSceneOutcome> SqlJobStore::CreateSceneJob(
                                         (SELECT COALESCE(MAX(seq), 0) + 1 FROM scenes)))sql",
                           {scene_id, job.id, content_hash, description, now_ms}));
     }
+    RETURN_IF_ERROR(GrantSceneAccess(tx, owner, scene_id));
     outcome.kind = CreateSceneOutcome::Kind::kCreated;
     ASSIGN_OR_RETURN(outcome.job, LoadJob(tx, job.id));
     ASSIGN_OR_RETURN(std::optional<SceneRecord> created, FindScene(tx, scene_id, RowLock::kNone));
@@ -676,22 +762,7 @@ absl::StatusOr<SceneRecord> SqlJobStore::GetScene(const std::string& scene_id) {
 
 absl::StatusOr<Page<SceneRecord>> SqlJobStore::ListScenes(int page_size,
                                                           const std::string& page_token) {
-  ASSIGN_OR_RETURN(PagePosition after, ParsePageToken("scenes", page_token));
-  const int size = ClampPageSize(page_size);
-  // One row more than the page tells whether another page follows.
-  ASSIGN_OR_RETURN(SqlRows rows, db_->Exec(absl::StrCat("SELECT ", kSceneColumns, R"sql( FROM scenes
-                                 WHERE seq < $1 OR (seq = $1 AND id < $2)
-                                 ORDER BY seq DESC, id DESC LIMIT $3)sql"),
-                                           {after.seq, after.id, size + 1}));
-  Page<SceneRecord> page;
-  for (int i = 0; i < std::min<int>(size, rows.size()); ++i) {
-    ASSIGN_OR_RETURN(SceneRecord scene, SceneFromRow(rows[i]));
-    page.items.push_back(std::move(scene));
-  }
-  if (static_cast<int>(rows.size()) > size) {
-    page.next_page_token = MakePageToken("scenes", rows[size - 1][8].AsInt(), page.items.back().id);
-  }
-  return page;
+  return ListScenesFor(*db_, std::nullopt, page_size, page_token);
 }
 
 absl::Status SqlJobStore::DeleteScene(const std::string& scene_id, int64_t now_ms) {
@@ -763,6 +834,7 @@ absl::StatusOr<JobRecord> SqlJobStore::CreateRenderJob(const std::string& scene_
                                  ready ? TaskState::kQueued : TaskState::kWaitingForScene, scene_id,
                                  tasks[i]));
     }
+    RETURN_IF_ERROR(GrantSceneAccess(tx, owner, scene_id));
     ASSIGN_OR_RETURN(result, LoadJob(tx, job.id));
     return absl::OkStatus();
   }));
@@ -776,25 +848,7 @@ absl::StatusOr<JobRecord> SqlJobStore::GetJob(const std::string& job_id) {
 
 absl::StatusOr<Page<JobRecord>> SqlJobStore::ListJobs(std::optional<JobKind> kind, int page_size,
                                                       const std::string& page_token) {
-  ASSIGN_OR_RETURN(PagePosition after, ParsePageToken("jobs", page_token));
-  const int size = ClampPageSize(page_size);
-  std::string sql = absl::StrCat(kSelectJob, " WHERE (j.seq < $1 OR (j.seq = $1 AND j.id < $2))");
-  std::vector<SqlValue> params = {after.seq, after.id, size + 1};
-  if (kind) {
-    absl::StrAppend(&sql, " AND j.kind = $4");
-    params.push_back(JobKindName(*kind));
-  }
-  absl::StrAppend(&sql, " ORDER BY j.seq DESC, j.id DESC LIMIT $3");
-  ASSIGN_OR_RETURN(SqlRows rows, db_->Exec(sql, params));
-  Page<JobRecord> page;
-  for (int i = 0; i < std::min<int>(size, rows.size()); ++i) {
-    ASSIGN_OR_RETURN(JobRecord job, JobFromRow(rows[i]));
-    page.items.push_back(std::move(job));
-  }
-  if (static_cast<int>(rows.size()) > size) {
-    page.next_page_token = MakePageToken("jobs", rows[size - 1][12].AsInt(), page.items.back().id);
-  }
-  return page;
+  return ListJobsFor(*db_, std::nullopt, kind, page_size, page_token);
 }
 
 absl::StatusOr<TaskRecord> SqlJobStore::GetTask(const std::string& task_id) {
@@ -1014,6 +1068,103 @@ absl::StatusOr<int> SqlJobStore::CountJobs(JobKind kind, JobState state) {
                    db_->Exec("SELECT COUNT(*) FROM jobs WHERE state = $1 AND kind = $2",
                              {JobStateName(state), JobKindName(kind)}));
   return static_cast<int>(rows[0][0].AsInt());
+}
+
+absl::StatusOr<int> SqlJobStore::CountUnfinishedJobs(const std::string& owner) {
+  ASSIGN_OR_RETURN(
+      SqlRows rows,
+      db_->Exec(R"sql(SELECT COUNT(*) FROM jobs
+                       WHERE owner = $1 AND state IN ('WAITING_FOR_SCENE', 'QUEUED', 'RUNNING'))sql",
+                {owner}));
+  return static_cast<int>(rows[0][0].AsInt());
+}
+
+absl::StatusOr<SceneRecord> SqlJobStore::RebuildScene(const std::string& scene_id,
+                                                      const std::string& reason,
+                                                      const std::string& description,
+                                                      int64_t now_ms) {
+  SceneRecord result;
+  RETURN_IF_ERROR(db_->Transaction([&](SqlExecutor& tx) -> absl::Status {
+    ASSIGN_OR_RETURN(std::optional<SceneRecord> scene, FindScene(tx, scene_id, RowLock::kUpdate));
+    if (!scene) return absl::NotFoundError(absl::StrCat("scene ", scene_id, " not found"));
+    if (scene->state == SceneState::kFailed) {
+      return absl::FailedPreconditionError(
+          absl::StrCat("scene ", scene_id, " failed and cannot be rebuilt: ", scene->error));
+    }
+    if (scene->state == SceneState::kReady) {
+      // A new reconstruction with the work of the job that built the scene.
+      ASSIGN_OR_RETURN(const JobRecord built, LoadJob(tx, scene->job_id));
+      ASSIGN_OR_RETURN(SqlRows work, tx.Exec(R"sql(SELECT work FROM tasks
+                                                    WHERE job_id = $1 AND kind = 'reconstruct'
+                                                    ORDER BY task_index LIMIT 1)sql",
+                                             {built.id}));
+      if (work.empty()) {
+        return absl::InternalError(absl::StrCat("scene ", scene_id, ": its reconstruction job ",
+                                                built.id, " has no task to repeat"));
+      }
+      JobRecord job;
+      job.id = NewId();
+      job.kind = JobKind::kReconstruct;
+      job.state = JobState::kQueued;
+      job.scene_id = scene_id;
+      job.request = built.request;
+      job.owner = built.owner;
+      job.create_time_ms = now_ms;
+      RETURN_IF_ERROR(InsertJob(tx, job));
+      RETURN_IF_ERROR(InsertTask(tx, job.id, JobKind::kReconstruct, 0, TaskState::kQueued,
+                                 scene_id, NewTask{.work = work[0][0].AsString()}));
+      RETURN_IF_ERROR(Run(tx,
+                          R"sql(UPDATE scenes SET state = 'CREATING', job_id = $2, description = $3,
+                                                  error = '', update_time_ms = $4
+                                 WHERE id = $1)sql",
+                          {scene_id, job.id, description, now_ms}));
+    }
+    // Render chunks of the scene wait for it; leased ones lose their lease.
+    ASSIGN_OR_RETURN(SqlRows leased, tx.Exec(R"sql(SELECT id, attempt FROM tasks
+                                                    WHERE scene_id = $1 AND kind = 'render'
+                                                      AND state = 'LEASED')sql",
+                                             {scene_id}));
+    for (const SqlRow& row : leased) {
+      RETURN_IF_ERROR(EndAttempt(tx, row[0].AsString(), static_cast<int>(row[1].AsInt()),
+                                 absl::StrCat("scene file corrupt: ", reason), now_ms));
+    }
+    RETURN_IF_ERROR(Run(tx,
+                        R"sql(UPDATE tasks SET state = 'WAITING_FOR_SCENE', worker_id = '',
+                                               lease_deadline_ms = 0, fraction = 0, frames_done = 0
+                               WHERE scene_id = $1 AND kind = 'render'
+                                 AND state IN ('QUEUED', 'LEASED'))sql",
+                        {scene_id}));
+    RETURN_IF_ERROR(Run(tx,
+                        R"sql(UPDATE jobs SET state = 'WAITING_FOR_SCENE', update_time_ms = $2
+                               WHERE scene_id = $1 AND kind = 'render'
+                                 AND state IN ('QUEUED', 'RUNNING'))sql",
+                        {scene_id, now_ms}));
+    ASSIGN_OR_RETURN(std::optional<SceneRecord> now, FindScene(tx, scene_id, RowLock::kNone));
+    result = *std::move(now);
+    return absl::OkStatus();
+  }));
+  return result;
+}
+
+absl::StatusOr<bool> SqlJobStore::HasSceneAccess(const std::string& owner,
+                                                 const std::string& scene_id) {
+  ASSIGN_OR_RETURN(SqlRows rows,
+                   db_->Exec("SELECT 1 FROM scene_access WHERE owner = $1 AND scene_id = $2",
+                             {owner, scene_id}));
+  return !rows.empty();
+}
+
+absl::StatusOr<Page<SceneRecord>> SqlJobStore::ListScenesOf(const std::string& owner,
+                                                            int page_size,
+                                                            const std::string& page_token) {
+  return ListScenesFor(*db_, owner, page_size, page_token);
+}
+
+absl::StatusOr<Page<JobRecord>> SqlJobStore::ListJobsOf(const std::string& owner,
+                                                        std::optional<JobKind> kind,
+                                                        int page_size,
+                                                        const std::string& page_token) {
+  return ListJobsFor(*db_, owner, kind, page_size, page_token);
 }
 
 }  // namespace pf

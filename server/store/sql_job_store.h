@@ -82,6 +82,16 @@ class SqlJobStore : public JobStore {
   absl::StatusOr<int> ExpireLeases(int64_t now_ms) override;
   absl::StatusOr<int> CountQueuedTasks(JobKind kind) override;
   absl::StatusOr<int> CountJobs(JobKind kind, JobState state) override;
+  absl::StatusOr<bool> HasSceneAccess(const std::string& owner,
+                                      const std::string& scene_id) override;
+  absl::StatusOr<Page<SceneRecord>> ListScenesOf(const std::string& owner, int page_size,
+                                                 const std::string& page_token) override;
+  absl::StatusOr<Page<JobRecord>> ListJobsOf(const std::string& owner, std::optional<JobKind> kind,
+                                             int page_size, const std::string& page_token) override;
+  absl::StatusOr<int> CountUnfinishedJobs(const std::string& owner) override;
+  absl::StatusOr<SceneRecord> RebuildScene(const std::string& scene_id, const std::string& reason,
+                                           const std::string& description,
+                                           int64_t now_ms) override;
 
  private:
   SqlJobStore(std::unique_ptr<SqlDatabase> db, const StoreOptions& options)

@@ -1,0 +1,576 @@
+// End-to-end tests of the service's limits, path safety and integrity:
+// real pf-server and pf-worker processes on loopback (tests/service_harness.h),
+// a real SQLite store and blob directory. Each limit is exceeded once and
+// its error must name the limit's flag; each way out of a clip's directory
+// or a trusted root is tried and refused; a scene file corrupted on disk is
+// detected, dropped and rebuilt, and the render still matches embedded mode.
+#include "google/longrunning/operations.grpc.pb.h"
+#include "pointforward/v1/blobs.grpc.pb.h"
+#include "pointforward/v1/resources.pb.h"
+#include "pointforward/v1/service.grpc.pb.h"
+
+#include <google/protobuf/util/json_util.h>
+#include <grpcpp/grpcpp.h>
+#include <signal.h>
+
+#include <OpenImageIO/imageio.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "common/file_util.h"
+#include "common/hash.h"
+#include "gtest/gtest.h"
+#include "rpc/blob_transfer.h"
+#include "rpc/grpc_status.h"
+#include "tests/service_harness.h"
+#include "tests/test_util.h"
+
+namespace pf {
+namespace {
+
+namespace fs = std::filesystem;
+namespace v1 = pointforward::v1;
+using google::longrunning::Operation;
+using testing::BinPath;
+using testing::CommandResult;
+using testing::RunCommand;
+using testing::ServerProcess;
+using testing::WaitFor;
+using testing::WorkerProcess;
+
+// Mean squared difference of the R, G, B channels of two EXRs as PSNR
+// (peak 1); +inf when identical, -1 when they cannot be compared.
+double RgbPsnr(const std::string& a_path, const std::string& b_path) {
+  std::vector<float> pixels[2];
+  int channels[2] = {0, 0};
+  const std::string paths[2] = {a_path, b_path};
+  for (int k = 0; k < 2; ++k) {
+    auto in = OIIO::ImageInput::open(paths[k]);
+    if (!in) return -1;
+    const OIIO::ImageSpec& spec = in->spec();
+    channels[k] = spec.nchannels;
+    pixels[k].resize(static_cast<size_t>(spec.width) * spec.height * spec.nchannels);
+    if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, pixels[k].data())) return -1;
+  }
+  if (pixels[0].size() != pixels[1].size() || channels[0] != channels[1] || channels[0] < 3) {
+    return -1;
+  }
+  double squared = 0;
+  size_t count = 0;
+  for (size_t p = 0; p < pixels[0].size(); p += channels[0]) {
+    for (int c = 0; c < 3; ++c) {  // R, G, B come first in our EXRs.
+      const double d = pixels[0][p + c] - pixels[1][p + c];
+      squared += d * d;
+      ++count;
+    }
+  }
+  if (squared == 0) return INFINITY;
+  return 10 * std::log10(1.0 / (squared / count));
+}
+
+bool Contains(const std::string& text, const std::string& part) {
+  return text.find(part) != std::string::npos;
+}
+
+// A synth clip (2 cameras x 6 frames of 192x144), four views of its first
+// camera, and embedded-mode renders of them, made once for all tests.
+class LimitsE2e : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = new std::string(testing::MakeTempDir("limits_e2e"));
+    const CommandResult synth =
+        RunCommand({BinPath("pf"), "synth", "--out", *dir_ + "/clip", "--width", "192", "--height",
+                    "144", "--frames", "6", "--cameras", "2"});
+    ASSERT_EQ(synth.exit_code, 0) << synth.err;
+    std::ifstream in(*dir_ + "/clip/clip.json");
+    manifest_ = new nlohmann::json(nlohmann::json::parse(in));
+    WriteViews(*dir_ + "/views4.json");
+    const CommandResult recon =
+        RunCommand({BinPath("pf"), "reconstruct", ClipPath(), "--out", *dir_ + "/embedded.pfs"});
+    ASSERT_EQ(recon.exit_code, 0) << recon.err;
+    const CommandResult render =
+        RunCommand({BinPath("pf"), "render", *dir_ + "/embedded.pfs", "--cameras",
+                    *dir_ + "/views4.json", "--out", *dir_ + "/embedded"});
+    ASSERT_EQ(render.exit_code, 0) << render.err;
+  }
+  static void TearDownTestSuite() {
+    delete manifest_;
+    delete dir_;
+  }
+
+  // Views v00..v03 at the first camera's frames, each moved 0.1 m sideways.
+  static void WriteViews(const std::string& path) {
+    const nlohmann::json& clip = *manifest_;
+    nlohmann::json views;
+    views["cameras"] = nlohmann::json::array({clip["cameras"][0]});
+    const std::string camera = clip["cameras"][0]["id"];
+    int i = 0;
+    for (const nlohmann::json& frame : clip["frames"]) {
+      if (frame["camera"] != camera || i == 4) continue;
+      nlohmann::json pose = frame["worldFromCamera"];
+      for (int r = 0; r < 3; ++r) {
+        pose[r * 4 + 3] = pose[r * 4 + 3].get<double>() + 0.1 * i * pose[r * 4].get<double>();
+      }
+      views["views"].push_back({{"camera", camera},
+                                {"timestampUs", frame["timestampUs"]},
+                                {"worldFromCamera", pose},
+                                {"name", "v0" + std::to_string(i)}});
+      ++i;
+    }
+    std::ofstream(path) << views.dump(2);
+  }
+
+  static std::string ClipPath() { return *dir_ + "/clip/clip.json"; }
+
+  static v1::RenderViews Views() {
+    std::ifstream in(*dir_ + "/views4.json");
+    const std::string json((std::istreambuf_iterator<char>(in)), {});
+    v1::RenderViews views;
+    EXPECT_TRUE(google::protobuf::util::JsonStringToMessage(json, &views).ok());
+    return views;
+  }
+
+  void SetUp() override { test_dir_ = testing::MakeTempDir("limits_case"); }
+
+  // Uploads every file `manifest` references, from `files_dir`, and the
+  // manifest itself; `paths` maps a path as the manifest writes it to the
+  // file to upload when that differs from files_dir/path.
+  static v1::UploadedClip Upload(BlobClient& blobs, const nlohmann::json& manifest,
+                                 const std::map<std::string, std::string>& paths = {}) {
+    v1::UploadedClip clip;
+    auto add = [&](const std::string& path) {
+      const std::string local = paths.count(path) ? paths.at(path) : *dir_ + "/clip/" + path;
+      absl::StatusOr<v1::Digest> digest = blobs.UploadFile(local);
+      EXPECT_TRUE(digest.ok()) << local << ": " << digest.status();
+      if (digest.ok()) (*clip.mutable_files())[path] = *digest;
+    };
+    for (const nlohmann::json& frame : manifest["frames"]) {
+      for (const char* key : {"image", "depth"}) {
+        if (frame.contains(key)) add(frame[key]);
+      }
+    }
+    if (manifest.contains("lidar")) {
+      for (const nlohmann::json& sweep : manifest["lidar"]) add(sweep["points"]);
+    }
+    absl::StatusOr<v1::Digest> digest = blobs.UploadBytes(manifest.dump());
+    EXPECT_TRUE(digest.ok()) << digest.status();
+    if (digest.ok()) *clip.mutable_manifest() = *digest;
+    return clip;
+  }
+
+  static grpc::Status CreateScene(ServerProcess& server, const v1::ClipSource& clip,
+                                  Operation* op) {
+    auto stub = v1::SceneService::NewStub(MakeChannel(server.address()));
+    v1::CreateSceneRequest request;
+    *request.mutable_clip() = clip;
+    grpc::ClientContext context;
+    return stub->CreateScene(&context, request, op);
+  }
+
+  static v1::ClipSource Uri(const std::string& path) {
+    v1::ClipSource clip;
+    clip.set_uri("file://" + path);
+    return clip;
+  }
+
+  static grpc::Status CreateRender(ServerProcess& server, const v1::CreateRenderJobRequest& request,
+                                   Operation* op) {
+    auto stub = v1::RenderService::NewStub(MakeChannel(server.address()));
+    grpc::ClientContext context;
+    return stub->CreateRenderJob(&context, request, op);
+  }
+
+  static absl::StatusOr<Operation> GetOperation(ServerProcess& server, const std::string& name) {
+    auto stub = google::longrunning::Operations::NewStub(MakeChannel(server.address()));
+    grpc::ClientContext context;
+    google::longrunning::GetOperationRequest request;
+    request.set_name(name);
+    Operation op;
+    const grpc::Status status = stub->GetOperation(&context, request, &op);
+    if (!status.ok()) return FromGrpc(status);
+    return op;
+  }
+
+  static Operation WaitDone(ServerProcess& server, const std::string& name, int seconds = 120) {
+    Operation op;
+    WaitFor(
+        [&] {
+          absl::StatusOr<Operation> got = GetOperation(server, name);
+          if (got.ok()) op = *got;
+          return got.ok() && got->done();
+        },
+        std::chrono::seconds(seconds));
+    return op;
+  }
+
+  static v1::OperationMetadata Metadata(const Operation& op) {
+    v1::OperationMetadata metadata;
+    op.metadata().UnpackTo(&metadata);
+    return metadata;
+  }
+
+  static v1::Scene GetScene(ServerProcess& server, const std::string& name) {
+    auto stub = v1::SceneService::NewStub(MakeChannel(server.address()));
+    grpc::ClientContext context;
+    v1::GetSceneRequest request;
+    request.set_name(name);
+    v1::Scene scene;
+    EXPECT_TRUE(stub->GetScene(&context, request, &scene).ok());
+    return scene;
+  }
+
+  // Creates the test clip's scene with a worker running and waits for it.
+  v1::Scene BuildScene(ServerProcess& server) {
+    Operation op;
+    const grpc::Status created = CreateScene(server, Uri(ClipPath()), &op);
+    EXPECT_TRUE(created.ok()) << created.error_message();
+    const Operation done = WaitDone(server, op.name());
+    EXPECT_TRUE(done.done() && !done.has_error()) << done.error().message() << server.Log();
+    v1::Scene scene;
+    EXPECT_TRUE(done.response().UnpackTo(&scene));
+    return scene;
+  }
+
+  // Renders views4.json of `scene` and downloads every file into `out`;
+  // returns the finished operation.
+  Operation RenderAndDownload(ServerProcess& server, const std::string& scene,
+                              const std::string& out) {
+    v1::CreateRenderJobRequest request;
+    request.set_scene(scene);
+    *request.mutable_views() = Views();
+    Operation op;
+    const grpc::Status status = CreateRender(server, request, &op);
+    EXPECT_TRUE(status.ok()) << status.error_message();
+    const Operation done = WaitDone(server, op.name());
+    v1::RenderJob job;
+    if (!done.done() || done.has_error() || !done.response().UnpackTo(&job)) {
+      ADD_FAILURE() << "render " << op.name() << " did not succeed: " << done.error().message()
+                    << "\n" << server.Log();
+      return done;
+    }
+    BlobClient blobs(MakeChannel(server.address()));
+    for (const v1::OutputFile& file : job.files()) {
+      const absl::Status got = blobs.DownloadToFile(file.digest().sha256(), out + "/" + file.name());
+      EXPECT_TRUE(got.ok()) << file.name() << ": " << got;
+    }
+    return done;
+  }
+
+  std::string BlobPath(const std::string& sha256) const {
+    return test_dir_ + "/blobs/" + sha256.substr(0, 2) + "/" + sha256;
+  }
+
+  static std::string* dir_;
+  static nlohmann::json* manifest_;
+  std::string test_dir_;
+};
+
+std::string* LimitsE2e::dir_ = nullptr;
+nlohmann::json* LimitsE2e::manifest_ = nullptr;
+
+// -- Limits ------------------------------------------------------------------
+
+TEST_F(LimitsE2e, ImagesPerClipAndPixelsPerImageAreCheckedBeforeAnythingIsQueued) {
+  const int images = static_cast<int>((*manifest_)["frames"].size());
+  ServerProcess server(test_dir_);
+  ASSERT_TRUE(server.Start({"--trusted-root", *dir_, "--max-images-per-clip",
+                            std::to_string(images - 1)}))
+      << server.Log();
+  Operation op;
+  grpc::Status status = CreateScene(server, Uri(ClipPath()), &op);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_EQ(status.error_message(),
+            "clip: " + std::to_string(images) + " images exceed the limit of " +
+                std::to_string(images - 1) + " per clip (--max-images-per-clip)");
+  // The same through an upload, and with the remote CLI.
+  BlobClient blobs(MakeChannel(server.address()));
+  v1::ClipSource uploaded;
+  *uploaded.mutable_uploaded() = Upload(blobs, *manifest_);
+  status = CreateScene(server, uploaded, &op);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_TRUE(Contains(status.error_message(), "(--max-images-per-clip)")) << status.error_message();
+  const CommandResult cli =
+      RunCommand({BinPath("pf"), "--server", server.address(), "scene", "create", ClipPath()});
+  EXPECT_EQ(cli.exit_code, 2) << cli.out << cli.err;
+  EXPECT_TRUE(Contains(cli.err, "--max-images-per-clip")) << cli.err;
+  ASSERT_EQ(server.Kill(SIGTERM), 0);
+
+  // 192 x 144 = 27648 pixels per image.
+  ServerProcess small(test_dir_, "small");
+  ASSERT_TRUE(small.Start({"--trusted-root", *dir_, "--max-pixels-per-image", "27647"}))
+      << small.Log();
+  status = CreateScene(small, Uri(ClipPath()), &op);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_EQ(status.error_message(),
+            "clip.cameras[0]: 192x144 = 27648 pixels per image exceed the limit of 27647 "
+            "(--max-pixels-per-image)");
+  ASSERT_EQ(small.Kill(SIGTERM), 0);
+
+  // At the limits the clip is accepted.
+  ServerProcess exact(test_dir_, "exact");
+  ASSERT_TRUE(exact.Start({"--trusted-root", *dir_, "--max-pixels-per-image", "27648",
+                           "--max-images-per-clip", std::to_string(images)}))
+      << exact.Log();
+  status = CreateScene(exact, Uri(ClipPath()), &op);
+  EXPECT_TRUE(status.ok()) << status.error_message();
+}
+
+TEST_F(LimitsE2e, AReconstructionOverMaxGaussiansFailsNamingTheFlag) {
+  ServerProcess server(test_dir_);
+  ASSERT_TRUE(server.Start({"--trusted-root", *dir_, "--max-gaussians", "100"})) << server.Log();
+  WorkerProcess worker(server.address(), test_dir_, "w1");
+  ASSERT_TRUE(worker.Start());
+  Operation op;
+  ASSERT_TRUE(CreateScene(server, Uri(ClipPath()), &op).ok());
+  const Operation done = WaitDone(server, op.name());
+  ASSERT_TRUE(done.done()) << server.Log();
+  ASSERT_TRUE(done.has_error());
+  EXPECT_EQ(done.error().code(), static_cast<int>(grpc::StatusCode::INVALID_ARGUMENT));
+  EXPECT_TRUE(Contains(done.error().message(),
+                       "Gaussians exceed the limit of 100 per scene (pf-server --max-gaussians)"))
+      << done.error().message();
+  // Bad input: one attempt, not retried.
+  EXPECT_EQ(Metadata(done).attempts_size(), 1);
+}
+
+TEST_F(LimitsE2e, ViewsPerJobAndRequestSizeAreLimited) {
+  ServerProcess server(test_dir_);
+  ASSERT_TRUE(server.Start({"--trusted-root", *dir_, "--max-views", "3", "--max-request-bytes",
+                            "2097152"}))
+      << server.Log();
+  v1::CreateRenderJobRequest request;
+  request.mutable_create_scene()->mutable_clip()->set_uri("file://" + ClipPath());
+  *request.mutable_views() = Views();  // Four views.
+  Operation op;
+  grpc::Status status = CreateRender(server, request, &op);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_EQ(status.error_message(),
+            "views.views: 4 views exceed the limit of 3 per render job (pf-server --max-views)");
+
+  // About 3 MB of views: gRPC refuses the message before any handler runs;
+  // its message gives the limit's value (it cannot name our flag).
+  const v1::RenderView first = request.views().views(0);
+  request.mutable_views()->clear_views();
+  for (int i = 0; i < 20000; ++i) {
+    v1::RenderView* view = request.mutable_views()->add_views();
+    *view = first;
+    view->set_name("view_with_a_long_name_" + std::to_string(i) + std::string(100, 'x'));
+  }
+  ASSERT_GT(request.ByteSizeLong(), 2097152u);
+  status = CreateRender(server, request, &op);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
+  EXPECT_TRUE(Contains(status.error_message(), "2097152")) << status.error_message();
+
+  // The server is unharmed and takes requests under both limits.
+  request.mutable_views()->mutable_views()->DeleteSubrange(3, 20000 - 3);
+  status = CreateRender(server, request, &op);
+  EXPECT_TRUE(status.ok()) << status.error_message();
+}
+
+TEST_F(LimitsE2e, UnfinishedJobsPerOwnerAreLimited) {
+  ServerProcess server(test_dir_);
+  ASSERT_TRUE(server.Start({"--trusted-root", *dir_, "--max-jobs-per-owner", "2"})) << server.Log();
+  // No worker: nothing finishes. The reconstruction is one job...
+  Operation scene_op;
+  ASSERT_TRUE(CreateScene(server, Uri(ClipPath()), &scene_op).ok());
+  v1::OperationMetadata scene_metadata = Metadata(scene_op);
+  const std::string scene = scene_metadata.target();
+  v1::CreateRenderJobRequest request;
+  request.set_scene(scene);
+  *request.mutable_views() = Views();
+  request.mutable_views()->mutable_views()->DeleteSubrange(1, 3);
+  // ...a render job waiting for it the second...
+  Operation first;
+  grpc::Status status = CreateRender(server, request, &first);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  // ...and a third is refused.
+  Operation op;
+  status = CreateRender(server, request, &op);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
+  EXPECT_TRUE(Contains(status.error_message(),
+                       "2 unfinished jobs, the limit of 2 per owner (--max-jobs-per-owner)"))
+      << status.error_message();
+  // The same clip again adds no job: a join, allowed.
+  EXPECT_TRUE(CreateScene(server, Uri(ClipPath()), &op).ok());
+  // Once one ends (cancelled), there is room again.
+  {
+    auto ops = google::longrunning::Operations::NewStub(MakeChannel(server.address()));
+    grpc::ClientContext context;
+    google::longrunning::CancelOperationRequest cancel;
+    cancel.set_name(first.name());
+    google::protobuf::Empty empty;
+    ASSERT_TRUE(ops->CancelOperation(&context, cancel, &empty).ok());
+  }
+  status = CreateRender(server, request, &op);
+  EXPECT_TRUE(status.ok()) << status.error_message();
+}
+
+// -- Path safety ----------------------------------------------------------------
+
+TEST_F(LimitsE2e, UploadedClipPathsThatLeaveTheClipAreRefused) {
+  ServerProcess server(test_dir_);
+  ASSERT_TRUE(server.Start()) << server.Log();
+  BlobClient blobs(MakeChannel(server.address()));
+  const std::string image = (*manifest_)["frames"][0]["image"];
+  const std::string local = *dir_ + "/clip/" + image;
+  for (const std::string& path : {std::string("../escape.png"), std::string("images/../../x.png"),
+                                  std::string("/etc/escape.png")}) {
+    nlohmann::json manifest = *manifest_;
+    manifest["frames"][0]["image"] = path;
+    v1::ClipSource clip;
+    *clip.mutable_uploaded() = Upload(blobs, manifest, {{path, local}});
+    Operation op;
+    const grpc::Status status = CreateScene(server, clip, &op);
+    EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << path;
+    EXPECT_TRUE(Contains(status.error_message(), "clip.uploaded.files[\"" + path + "\"]"))
+        << path << ": " << status.error_message();
+    EXPECT_TRUE(Contains(status.error_message(), path[0] == '/' ? "absolute" : "escapes"))
+        << status.error_message();
+  }
+  // Nothing was written outside the staging area.
+  EXPECT_FALSE(fs::exists("/etc/escape.png"));
+  EXPECT_FALSE(fs::exists(test_dir_ + "/blobs/escape.png"));
+}
+
+TEST_F(LimitsE2e, FileUriClipsAndTheirPathsMustStayUnderTheTrustedRoot) {
+  // root/clip is a copy of the clip; outside/ is next to the root.
+  const std::string root = test_dir_ + "/root";
+  const std::string outside = test_dir_ + "/outside";
+  fs::create_directories(outside);
+  fs::copy(*dir_ + "/clip", root + "/clip", fs::copy_options::recursive);
+  fs::copy(*dir_ + "/clip", outside + "/clip", fs::copy_options::recursive);
+  const std::string image = (*manifest_)["frames"][0]["image"];
+  fs::copy_file(*dir_ + "/clip/" + image, outside + "/secret.png");
+
+  ServerProcess server(test_dir_);
+  ASSERT_TRUE(server.Start({"--trusted-root", root})) << server.Log();
+  Operation op;
+  ASSERT_TRUE(CreateScene(server, Uri(root + "/clip/clip.json"), &op).ok());
+
+  // The URI itself: climbing out with "..", a path outside, a symlink in the
+  // root to a clip outside it.
+  fs::create_directory_symlink(outside + "/clip", root + "/link");
+  for (const std::string& path : {root + "/../outside/clip/clip.json", outside + "/clip/clip.json",
+                                  root + "/link/clip.json"}) {
+    const grpc::Status status = CreateScene(server, Uri(path), &op);
+    EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << path;
+    EXPECT_TRUE(Contains(status.error_message(), "is not under a trusted root"))
+        << path << ": " << status.error_message();
+  }
+
+  // Paths in a manifest under the root: "..", absolute, a symlink out.
+  fs::create_symlink(outside + "/secret.png", root + "/clip/link.png");
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"../../outside/secret.png", "escapes"},
+      {outside + "/secret.png", "absolute"},
+      {"link.png", "escapes"}};
+  for (const auto& [path, why] : cases) {
+    nlohmann::json manifest = *manifest_;
+    manifest["frames"][0]["image"] = path;
+    std::ofstream(root + "/clip/bad.json") << manifest.dump();
+    const grpc::Status status = CreateScene(server, Uri(root + "/clip/bad.json"), &op);
+    EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << path;
+    EXPECT_TRUE(Contains(status.error_message(), "frames[0].image"))
+        << path << ": " << status.error_message();
+    EXPECT_TRUE(Contains(status.error_message(), why)) << path << ": " << status.error_message();
+  }
+}
+
+TEST_F(LimitsE2e, OutputNamesThatAreNotPlainFileNamesAreRefused) {
+  ServerProcess server(test_dir_);
+  ASSERT_TRUE(server.Start({"--trusted-root", *dir_})) << server.Log();
+  for (const std::string& name : {std::string("../x"), std::string("a/b"), std::string(".hidden"),
+                                  std::string("/abs")}) {
+    v1::CreateRenderJobRequest request;
+    request.mutable_create_scene()->mutable_clip()->set_uri("file://" + ClipPath());
+    *request.mutable_views() = Views();
+    request.mutable_views()->mutable_views(1)->set_name(name);
+    Operation op;
+    const grpc::Status status = CreateRender(server, request, &op);
+    EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << name;
+    EXPECT_TRUE(Contains(status.error_message(), "views.views[1].name")) << status.error_message();
+  }
+}
+
+// -- Integrity ------------------------------------------------------------------
+
+// A scene file corrupted on disk is never rendered: the server finds it
+// when it first hands the scene out (its own hash check), or a worker finds
+// it downloading (DATA_LOSS). Either way the corrupt blob is dropped, the
+// scene rebuilt, and the render job waits for it and completes correctly.
+TEST_F(LimitsE2e, ACorruptSceneFileIsDroppedAndRebuiltNotRendered) {
+  ServerProcess server(test_dir_);
+  ASSERT_TRUE(server.Start({"--trusted-root", *dir_})) << server.Log();
+  auto worker = std::make_unique<WorkerProcess>(server.address(), test_dir_, "w1");
+  ASSERT_TRUE(worker->Start());
+  const v1::Scene scene = BuildScene(server);
+  ASSERT_EQ(scene.state(), v1::Scene::READY);
+  const std::string first_build = scene.operation();
+
+  auto corrupt = [&](const std::string& sha256) {
+    const std::string path = BlobPath(sha256);
+    ASSERT_TRUE(fs::exists(path)) << path;
+    fs::permissions(path, fs::perms::owner_write, fs::perm_options::add);
+    std::fstream file(path, std::ios::in | std::ios::out | std::ios::binary);
+    file.seekp(200);
+    file.write("garbage garbage garbage", 23);
+  };
+  auto check_render = [&](const Operation& done, const std::string& out) {
+    for (const char* name : {"v00", "v01", "v02", "v03"}) {
+      EXPECT_GE(RgbPsnr(out + "/" + name + ".exr", *dir_ + "/embedded/" + name + ".exr"), 60.0)
+          << name;
+    }
+    bool saw_corrupt = false;
+    for (const v1::Attempt& attempt : Metadata(done).attempts()) {
+      if (Contains(attempt.outcome(), "scene file corrupt")) saw_corrupt = true;
+    }
+    EXPECT_TRUE(saw_corrupt) << Metadata(done).DebugString();
+  };
+
+  // 1. The worker that built the scene (and holds it in memory) goes; the
+  // file is corrupted; a fresh worker comes. The server's check at the
+  // first lease finds it.
+  ASSERT_EQ(worker->Kill(SIGTERM), 0);
+  corrupt(scene.scene_file().sha256());
+  worker = std::make_unique<WorkerProcess>(server.address(), test_dir_, "w2");
+  ASSERT_TRUE(worker->Start());
+  const Operation first = RenderAndDownload(server, scene.name(), test_dir_ + "/out1");
+  check_render(first, test_dir_ + "/out1");
+  const v1::Scene rebuilt = GetScene(server, scene.name());
+  EXPECT_EQ(rebuilt.state(), v1::Scene::READY);
+  EXPECT_NE(rebuilt.operation(), first_build);
+  EXPECT_TRUE(Contains(server.Log(), "rebuilding it in " + rebuilt.operation())) << server.Log();
+  // The corrupt bytes are gone: whatever is stored under the old name (the
+  // rebuild may produce the same file again) matches its name.
+  if (fs::exists(BlobPath(scene.scene_file().sha256()))) {
+    EXPECT_EQ(Sha256File(BlobPath(scene.scene_file().sha256())).value(),
+              scene.scene_file().sha256());
+  }
+
+  // 2. The server has now checked the rebuilt file once; it is corrupted
+  // again and a fresh worker downloads it: DATA_LOSS, rebuilt again.
+  ASSERT_EQ(worker->Kill(SIGTERM), 0);
+  corrupt(rebuilt.scene_file().sha256());
+  worker = std::make_unique<WorkerProcess>(server.address(), test_dir_, "w3");
+  ASSERT_TRUE(worker->Start());
+  const Operation second = RenderAndDownload(server, scene.name(), test_dir_ + "/out2");
+  check_render(second, test_dir_ + "/out2");
+  EXPECT_TRUE(Contains(worker->Log(), "DATA_LOSS") || Contains(worker->Log(), "corrupt"))
+      << worker->Log();
+  const v1::Scene again = GetScene(server, scene.name());
+  EXPECT_EQ(again.state(), v1::Scene::READY);
+  EXPECT_NE(again.operation(), rebuilt.operation());
+  if (fs::exists(BlobPath(rebuilt.scene_file().sha256()))) {
+    EXPECT_EQ(Sha256File(BlobPath(rebuilt.scene_file().sha256())).value(),
+              rebuilt.scene_file().sha256());
+  }
+}
+
+}  // namespace
+}  // namespace pf
