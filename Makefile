@@ -44,18 +44,21 @@ fuzz-smoke: build
 	PF=$(abspath $(BUILD_DIR))/bin/pf fuzz/run_fuzzers.sh build-fuzz 20
 
 # The whole suite under AddressSanitizer + UBSan (build-asan), then the
-# multi-threaded server, store, blob, RPC, worker and service tests under
-# ThreadSanitizer (build-tsan). docs/RELIABILITY.md, "Sanitizers".
-TSAN_TESTS = job_store_test blob_store_test blob_transfer_test scene_cache_test \
-	task_runner_test worker_loop_test service_e2e_test remote_loopback_test \
+# multi-threaded store, blob, metrics, thread-pool and worker scene-cache /
+# task-runner tests under ThreadSanitizer (build-tsan). Tests that run gRPC
+# are left out of TSan: Debian's gRPC and abseil are not instrumented, and
+# TSan reports races between gRPC's own threads in every one of them.
+# docs/RELIABILITY.md, "Sanitizers".
+TSAN_TESTS = job_store_test blob_store_test scene_cache_test task_runner_test \
 	metrics_test common_test
-TSAN_REGEX = ^(JobStoreTest|OpenJobStore|SqlJobStoreMigrations|SqliteDatabase|PostgresDatabase|BlobStore|BlobTransfer|GrpcStatus|SceneCache|TaskRunner|WorkerLoop|WorkerMain|ServiceE2e|RemoteLoopbackTest|Metrics|ThreadPool)
+TSAN_REGEX = ^($(shell echo $(TSAN_TESTS) | tr ' ' '|'))\.
 test-sanitizers: deps
 	@cmake -S . -B build-asan -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
 		-DCMAKE_CXX_FLAGS="-fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined" >/dev/null
 	@cmake --build build-asan -j $(JOBS)
-	cd build-asan && ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
-		ctest --output-on-failure -j $(CTEST_JOBS)
+	cd build-asan && ASAN_OPTIONS=detect_leaks=1:fast_unwind_on_malloc=0 \
+		LSAN_OPTIONS=suppressions=$(CURDIR)/fuzz/lsan_suppressions.txt \
+		UBSAN_OPTIONS=print_stacktrace=1 ctest --output-on-failure -j $(CTEST_JOBS)
 	@cmake -S . -B build-tsan -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
 		-DCMAKE_CXX_FLAGS="-fsanitize=thread -fno-omit-frame-pointer" >/dev/null
 	@cmake --build build-tsan -j $(JOBS) --target $(TSAN_TESTS)

@@ -71,7 +71,10 @@ commands:
   help  this text
 
 remote mode: pf --server HOST:PORT <command> (or PF_SERVER=HOST:PORT, which sends
-scene, render and jobs to that server; other commands always run here):
+scene, render and jobs to that server; other commands always run here).
+Before the command: [--tls-ca PEM] (TLS; or PF_TLS_CA) [--tls-cert PEM --tls-key PEM]
+(mutual TLS; or PF_TLS_CERT, PF_TLS_KEY) [--token-file PATH] (bearer token; else
+the token in PF_TOKEN):
   scene create CLIP.json|file:///abs/clip.json [--wait] [--model M] [--ns N] [--nd N]
         [--fusion F] [--no-lifespan] [--device D] [--request-id ID]
         upload the clip and every file it names (or let the server read a file://

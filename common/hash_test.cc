@@ -32,6 +32,17 @@ TEST(Sha256, IncrementalUpdatesEqualOneShot) {
             "cdc76e5c9914fb9281a1c7e284d73e67f1809a48a497200e046d39ccc7112cd0");
 }
 
+// Found by scene_file_fuzzer (a scene file with no Gaussians hashes its empty
+// arrays): memcpy from a null pointer, undefined even for 0 bytes. UBSan
+// builds (make test-sanitizers) abort here without the fix.
+TEST(Sha256, EmptyUpdateFromNullPointerChangesNothing) {
+  Sha256 hasher;
+  hasher.Update("ab", 2);
+  hasher.Update(nullptr, 0);
+  hasher.Update("c", 1);
+  EXPECT_EQ(hasher.FinishHex(), Sha256Hex("abc"));
+}
+
 TEST(Sha256, FileHashEqualsBytesHashAndMissingFileIsNotFound) {
   const std::string path = ::testing::TempDir() + "/hash_test.bin";
   std::FILE* f = std::fopen(path.c_str(), "wb");

@@ -47,7 +47,7 @@ for target in "${TARGETS[@]}"; do
   log=$BUILD_DIR/fuzz/logs/$target-$stamp.log
   mkdir -p "$corpus" "$artifacts" "$(dirname "$log")"
   rc=0
-  "$bin" -max_total_time="$SECONDS_PER_TARGET" -timeout="${PF_FUZZ_TIMEOUT:-25}" \
+  UBSAN_OPTIONS=${UBSAN_OPTIONS:-halt_on_error=1:print_stacktrace=1} "$bin" -max_total_time="$SECONDS_PER_TARGET" -timeout="${PF_FUZZ_TIMEOUT:-25}" \
     -max_len="${PF_FUZZ_MAX_LEN:-65536}" -rss_limit_mb=2048 -print_final_stats=1 -artifact_prefix="$artifacts/" \
     "$corpus" "$SEEDS/$target" >"$log" 2>&1 || rc=$?
 

@@ -2,7 +2,10 @@
 # The demo: synthesise a driving clip, validate it, reconstruct a Gaussian
 # scene from its CONTEXT frames, render a lane-shift trajectory of the front
 # camera (EXR + PNG), and evaluate the TARGET frames (report.json and contact
-# sheets). Everything lands in $PF_DEMO_OUT (default demo-out/).
+# sheets). Then the same through the service: pf-server and two pf-workers on
+# loopback, the clip uploaded and reconstructed remotely, the lane shift
+# rendered in chunks on both workers and downloaded, and the clip submitted
+# again (a cache hit). Everything lands in $PF_DEMO_OUT (default demo-out/).
 set -euo pipefail
 BUILD_DIR=${1:-build}
 PF="$BUILD_DIR/bin/pf"
@@ -52,8 +55,47 @@ step "pf render $OUT/scene.pfs --cameras $OUT/lane_shift.json --out $OUT/lane_sh
 step "pf eval $OUT/clip/clip.json --out $OUT/eval"
 "$PF" eval "$OUT/clip/clip.json" --out "$OUT/eval"
 
+# The service: a server on a free port with its store and blobs in $OUT/service,
+# two workers, and the remote command line.
+step "pf-server and two pf-worker on loopback"
+SERVICE="$OUT/service"
+mkdir -p "$SERVICE"
+PIDS=()
+cleanup() { [[ ${#PIDS[@]} -gt 0 ]] && kill -TERM "${PIDS[@]}" 2>/dev/null; wait 2>/dev/null || true; }
+trap cleanup EXIT
+"$BUILD_DIR/bin/pf-server" --listen 127.0.0.1:0 --port-file "$SERVICE/port" \
+  --store "sqlite:$SERVICE/jobs.db" --blobs "$SERVICE/blobs" 2>"$SERVICE/server.log" &
+PIDS+=($!)
+for _ in $(seq 100); do [[ -s "$SERVICE/port" ]] && break; sleep 0.1; done
+ADDR="127.0.0.1:$(cat "$SERVICE/port")"
+for id in w1 w2; do
+  "$BUILD_DIR/bin/pf-worker" --server "$ADDR" --id "$id" --work-dir "$SERVICE/$id" \
+    2>"$SERVICE/$id.log" &
+  PIDS+=($!)
+done
+echo "pf-server on $ADDR; logs in $SERVICE/"
+
+step "pf --server $ADDR scene create $OUT/clip/clip.json --wait"
+"$PF" --server "$ADDR" scene create "$OUT/clip/clip.json" --wait | tee "$SERVICE/create.txt"
+SCENE=$(grep -o 'scenes/[0-9a-f]*' "$SERVICE/create.txt" | head -1)
+
+step "pf --server $ADDR render $SCENE --cameras $OUT/lane_shift.json --out $OUT/remote --wait"
+"$PF" --server "$ADDR" render "$SCENE" --cameras "$OUT/lane_shift.json" --out "$OUT/remote" \
+  --chunk-frames 4 --wait
+
+step "pf --server $ADDR scene create $OUT/clip/clip.json   (again: a cache hit)"
+"$PF" --server "$ADDR" scene create "$OUT/clip/clip.json"
+
+step "pf --server $ADDR jobs list"
+"$PF" --server "$ADDR" jobs list
+echo "chunks rendered per worker: w1 $(grep -c 'rendered chunk' "$SERVICE/w1.log" || true)," \
+  "w2 $(grep -c 'rendered chunk' "$SERVICE/w2.log" || true)"
+cleanup
+PIDS=()
+
 step "done"
 echo "clip:        $OUT/clip/clip.json"
 echo "scene:       $OUT/scene.pfs"
 echo "lane shift:  $OUT/lane_shift/ (EXR + PNG per view, manifest.json)"
 echo "eval:        $OUT/eval/report.json and contact sheets in $OUT/eval/"
+echo "service:     $OUT/remote/ (the lane shift rendered by the workers), logs in $OUT/service/"

@@ -28,6 +28,9 @@ PACKAGES=(
   # Checks of the deployment files (tests/deploy_files_test.py): yamllint,
   # and PyYAML to read the Kubernetes manifests.
   yamllint python3-yaml
+  # TLS tests (tests/auth_e2e_test.cc): a throwaway CA and certificates made
+  # with the openssl command line at test time.
+  openssl
 )
 
 missing=()

@@ -110,13 +110,15 @@ absl::StatusOr<std::string> HashToken(std::string_view token) {
 
 absl::StatusOr<std::string> BearerToken(std::string_view authorization) {
   if (authorization.empty()) return absl::UnauthenticatedError("missing bearer token");
-  constexpr std::string_view kScheme = "bearer ";
-  if (authorization.size() <= kScheme.size() ||
-      !absl::EqualsIgnoreCase(authorization.substr(0, kScheme.size()), kScheme)) {
+  // Debian's abseil has its own string_view: convert once.
+  const absl::string_view header(authorization.data(), authorization.size());
+  constexpr absl::string_view kScheme = "bearer ";
+  if (header.size() <= kScheme.size() ||
+      !absl::EqualsIgnoreCase(header.substr(0, kScheme.size()), kScheme)) {
     return absl::UnauthenticatedError(
         "missing bearer token: the authorization metadata is not 'Bearer <token>'");
   }
-  return std::string(absl::StripAsciiWhitespace(authorization.substr(kScheme.size())));
+  return std::string(absl::StripAsciiWhitespace(header.substr(kScheme.size())));
 }
 
 absl::StatusOr<std::unique_ptr<Authenticator>> Authenticator::FromFile(const std::string& path) {

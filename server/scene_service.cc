@@ -55,11 +55,11 @@ grpc::Status SceneServiceImpl::GetScene(grpc::ServerContext* context,
   if (!caller.ok()) return ToGrpc(caller.status());
   absl::StatusOr<std::string> id = ParseResourceName(request->name(), "scenes", "name");
   if (!id.ok()) return ToGrpc(id.status());
+  absl::StatusOr<SceneRecord> record = core_->store().GetScene(*id);
+  if (!record.ok()) return ToGrpc(record.status());
   if (absl::Status ok = CheckCanUseScene(*caller, *id, core_->store(), request->name()); !ok.ok()) {
     return ToGrpc(ok);
   }
-  absl::StatusOr<SceneRecord> record = core_->store().GetScene(*id);
-  if (!record.ok()) return ToGrpc(record.status());
   absl::StatusOr<v1::Scene> scene = core_->SceneFor(*record);
   if (!scene.ok()) return ToGrpc(scene.status());
   *response = *std::move(scene);
@@ -95,6 +95,9 @@ grpc::Status SceneServiceImpl::DeleteScene(grpc::ServerContext* context,
   if (!caller.ok()) return ToGrpc(caller.status());
   absl::StatusOr<std::string> id = ParseResourceName(request->name(), "scenes", "name");
   if (!id.ok()) return ToGrpc(id.status());
+  if (absl::StatusOr<SceneRecord> record = core_->store().GetScene(*id); !record.ok()) {
+    return ToGrpc(record.status());
+  }
   if (absl::Status ok = CheckCanUseScene(*caller, *id, core_->store(), request->name()); !ok.ok()) {
     return ToGrpc(ok);
   }
@@ -108,11 +111,11 @@ grpc::Status SceneServiceImpl::ExportScene(grpc::ServerContext* context,
   if (!caller.ok()) return ToGrpc(caller.status());
   absl::StatusOr<std::string> id = ParseResourceName(request->name(), "scenes", "name");
   if (!id.ok()) return ToGrpc(id.status());
+  absl::StatusOr<SceneRecord> record = core_->store().GetScene(*id);
+  if (!record.ok()) return ToGrpc(record.status());
   if (absl::Status ok = CheckCanUseScene(*caller, *id, core_->store(), request->name()); !ok.ok()) {
     return ToGrpc(ok);
   }
-  absl::StatusOr<SceneRecord> record = core_->store().GetScene(*id);
-  if (!record.ok()) return ToGrpc(record.status());
   if (record->state != SceneState::kReady) {
     return ToGrpc(absl::FailedPreconditionError(absl::StrCat(
         "name: scene ", request->name(), " is ", SceneStateName(record->state), ", not READY")));
@@ -128,7 +131,7 @@ grpc::Status SceneServiceImpl::ExportScene(grpc::ServerContext* context,
   absl::StatusOr<GaussianScene> gaussians = LoadScene(*path);
   if (!gaussians.ok()) return ToGrpc(gaussians.status());
   PlyExportOptions options;
-  if (request->time_us() != 0) options.timestamp_us = request->time_us();
+  if (request->has_time_us()) options.timestamp_us = request->time_us();
   absl::StatusOr<std::string> ply = EncodePly(*gaussians, options);
   if (!ply.ok()) return ToGrpc(ply.status());
 

@@ -6,6 +6,7 @@
 #include <grpcpp/ext/proto_server_reflection_plugin.h>
 #include <grpcpp/health_check_service_interface.h>
 #include <grpcpp/server.h>
+#include <grpcpp/security/server_credentials.h>
 #include <grpcpp/server_builder.h>
 
 #include <atomic>
@@ -22,12 +23,15 @@
 #include "absl/strings/match.h"
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
+#include "absl/strings/ascii.h"
 #include "absl/strings/str_split.h"
 #include "common/command_line.h"
 #include "common/file_util.h"
 #include "common/logging.h"
 #include "common/status_macros.h"
 #include "common/metrics_http.h"
+#include "server/auth.h"
+#include "server/blob_quota.h"
 #include "server/blobs/blob_service.h"
 #include "server/server_metrics.h"
 #include "server/blobs/blob_store.h"
@@ -71,6 +75,9 @@ beside it; the flag wins.
                            0 = no limit)
   --max-jobs-per-owner N   unfinished jobs (scenes being built, render jobs) one owner may
                            have (PF_MAX_JOBS_PER_OWNER; default 100; 0 = no limit)
+  --max-blob-bytes N       size of the blob store; over it, least recently used scenes not
+                           in use are evicted, and uploads refused when none can be
+                           (PF_MAX_BLOB_BYTES; default 0 = no limit)
   --metrics-listen HOST:PORT
                            serve Prometheus metrics on http://HOST:PORT/metrics
                            (PF_METRICS_LISTEN; default off)
@@ -101,9 +108,11 @@ int HashTokenCommand() {
   std::string input;
   char buffer[4096];
   while (size_t read = std::fread(buffer, 1, sizeof(buffer), stdin)) input.append(buffer, read);
-  absl::StatusOr<std::string> hash = HashToken(absl::StripAsciiWhitespace(input));
+  const absl::string_view token = absl::StripAsciiWhitespace(input);
+  absl::StatusOr<std::string> hash = HashToken(std::string_view(token.data(), token.size()));
   if (!hash.ok()) {
-    std::fprintf(stderr, "pf-server hash-token: %s\n", std::string(hash.status().message()).c_str());
+    std::fprintf(stderr, "pf-server hash-token: %s\n",
+                 std::string(hash.status().message()).c_str());
     return 2;
   }
   std::printf("%s\n", hash->c_str());
@@ -127,6 +136,51 @@ absl::StatusOr<int64_t> IntSetting(const CommandLine& cl, const std::string& fla
         absl::StrCat("--", flag, ": expected an integer >= ", min_value, ", got '", text, "'"));
   }
   return value;
+}
+
+// The PEM file a --`flag` names; INVALID_ARGUMENT naming the flag when it
+// cannot be read or holds no PEM block.
+absl::StatusOr<std::string> ReadPem(const std::string& path, const char* flag) {
+  absl::StatusOr<std::string> text = ReadFileToString(path);
+  if (!text.ok()) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("--", flag, ": ", std::string(text.status().message())));
+  }
+  if (!absl::StrContains(*text, "-----BEGIN ")) {
+    return absl::InvalidArgumentError(absl::StrCat("--", flag, ": ", path, " is not a PEM file"));
+  }
+  return text;
+}
+
+// The port's credentials: TLS with --tls-cert and --tls-key (mutual TLS
+// with --tls-client-ca), plaintext without.
+absl::StatusOr<std::shared_ptr<grpc::ServerCredentials>> ServerCredentialsFromSettings(
+    const CommandLine& cl) {
+  const std::string cert = Setting(cl, "tls-cert", "PF_TLS_CERT", "");
+  const std::string key = Setting(cl, "tls-key", "PF_TLS_KEY", "");
+  const std::string client_ca = Setting(cl, "tls-client-ca", "PF_TLS_CLIENT_CA", "");
+  if (cert.empty() != key.empty()) {
+    return absl::InvalidArgumentError(
+        "--tls-cert and --tls-key: give both (a certificate chain and its private key) or neither");
+  }
+  if (cert.empty()) {
+    if (!client_ca.empty()) {
+      return absl::InvalidArgumentError("--tls-client-ca: needs --tls-cert and --tls-key");
+    }
+    return grpc::InsecureServerCredentials();
+  }
+  grpc::SslServerCredentialsOptions ssl;
+  grpc::SslServerCredentialsOptions::PemKeyCertPair pair;
+  ASSIGN_OR_RETURN(pair.cert_chain, ReadPem(cert, "tls-cert"));
+  ASSIGN_OR_RETURN(pair.private_key, ReadPem(key, "tls-key"));
+  ssl.pem_key_cert_pairs.push_back(std::move(pair));
+  if (!client_ca.empty()) {
+    ASSIGN_OR_RETURN(ssl.pem_root_certs, ReadPem(client_ca, "tls-client-ca"));
+    ssl.client_certificate_request = GRPC_SSL_REQUEST_AND_REQUIRE_CLIENT_CERTIFICATE_AND_VERIFY;
+    ssl.force_client_auth = true;
+  }
+  spdlog::info("TLS on{}", client_ca.empty() ? "" : ", client certificates required");
+  return grpc::SslServerCredentials(ssl);
 }
 
 absl::Status Run(const CommandLine& cl) {
@@ -168,6 +222,15 @@ absl::Status Run(const CommandLine& cl) {
                    IntSetting(cl, "max-gaussians", "PF_MAX_GAUSSIANS", 20'000'000, 0));
   ASSIGN_OR_RETURN(options.max_jobs_per_owner,
                    IntSetting(cl, "max-jobs-per-owner", "PF_MAX_JOBS_PER_OWNER", 100, 0));
+  ASSIGN_OR_RETURN(const int64_t max_blob_bytes,
+                   IntSetting(cl, "max-blob-bytes", "PF_MAX_BLOB_BYTES", 0, 0));
+
+  std::unique_ptr<Authenticator> authenticator;
+  if (const std::string path = Setting(cl, "auth-token-file", "PF_AUTH_TOKEN_FILE", "");
+      !path.empty()) {
+    ASSIGN_OR_RETURN(authenticator, Authenticator::FromFile(path));
+    options.authenticator = authenticator.get();
+  }
 
   if (absl::StartsWith(store_spec, "sqlite:")) {
     const std::string path = store_spec.substr(7);
@@ -190,15 +253,12 @@ absl::Status Run(const CommandLine& cl) {
   RenderServiceImpl render_service(&core);
   OperationsServiceImpl operations_service(&core);
   WorkerServiceImpl worker_service(&core);
-  BlobServiceImpl blob_service(&blobs, options.max_upload_bytes);
+  BlobServiceImpl blob_service(&blobs, options.max_upload_bytes, authenticator.get());
+  BlobQuota quota(store.get(), &blobs, max_blob_bytes);
+  if (quota.max_bytes() > 0) blob_service.set_make_room([&quota] { return quota.MakeRoom(); });
 
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
-  std::unique_ptr<Authenticator> authenticator;
-  if (const std::string path = Setting(cl, "auth-token-file", "PF_AUTH_TOKEN_FILE", "");
-      !path.empty()) {
-    ASSIGN_OR_RETURN(authenticator, Authenticator::FromFile(path));
-  }
   ASSIGN_OR_RETURN(const std::shared_ptr<grpc::ServerCredentials> credentials,
                    ServerCredentialsFromSettings(cl));
 
@@ -248,6 +308,13 @@ absl::Status Run(const CommandLine& cl) {
 
 int main(int argc, char** argv) {
   std::vector<std::string> args(argv + 1, argv + argc);
+  if (!args.empty() && args[0] == "hash-token") {
+    if (args.size() > 1) {
+      std::fputs("pf-server hash-token: takes no arguments; the token comes on stdin\n", stderr);
+      return 2;
+    }
+    return pf::HashTokenCommand();
+  }
   for (const std::string& arg : args) {
     if (arg == "--help" || arg == "-h") {
       std::fputs(pf::kUsage, stdout);
@@ -258,7 +325,8 @@ int main(int argc, char** argv) {
       args, {"listen", "store", "blobs", "trusted-root", "lease-seconds", "max-attempts",
              "chunk-frames", "max-views", "max-upload-bytes", "port-file", "log-level",
              "metrics-listen", "max-request-bytes", "max-images-per-clip", "max-pixels-per-image",
-             "max-gaussians", "max-jobs-per-owner"});
+             "max-gaussians", "max-jobs-per-owner", "max-blob-bytes", "auth-token-file", "tls-cert", "tls-key",
+             "tls-client-ca"});
   if (!cl.ok() || !cl->positional().empty()) {
     std::fprintf(stderr, "pf-server: %s\n%s",
                  cl.ok() ? "unexpected arguments" : std::string(cl.status().message()).c_str(),

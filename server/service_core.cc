@@ -215,12 +215,17 @@ absl::StatusOr<v1::RenderJob> ServiceCore::RenderJobFor(const JobRecord& job) {
     }
     for (const nlohmann::json& view : chunk_views) views.push_back(view);
   }
-  ASSIGN_OR_RETURN(const SceneRecord scene, store_->GetScene(job.scene_id));
-  v1::Scene scene_proto;
-  RETURN_IF_ERROR(FromJson(scene.description, &scene_proto, "stored scene"));
   nlohmann::json manifest;
-  manifest["scene"] = {{"name", out.scene()}, {"model", scene_proto.model()},
-                       {"contentHash", scene.content_hash}};
+  manifest["scene"] = {{"name", out.scene()}};
+  // The scene may be gone since (deleted, or evicted from the cache).
+  if (absl::StatusOr<SceneRecord> scene = store_->GetScene(job.scene_id); scene.ok()) {
+    v1::Scene scene_proto;
+    RETURN_IF_ERROR(FromJson(scene->description, &scene_proto, "stored scene"));
+    manifest["scene"]["model"] = scene_proto.model();
+    manifest["scene"]["contentHash"] = scene->content_hash;
+  } else if (scene.status().code() != absl::StatusCode::kNotFound) {
+    return scene.status();
+  }
   manifest["renderJob"] = out.name();
   manifest["software"] = absl::StrCat("PointForward ", SoftwareVersion());
   manifest["views"] = std::move(views);

@@ -72,6 +72,9 @@ grpc::Status WorkerServiceImpl::LeaseTask(grpc::ServerContext* context,
       core_->options().max_lease_wait_ms);
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(wait_ms);
   while (true) {
+    // A worker that went away during the long poll gets no task: it could not
+    // receive it, and the task would sit leased until its lease expired.
+    if (context->IsCancelled()) return grpc::Status::CANCELLED;
     absl::StatusOr<std::optional<TaskLease>> lease =
         core_->store().LeaseTask(request->worker_id(), cached, core_->NowMs());
     if (!lease.ok()) return ToGrpc(lease.status());

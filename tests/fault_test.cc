@@ -218,6 +218,7 @@ struct Figures {
   int server_kills = 0;
   int attempts = 0;
   int lease_expired = 0;
+  int most_attempts = 0;  // The highest attempt number of any task.
   int succeeded = 0;
   int failed = 0;
   std::map<std::string, int> outcomes;  // Attempt outcome (first word) -> count.
@@ -308,7 +309,9 @@ TEST(Fault, HundredJobsSurviveRandomWorkerKillsAndAServerKill) {
         if (server_status != 128 + SIGKILL) {
           killer_errors.push_back("server exited with " + std::to_string(server_status));
         }
-        if (!server.Restart()) killer_errors.push_back("cannot restart the server:\n" + server.Log());
+        if (!server.Restart()) {
+          killer_errors.push_back("cannot restart the server:\n" + server.Log());
+        }
         ++figures.server_kills;
       }
     }
@@ -431,6 +434,7 @@ TEST(Fault, HundredJobsSurviveRandomWorkerKillsAndAServerKill) {
       ++figures.attempts;
       ++figures.outcomes[attempt.outcome().substr(0, attempt.outcome().find(':'))];
       if (attempt.outcome() == "lease expired") ++figures.lease_expired;
+      figures.most_attempts = std::max(figures.most_attempts, attempt.number());
       EXPECT_NE(attempt.outcome(), "running") << name << " is done but " << attempt.task()
                                               << " attempt " << attempt.number() << " runs";
     }
@@ -540,8 +544,8 @@ TEST(Fault, HundredJobsSurviveRandomWorkerKillsAndAServerKill) {
       ASSERT_EQ(wait.exit_code, 0) << wait.out << wait.err;
       for (int v = 0; v < kViewsPerJob; ++v) {
         const std::string name = "v" + std::to_string(v) + ".exr";
-        EXPECT_GE(RgbPsnr(out + "/" + name, dir + "/clip" + std::to_string(s) + "/embedded/" + name),
-                  60.0)
+        const std::string reference = dir + "/clip" + std::to_string(s) + "/embedded/" + name;
+        EXPECT_GE(RgbPsnr(out + "/" + name, reference), 60.0)
             << out << "/" << name;
       }
       for (const fs::directory_entry& entry : fs::directory_iterator(out)) {
@@ -602,14 +606,16 @@ TEST(Fault, HundredJobsSurviveRandomWorkerKillsAndAServerKill) {
   }
   std::printf(
       "fault test: seed %llu; %d worker kills, %d server kill (after worker kill %d); "
-      "%d jobs succeeded, %d failed; %d attempts (%s); %d lease expiries in the jobs' "
-      "attempts, %d logged by the servers; %d distinct EXRs compared with embedded mode "
-      "(worst PSNR %.1f dB), %d jobs downloaded with pf jobs wait; %d blobs verified, %d "
-      "file(s) left in tmp/ by the killed server; setup %.1f s, jobs %.1f s\n",
+      "%d jobs succeeded, %d failed; %d attempts (%s; at most %d for one task); "
+      "%d lease expiries in the jobs' attempts, %d logged by the servers; %d distinct EXRs "
+      "compared with embedded mode (worst PSNR %.1f dB), %d jobs downloaded with pf jobs "
+      "wait; %d blobs verified, %d file(s) left in tmp/ by the killed server; setup %.1f s, "
+      "jobs %.1f s\n",
       static_cast<unsigned long long>(seed), figures.worker_kills, figures.server_kills,
       server_kill_after, figures.succeeded, figures.failed, figures.attempts, outcomes.c_str(),
-      figures.lease_expired, expiries_logged, exrs_compared, worst_psnr, downloaded, blobs_checked,
-      tmp_left, seconds(setup_done - test_start), seconds(jobs_finished - setup_done));
+      figures.most_attempts, figures.lease_expired, expiries_logged, exrs_compared, worst_psnr,
+      downloaded, blobs_checked, tmp_left, seconds(setup_done - test_start),
+      seconds(jobs_finished - setup_done));
 }
 
 }  // namespace

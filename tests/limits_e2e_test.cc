@@ -15,10 +15,12 @@
 
 #include <OpenImageIO/imageio.h>
 
+#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
@@ -44,32 +46,38 @@ using testing::ServerProcess;
 using testing::WaitFor;
 using testing::WorkerProcess;
 
-// Mean squared difference of the R, G, B channels of two EXRs as PSNR
-// (peak 1); +inf when identical, -1 when they cannot be compared.
+// EXR channels by name, read with OpenImageIO.
+std::map<std::string, std::vector<float>> ReadExr(const std::string& path) {
+  std::map<std::string, std::vector<float>> out;
+  auto in = OIIO::ImageInput::open(path);
+  if (!in) return out;
+  const OIIO::ImageSpec& spec = in->spec();
+  const size_t count = static_cast<size_t>(spec.width) * spec.height;
+  std::vector<float> pixels(count * spec.nchannels);
+  if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, pixels.data())) return out;
+  for (int c = 0; c < spec.nchannels; ++c) {
+    std::vector<float>& channel = out[spec.channelnames[c]];
+    for (size_t p = 0; p < count; ++p) channel.push_back(pixels[p * spec.nchannels + c]);
+  }
+  return out;
+}
+
+// PSNR of the R, G, B channels of two EXRs (peak 1); +inf when identical,
+// -1 when they cannot be compared.
 double RgbPsnr(const std::string& a_path, const std::string& b_path) {
-  std::vector<float> pixels[2];
-  int channels[2] = {0, 0};
-  const std::string paths[2] = {a_path, b_path};
-  for (int k = 0; k < 2; ++k) {
-    auto in = OIIO::ImageInput::open(paths[k]);
-    if (!in) return -1;
-    const OIIO::ImageSpec& spec = in->spec();
-    channels[k] = spec.nchannels;
-    pixels[k].resize(static_cast<size_t>(spec.width) * spec.height * spec.nchannels);
-    if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, pixels[k].data())) return -1;
-  }
-  if (pixels[0].size() != pixels[1].size() || channels[0] != channels[1] || channels[0] < 3) {
-    return -1;
-  }
+  const auto a = ReadExr(a_path);
+  const auto b = ReadExr(b_path);
   double squared = 0;
   size_t count = 0;
-  for (size_t p = 0; p < pixels[0].size(); p += channels[0]) {
-    for (int c = 0; c < 3; ++c) {  // R, G, B come first in our EXRs.
-      const double d = pixels[0][p + c] - pixels[1][p + c];
+  for (const char* name : {"R", "G", "B"}) {
+    if (!a.count(name) || !b.count(name) || a.at(name).size() != b.at(name).size()) return -1;
+    for (size_t i = 0; i < a.at(name).size(); ++i) {
+      const double d = a.at(name)[i] - b.at(name)[i];
       squared += d * d;
       ++count;
     }
   }
+  if (count == 0) return -1;
   if (squared == 0) return INFINITY;
   return 10 * std::log10(1.0 / (squared / count));
 }
@@ -339,11 +347,21 @@ TEST_F(LimitsE2e, AReconstructionOverMaxGaussiansFailsNamingTheFlag) {
   EXPECT_EQ(Metadata(done).attempts_size(), 1);
 }
 
-TEST_F(LimitsE2e, ViewsPerJobAndRequestSizeAreLimited) {
+TEST_F(LimitsE2e, UploadSizeViewsPerJobAndRequestSizeAreLimited) {
   ServerProcess server(test_dir_);
   ASSERT_TRUE(server.Start({"--trusted-root", *dir_, "--max-views", "3", "--max-request-bytes",
-                            "2097152"}))
+                            "2097152", "--max-upload-bytes", "100000"}))
       << server.Log();
+  // One blob over the upload limit (its chunks are each under the request
+  // limit): refused, naming the limit.
+  BlobClient blobs(MakeChannel(server.address()));
+  absl::StatusOr<v1::Digest> big = blobs.UploadBytes(std::string(100001, 'x'));
+  EXPECT_EQ(big.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_TRUE(Contains(std::string(big.status().message()),
+                       "100001 bytes exceeds the upload limit of 100000 bytes (--max-upload-bytes)"))
+      << big.status();
+  EXPECT_TRUE(blobs.UploadBytes(std::string(100000, 'x')).ok());
+
   v1::CreateRenderJobRequest request;
   request.mutable_create_scene()->mutable_clip()->set_uri("file://" + ClipPath());
   *request.mutable_views() = Views();  // Four views.
@@ -355,10 +373,10 @@ TEST_F(LimitsE2e, ViewsPerJobAndRequestSizeAreLimited) {
 
   // About 3 MB of views: gRPC refuses the message before any handler runs;
   // its message gives the limit's value (it cannot name our flag).
-  const v1::RenderView first = request.views().views(0);
+  const v1::View first = request.views().views(0);
   request.mutable_views()->clear_views();
   for (int i = 0; i < 20000; ++i) {
-    v1::RenderView* view = request.mutable_views()->add_views();
+    v1::View* view = request.mutable_views()->add_views();
     *view = first;
     view->set_name("view_with_a_long_name_" + std::to_string(i) + std::string(100, 'x'));
   }
@@ -411,6 +429,102 @@ TEST_F(LimitsE2e, UnfinishedJobsPerOwnerAreLimited) {
   EXPECT_TRUE(status.ok()) << status.error_message();
 }
 
+// Bytes of every blob under `blobs` (the two-hex-digit directories).
+int64_t BlobBytes(const std::string& blobs) {
+  int64_t total = 0;
+  for (const auto& dir : fs::directory_iterator(blobs)) {
+    if (dir.path().filename().string().size() != 2) continue;
+    for (const auto& file : fs::directory_iterator(dir.path())) total += file.file_size();
+  }
+  return total;
+}
+
+TEST_F(LimitsE2e, TheBlobStoreLimitEvictsLeastRecentlyUsedScenesNeverOnesInUse) {
+  // Two scenes of the clip (two fusion settings), built without a limit.
+  std::string scene_a, scene_b, file_a, file_b;
+  {
+    ServerProcess server(test_dir_);
+    ASSERT_TRUE(server.Start({"--trusted-root", *dir_})) << server.Log();
+    WorkerProcess worker(server.address(), test_dir_, "w1");
+    ASSERT_TRUE(worker.Start());
+    for (const char* fusion : {"softmax", "average"}) {
+      auto stub = v1::SceneService::NewStub(MakeChannel(server.address()));
+      v1::CreateSceneRequest request;
+      request.mutable_clip()->set_uri("file://" + ClipPath());
+      request.mutable_options()->set_fusion(fusion);
+      grpc::ClientContext context;
+      Operation op;
+      ASSERT_TRUE(stub->CreateScene(&context, request, &op).ok());
+      const Operation done = WaitDone(server, op.name());
+      v1::Scene scene;
+      ASSERT_TRUE(done.done() && done.response().UnpackTo(&scene)) << server.Log();
+      (scene_a.empty() ? scene_a : scene_b) = scene.name();
+      (file_a.empty() ? file_a : file_b) = scene.scene_file().sha256();
+    }
+    ASSERT_EQ(worker.Kill(SIGTERM), 0);
+    ASSERT_EQ(server.Kill(SIGTERM), 0);
+  }
+  ASSERT_NE(file_a, file_b);
+  const int64_t total = BlobBytes(test_dir_ + "/blobs");
+  const int64_t size_a = static_cast<int64_t>(fs::file_size(BlobPath(file_a)));
+  ASSERT_GT(size_a, 100);
+
+  // One byte over the limit: the next upload first evicts the least
+  // recently used scene, A, and no more.
+  ServerProcess server(test_dir_, "limited");
+  ASSERT_TRUE(server.Start({"--trusted-root", *dir_, "--max-blob-bytes",
+                            std::to_string(total - 1)}))
+      << server.Log();
+  BlobClient blobs(MakeChannel(server.address()));
+  ASSERT_TRUE(blobs.UploadBytes("a small upload").ok());
+  auto scene_state = [&](const std::string& name) {
+    auto stub = v1::SceneService::NewStub(MakeChannel(server.address()));
+    grpc::ClientContext context;
+    v1::GetSceneRequest request;
+    request.set_name(name);
+    v1::Scene scene;
+    const grpc::Status status = stub->GetScene(&context, request, &scene);
+    return status.ok() ? v1::Scene::State_Name(scene.state()) : "NOT_FOUND";
+  };
+  EXPECT_EQ(scene_state(scene_a), "NOT_FOUND");
+  EXPECT_FALSE(fs::exists(BlobPath(file_a)));
+  EXPECT_EQ(scene_state(scene_b), "READY");
+  EXPECT_TRUE(fs::exists(BlobPath(file_b)));
+  EXPECT_TRUE(Contains(server.Log(), "evicted " + scene_a)) << server.Log();
+  EXPECT_LE(BlobBytes(test_dir_ + "/blobs"), total - 1);
+
+  // B has an unfinished render job (no worker runs it): it is in use. An
+  // upload that takes the store over the limit is stored, then nothing can
+  // be evicted: the next upload is refused, naming the limit.
+  v1::CreateRenderJobRequest render;
+  render.set_scene(scene_b);
+  *render.mutable_views() = Views();
+  Operation job;
+  ASSERT_TRUE(CreateRender(server, render, &job).ok());
+  const int64_t room = total - 1 - BlobBytes(test_dir_ + "/blobs");
+  ASSERT_TRUE(blobs.UploadBytes(std::string(room + 10, 'x')).ok());
+  absl::StatusOr<v1::Digest> refused = blobs.UploadBytes("one more");
+  EXPECT_EQ(refused.status().code(), absl::StatusCode::kResourceExhausted) << refused.status();
+  EXPECT_TRUE(Contains(std::string(refused.status().message()), "(--max-blob-bytes)"))
+      << refused.status();
+  EXPECT_EQ(scene_state(scene_b), "READY");
+  EXPECT_TRUE(fs::exists(BlobPath(file_b)));
+
+  // Once the job has ended, B may go and the upload is taken.
+  {
+    auto ops = google::longrunning::Operations::NewStub(MakeChannel(server.address()));
+    grpc::ClientContext context;
+    google::longrunning::CancelOperationRequest cancel;
+    cancel.set_name(job.name());
+    google::protobuf::Empty empty;
+    ASSERT_TRUE(ops->CancelOperation(&context, cancel, &empty).ok());
+  }
+  EXPECT_TRUE(blobs.UploadBytes("one more").ok());
+  EXPECT_EQ(scene_state(scene_b), "NOT_FOUND");
+  // The cancelled job is still readable (its scene is gone).
+  EXPECT_TRUE(GetOperation(server, job.name()).ok());
+}
+
 // -- Path safety ----------------------------------------------------------------
 
 TEST_F(LimitsE2e, UploadedClipPathsThatLeaveTheClipAreRefused) {
@@ -443,6 +557,7 @@ TEST_F(LimitsE2e, FileUriClipsAndTheirPathsMustStayUnderTheTrustedRoot) {
   const std::string root = test_dir_ + "/root";
   const std::string outside = test_dir_ + "/outside";
   fs::create_directories(outside);
+  fs::create_directories(root);
   fs::copy(*dir_ + "/clip", root + "/clip", fs::copy_options::recursive);
   fs::copy(*dir_ + "/clip", outside + "/clip", fs::copy_options::recursive);
   const std::string image = (*manifest_)["frames"][0]["image"];
@@ -527,10 +642,11 @@ TEST_F(LimitsE2e, ACorruptSceneFileIsDroppedAndRebuiltNotRendered) {
           << name;
     }
     bool saw_corrupt = false;
-    for (const v1::Attempt& attempt : Metadata(done).attempts()) {
+    const v1::OperationMetadata metadata = Metadata(done);
+    for (const v1::Attempt& attempt : metadata.attempts()) {
       if (Contains(attempt.outcome(), "scene file corrupt")) saw_corrupt = true;
     }
-    EXPECT_TRUE(saw_corrupt) << Metadata(done).DebugString();
+    EXPECT_TRUE(saw_corrupt) << metadata.DebugString();
   };
 
   // 1. The worker that built the scene (and holds it in memory) goes; the
@@ -561,8 +677,10 @@ TEST_F(LimitsE2e, ACorruptSceneFileIsDroppedAndRebuiltNotRendered) {
   ASSERT_TRUE(worker->Start());
   const Operation second = RenderAndDownload(server, scene.name(), test_dir_ + "/out2");
   check_render(second, test_dir_ + "/out2");
-  EXPECT_TRUE(Contains(worker->Log(), "DATA_LOSS") || Contains(worker->Log(), "corrupt"))
-      << worker->Log();
+  // This time the worker's download found it, and told the server.
+  EXPECT_TRUE(Contains(worker->Log(), "DATA_LOSS")) << worker->Log();
+  EXPECT_TRUE(Contains(server.Log(), "on worker w3 found " + scene.name() + " corrupt"))
+      << server.Log();
   const v1::Scene again = GetScene(server, scene.name());
   EXPECT_EQ(again.state(), v1::Scene::READY);
   EXPECT_NE(again.operation(), rebuilt.operation());

@@ -171,7 +171,8 @@ ClientResult RunClient(const std::string& address, const std::string& scene,
       result.create.ms.push_back(MillisSince(created_at));
       ++result.created;
     }
-    const std::string job_name = absl::StrCat("renderJobs/", op.name().substr(op.name().find('/') + 1));
+    const std::string job_name =
+        absl::StrCat("renderJobs/", op.name().substr(op.name().find('/') + 1));
     bool finished = op.done();
     for (int poll = 0; !finished; ++poll) {
       if (Clock::now() > stop_at + grace) {
@@ -205,7 +206,8 @@ ClientResult RunClient(const std::string& address, const std::string& scene,
           continue;
         }
         result.get_render_job.ms.push_back(MillisSince(call_at));
-        finished = job.state() == v1::RenderJob::SUCCEEDED || job.state() == v1::RenderJob::FAILED ||
+        finished = job.state() == v1::RenderJob::SUCCEEDED ||
+                   job.state() == v1::RenderJob::FAILED ||
                    job.state() == v1::RenderJob::CANCELLED;
         if (finished && job.state() != v1::RenderJob::SUCCEEDED) ++result.failed;
       }
@@ -224,7 +226,8 @@ absl::StatusOr<Options> ParseOptions(int argc, char** argv) {
                    CommandLine::Parse(words, {"seconds", "clients", "workers", "poll-ms",
                                               "rss-bound-mib", "dir"}));
   if (!cl.positional().empty()) {
-    return absl::InvalidArgumentError(absl::StrCat("unexpected argument '", cl.positional()[0], "'"));
+    return absl::InvalidArgumentError(
+        absl::StrCat("unexpected argument '", cl.positional()[0], "'"));
   }
   Options options;
   const auto int_flag = [&](const std::string& name, int fallback, int min,
@@ -240,7 +243,8 @@ absl::StatusOr<Options> ParseOptions(int argc, char** argv) {
   ASSIGN_OR_RETURN(options.clients, int_flag("clients", options.clients, 1, 1024));
   ASSIGN_OR_RETURN(options.workers, int_flag("workers", options.workers, 1, 16));
   ASSIGN_OR_RETURN(options.poll_ms, int_flag("poll-ms", options.poll_ms, 1, 60000));
-  ASSIGN_OR_RETURN(options.rss_bound_mib, int_flag("rss-bound-mib", options.rss_bound_mib, 1, 1 << 20));
+  ASSIGN_OR_RETURN(options.rss_bound_mib,
+                   int_flag("rss-bound-mib", options.rss_bound_mib, 1, 1 << 20));
   options.dir = cl.Get("dir");
   return options;
 }

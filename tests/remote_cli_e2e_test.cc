@@ -117,8 +117,8 @@ class RemoteCliE2e : public ::testing::Test {
     ASSERT_EQ(recon.exit_code, 0) << recon.err;
     for (const auto& [ply, time] : std::vector<std::pair<std::string, std::string>>{
              {"/embedded.ply", ""}, {"/embedded_mid.ply", *mid_time_us_}}) {
-      std::vector<std::string> argv = {Pf(), "scene", "export", *dir_ + "/embedded.pfs", "--ply",
-                                       *dir_ + ply};
+      std::vector<std::string> argv = {Pf(),    "scene",    "export", *dir_ + "/embedded.pfs",
+                                       "--ply", *dir_ + ply};
       if (!time.empty()) argv.insert(argv.end(), {"--time-us", time});
       const CommandResult exported = RunCommand(argv);
       ASSERT_EQ(exported.exit_code, 0) << exported.err;
@@ -255,8 +255,8 @@ TEST_F(RemoteCliE2e, SceneCreateWaitThenGetAndCacheHits) {
   // The same upload again: finished at once, no second reconstruction.
   const CommandResult again = Remote({"scene", "create", Clip(), "--wait"});
   ASSERT_EQ(again.exit_code, 0) << again.err;
-  EXPECT_EQ(again.out.rfind(operation + "\ncache hit: " + scene + "\nscene:      " + scene + "\n", 0),
-            0u)
+  EXPECT_EQ(
+      again.out.rfind(operation + "\ncache hit: " + scene + "\nscene:      " + scene + "\n", 0), 0u)
       << again.out;
   EXPECT_EQ(again.err, "");  // Nothing waited for.
   // The clip read by the server from its trusted root has the same content,
@@ -285,8 +285,8 @@ TEST_F(RemoteCliE2e, SceneListShowsEveryScene) {
   ASSERT_NE(analytic, pixel);
 
   std::set<std::string> expected;
-  for (const auto& [scene, model] :
-       {std::pair{analytic, std::string("analytic")}, std::pair{pixel, std::string("pixel-aligned")}}) {
+  for (const auto& [scene, model] : {std::pair{analytic, std::string("analytic")},
+                                     std::pair{pixel, std::string("pixel-aligned")}}) {
     const CommandResult get = Remote({"scene", "get", scene});
     ASSERT_EQ(get.exit_code, 0) << get.err;
     const nlohmann::json json = nlohmann::json::parse(get.out);
@@ -369,8 +369,7 @@ TEST_F(RemoteCliE2e, SceneExportMatchesEmbeddedMode) {
   // The actors moved: the time was used.
   EXPECT_FALSE(mid_bytes == bytes);
   // Nothing but the two PLYs: no temporary files left behind.
-  EXPECT_EQ(std::distance(fs::directory_iterator(test_dir_ + "/out"), fs::directory_iterator()),
-            2);
+  EXPECT_EQ(std::distance(fs::directory_iterator(test_dir_ + "/out"), fs::directory_iterator()), 2);
 }
 
 // `render --clip --wait`: the scene is created in the same call, the job
@@ -468,8 +467,8 @@ TEST_F(RemoteCliE2e, RenderThenJobsWaitListAndGet) {
             "renderJobs/" + id + " SUCCEEDED: 9 files (add --out DIR to download them)\n");
 
   // Both kinds, newest first.
-  const std::string reconstruct = Capture(Remote({"scene", "get", scene}).out,
-                                          "\"operation\": \"(operations/[0-9a-f]+)\"");
+  const std::string reconstruct =
+      Capture(Remote({"scene", "get", scene}).out, "\"operation\": \"(operations/[0-9a-f]+)\"");
   ASSERT_FALSE(reconstruct.empty());
   const std::string render_row = JobRow(operation, "render", "SUCCEEDED", "4/4 frames") + "\n";
   const std::string recon_row = JobRow(reconstruct, "reconstruct", "SUCCEEDED", "-") + "\n";
@@ -516,8 +515,8 @@ TEST_F(RemoteCliE2e, RenderThenJobsWaitListAndGet) {
 TEST_F(RemoteCliE2e, RenderJobFailingOnTheWorkerIsExitOne) {
   StartServer();
   const std::string out_dir = test_dir_ + "/out";
-  const CommandResult render = Remote(
-      {"render", "--clip", Clip(), "--cameras", *dir_ + "/bad_edit.json", "--out", out_dir});
+  const CommandResult render =
+      Remote({"render", "--clip", Clip(), "--cameras", *dir_ + "/bad_edit.json", "--out", out_dir});
   ASSERT_EQ(render.exit_code, 0) << render.err;
   const std::string operation = Find(render.out, "^operations/[0-9a-f]+");
   ASSERT_FALSE(operation.empty()) << render.out;
@@ -550,8 +549,9 @@ TEST_F(RemoteCliE2e, RenderJobFailingOnTheWorkerIsExitOne) {
   const CommandResult refused =
       Remote({"render", scene, "--cameras", *dir_ + "/bad_edit.json", "--out", out_dir, "--wait"});
   EXPECT_EQ(refused.exit_code, 2) << refused.err;
-  EXPECT_NE(refused.err.find("pf render: views.edits[0].instance: unknown instance 'no-such-actor'"),
-            std::string::npos)
+  EXPECT_NE(
+      refused.err.find("pf render: views.edits[0].instance: unknown instance 'no-such-actor'"),
+      std::string::npos)
       << refused.err;
   EXPECT_EQ(refused.out, "");
 }

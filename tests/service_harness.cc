@@ -45,9 +45,11 @@ int FreePort() {
   return ntohs(addr.sin_port);
 }
 
+}  // namespace
+
 // True when grpc.health.v1.Health/Check answers SERVING (status field 1 = 1).
-bool Serving(const std::string& address) {
-  auto channel = grpc::CreateChannel(address, grpc::InsecureChannelCredentials());
+bool Serving(const std::string& address, const ChannelOptions& channel_options) {
+  auto channel = MakeChannel(address, channel_options);
   grpc::GenericStub stub(channel);
   grpc::ClientContext context;
   context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(1));
@@ -76,8 +78,6 @@ bool Serving(const std::string& address) {
   }
   return bytes == std::string("\x08\x01", 2);
 }
-
-}  // namespace
 
 ChildProcess::~ChildProcess() {
   if (pid_ > 0 && running()) Kill(SIGKILL);
@@ -152,7 +152,7 @@ bool ServerProcess::Restart() {
   argv.insert(argv.end(), extra_.begin(), extra_.end());
   ++starts_;
   if (!process_.Start(argv, dir_ + "/" + name_ + ".log")) return false;
-  return WaitFor([&] { return process_.running() && Serving(address()); },
+  return WaitFor([&] { return process_.running() && Serving(address(), health_channel_); },
                  std::chrono::seconds(20));
 }
 

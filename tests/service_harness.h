@@ -18,7 +18,14 @@
 #include <string>
 #include <vector>
 
+#include "rpc/grpc_status.h"
+
 namespace pf::testing {
+
+// True when grpc.health.v1.Health/Check at `address` answers SERVING,
+// asked over a channel as `channel` says (plaintext by default; no token
+// needed: health is not authenticated).
+bool Serving(const std::string& address, const ChannelOptions& channel = {});
 
 // A child process with stdout and stderr appended to `log_path`.
 class ChildProcess {
@@ -60,6 +67,9 @@ class ServerProcess {
   bool Start(const std::vector<std::string>& extra = {});
   // Same store, blobs, port and flags as the last Start.
   bool Restart();
+  // How Start() reaches the server for its health checks: TLS, and a client
+  // certificate under mutual TLS. Plaintext by default.
+  void set_health_channel(ChannelOptions channel) { health_channel_ = std::move(channel); }
   int Kill(int signal) { return process_.Kill(signal); }
   // The running pf-server's process id (-1 before the first Start).
   pid_t pid() const { return process_.pid(); }
@@ -75,6 +85,7 @@ class ServerProcess {
   int port_ = 0;
   int starts_ = 0;
   std::vector<std::string> extra_;
+  ChannelOptions health_channel_;
   ChildProcess process_;
 };
 

@@ -94,7 +94,7 @@ class Worker {
   Worker(const WorkerOptions& options, std::atomic<bool>* stop)
       : options_(options),
         stop_(stop),
-        channel_(MakeChannel(options.server)),
+        channel_(MakeChannel(options.server, options.channel)),
         stub_(pb::WorkerService::NewStub(channel_)),
         blobs_(channel_),
         cache_(options.cache_bytes) {}

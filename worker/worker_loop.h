@@ -21,6 +21,8 @@
 #include <cstdint>
 #include <string>
 
+#include "rpc/grpc_status.h"
+
 namespace pf {
 
 struct WorkerOptions {
@@ -35,6 +37,7 @@ struct WorkerOptions {
   // of a reconstruction, each view of a render chunk), so that a test can
   // kill or cancel the worker in the middle of one. 0: off.
   int stage_delay_ms = 0;
+  ChannelOptions channel;  // TLS and bearer token (--tls-ca, --token-file, ...).
 };
 
 // Returns the default worker id, "<hostname>-<pid>".

@@ -40,11 +40,17 @@ running task.
   --stage-delay-ms N   test hook: sleep N ms at every progress report of a task, so a
                        test can stop a worker in the middle of one (default 0)
   --metrics-listen H:P serve Prometheus metrics on http://H:P/metrics (default off)
+  --tls-ca PEM         connect with TLS, trusting this CA (PF_TLS_CA; default plaintext)
+  --tls-cert PEM       client certificate for mutual TLS, with --tls-key (PF_TLS_CERT)
+  --tls-key PEM        the client certificate's private key (PF_TLS_KEY)
+  --token-file PATH    file holding the bearer token (a worker or admin token) sent on
+                       every call (default: the token itself in PF_WORKER_TOKEN; none)
   --help               print this text
 
 Each flag may also come from the environment: PF_SERVER, PF_DEVICE,
 PF_CACHE_BYTES, PF_WORK_DIR, PF_WORKER_ID, PF_HEARTBEAT_MS, PF_LEASE_WAIT_MS,
-PF_STAGE_DELAY_MS, PF_METRICS_LISTEN; the flag wins.
+PF_STAGE_DELAY_MS, PF_METRICS_LISTEN, PF_TLS_CA, PF_TLS_CERT, PF_TLS_KEY; the flag
+wins. PF_WORKER_TOKEN holds the token itself, not a path.
 )";
 
 // Environment variables standing in for flags that were not given.
@@ -123,6 +129,12 @@ absl::StatusOr<pf::WorkerOptions> ParseFlags(const pf::CommandLine& cl) {
                    IntFlag(cl, "lease-wait-ms", options.lease_wait_ms, 0, 600000));
   ASSIGN_OR_RETURN(options.stage_delay_ms,
                    IntFlag(cl, "stage-delay-ms", options.stage_delay_ms, 0, 600000));
+  ASSIGN_OR_RETURN(options.channel,
+                   pf::LoadChannelOptions({.tls_ca = cl.Get("tls-ca"),
+                                           .tls_cert = cl.Get("tls-cert"),
+                                           .tls_key = cl.Get("tls-key"),
+                                           .token_file = cl.Get("token-file")},
+                                          {"PF_WORKER_TOKEN"}));
   return options;
 }
 
@@ -133,7 +145,8 @@ int main(int argc, char** argv) {
   absl::StatusOr<pf::CommandLine> cl =
       pf::CommandLine::Parse(words,
                              {"server", "device", "cache-bytes", "work-dir", "id", "heartbeat-ms",
-                              "lease-wait-ms", "stage-delay-ms", "metrics-listen"},
+                              "lease-wait-ms", "stage-delay-ms", "metrics-listen", "tls-ca", "tls-cert",
+                              "tls-key", "token-file"},
                              {"help"});
   if (cl.ok() && cl->Has("help")) {
     std::fputs(kUsage, stdout);

@@ -27,7 +27,7 @@ const char* ChannelStateName(grpc_connectivity_state state) {
 
 absl::Status RemoteContext::Connect() {
   if (channel_ != nullptr) return absl::OkStatus();
-  std::shared_ptr<grpc::Channel> channel = MakeChannel(address_);
+  std::shared_ptr<grpc::Channel> channel = MakeChannel(address_, channel_options_);
   if (!channel->WaitForConnected(std::chrono::system_clock::now() + kConnectTimeout)) {
     return absl::UnavailableError(absl::StrCat("no connection within ", kConnectTimeout.count(),
                                                " s (channel state ",

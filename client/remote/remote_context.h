@@ -22,6 +22,7 @@
 #include "grpcpp/client_context.h"
 #include "pointforward/v1/service.grpc.pb.h"
 #include "rpc/blob_transfer.h"
+#include "rpc/grpc_status.h"
 
 namespace pf {
 
@@ -32,8 +33,9 @@ class RemoteContext {
   // The deadline PrepareCall() gives an ordinary call.
   static constexpr std::chrono::seconds kCallTimeout{60};
 
-  // Results go to `out` (stdout in `pf`).
-  RemoteContext(std::string address, std::FILE* out) : address_(std::move(address)), out_(out) {}
+  // Results go to `out` (stdout in `pf`). `channel`: TLS and token.
+  RemoteContext(std::string address, std::FILE* out, ChannelOptions channel = {})
+      : address_(std::move(address)), out_(out), channel_options_(std::move(channel)) {}
 
   // Opens the channel and waits up to kConnectTimeout for it to be ready.
   // UNAVAILABLE when the server cannot be reached. Does nothing when already
@@ -55,6 +57,7 @@ class RemoteContext {
  private:
   std::string address_;
   std::FILE* out_;
+  ChannelOptions channel_options_;
   std::shared_ptr<grpc::Channel> channel_;
   std::unique_ptr<pointforward::v1::SceneService::Stub> scenes_;
   std::unique_ptr<pointforward::v1::RenderService::Stub> renders_;

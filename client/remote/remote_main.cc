@@ -10,6 +10,7 @@
 #include "client/commands.h"
 #include "client/remote/remote_commands.h"
 #include "client/remote/remote_context.h"
+#include "rpc/grpc_status.h"
 #include "google/protobuf/util/json_util.h"
 
 namespace pf {
@@ -36,7 +37,52 @@ bool IsRemoteCommand(const std::string& command) {
   return command == "scene" || command == "render" || command == "jobs";
 }
 
-int RunRemote(const std::string& address, const std::vector<std::string>& args) {
+namespace {
+
+// Takes the connection flags (--tls-ca, --tls-cert, --tls-key, --token-file;
+// "--flag value" or "--flag=value") off the front of `*args`.
+absl::StatusOr<ChannelFlags> TakeConnectionFlags(std::vector<std::string>* args) {
+  ChannelFlags flags;
+  const std::pair<const char*, std::string*> kFlags[] = {{"--tls-ca", &flags.tls_ca},
+                                                         {"--tls-cert", &flags.tls_cert},
+                                                         {"--tls-key", &flags.tls_key},
+                                                         {"--token-file", &flags.token_file}};
+  size_t at = 0;
+  while (at < args->size()) {
+    const std::string& word = (*args)[at];
+    bool matched = false;
+    for (const auto& [name, value] : kFlags) {
+      if (word == name) {
+        if (at + 1 >= args->size() || (*args)[at + 1].empty()) {
+          return absl::InvalidArgumentError(absl::StrCat(name, ": needs a path"));
+        }
+        *value = (*args)[at + 1];
+        at += 2;
+        matched = true;
+      } else if (absl::StartsWith(word, absl::StrCat(name, "="))) {
+        *value = word.substr(std::string(name).size() + 1);
+        at += 1;
+        matched = true;
+      }
+      if (matched) break;
+    }
+    if (!matched) break;
+  }
+  args->erase(args->begin(), args->begin() + at);
+  return flags;
+}
+
+}  // namespace
+
+int RunRemote(const std::string& address, const std::vector<std::string>& all_args) {
+  std::vector<std::string> args = all_args;
+  absl::StatusOr<ChannelFlags> flags = TakeConnectionFlags(&args);
+  absl::StatusOr<ChannelOptions> channel =
+      flags.ok() ? LoadChannelOptions(*flags, {"PF_TOKEN"}) : flags.status();
+  if (!channel.ok()) {
+    std::fprintf(stderr, "pf: %s\n", std::string(channel.status().message()).c_str());
+    return kExitBadInput;
+  }
   if (args.empty() || !IsRemoteCommand(args[0])) {
     std::fprintf(stderr,
                  "pf: %s is not a remote command: with --server, use scene, render or "
@@ -49,7 +95,7 @@ int RunRemote(const std::string& address, const std::vector<std::string>& args) 
   // "scene create", "jobs wait", "render": the command named in messages.
   const std::string label = group == "render" || rest.empty() ? group : group + " " + rest[0];
 
-  RemoteContext ctx(address, stdout);
+  RemoteContext ctx(address, stdout, *std::move(channel));
   absl::StatusOr<int> result;
   try {
     if (group == "scene") {
@@ -83,7 +129,12 @@ std::optional<int> RunRemoteIfAsked(const std::vector<std::string>& words) {
     return RunRemote(address, std::vector<std::string>(words.begin() + first, words.end()));
   }
   const char* server = std::getenv("PF_SERVER");
-  if (server != nullptr && server[0] != '\0' && !words.empty() && IsRemoteCommand(words[0])) {
+  // PF_SERVER: remote commands, with or without connection flags first.
+  const bool connection_flag =
+      !words.empty() && (absl::StartsWith(words[0], "--tls-") ||
+                         absl::StartsWith(words[0], "--token-file"));
+  if (server != nullptr && server[0] != '\0' && !words.empty() &&
+      (IsRemoteCommand(words[0]) || connection_flag)) {
     return RunRemote(server, words);
   }
   return std::nullopt;

@@ -14,9 +14,12 @@ namespace pf {
 // PF_SERVER is set.
 bool IsRemoteCommand(const std::string& command);
 
-// Runs `args` (command first, e.g. {"scene", "list"}) against the server at
-// `address` and returns the exit code: 0 done, 1 job failed or cancelled,
-// 2 bad input, 3 server unreachable ("pf: server ADDR unreachable: ...").
+// Runs `args` (command first, e.g. {"scene", "list"}, after any of the
+// connection flags --tls-ca PEM, --tls-cert PEM, --tls-key PEM and
+// --token-file PATH; the token otherwise comes from PF_TOKEN) against the
+// server at `address` and returns the exit code: 0 done, 1 job failed or
+// cancelled, 2 bad input, 3 server unreachable ("pf: server ADDR
+// unreachable: ...").
 int RunRemote(const std::string& address, const std::vector<std::string>& args);
 
 // Runs `words` (argv without the program name) remotely when they ask for

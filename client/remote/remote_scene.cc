@@ -192,7 +192,7 @@ absl::StatusOr<int> Export(RemoteContext& ctx, const std::vector<std::string>& w
   v1::ExportSceneRequest request;
   ASSIGN_OR_RETURN(*request.mutable_name(), SceneNameFor(cl.positional()[0]));
   ASSIGN_OR_RETURN(const int64_t time_us, cl.GetInt("time-us", 0));
-  request.set_time_us(time_us);
+  if (cl.Has("time-us")) request.set_time_us(time_us);
   const std::string out = cl.Get("ply");
   RETURN_IF_ERROR(ctx.Connect());
 

@@ -15,6 +15,10 @@ references to BlobService (only those the server lacks), CreateScene and
 wait on the operation, CreateRenderJob and wait, download every output
 (checking its SHA-256), and open the first EXR with OpenImageIO. The last
 line printed is a JSON summary.
+
+With authentication on (pf-server --auth-token-file), give the token with
+--token or PF_TOKEN: every call carries "authorization: Bearer <token>". With
+TLS on, --tls-ca names the CA that signed the server's certificate.
 """
 
 import argparse
@@ -31,6 +35,52 @@ from pointforward.v1 import (blobs_pb2, blobs_pb2_grpc, resources_pb2, service_p
                              service_pb2_grpc, views_pb2)
 
 CHUNK = 1 << 20
+
+
+class BearerToken(grpc.UnaryUnaryClientInterceptor, grpc.UnaryStreamClientInterceptor,
+                  grpc.StreamUnaryClientInterceptor, grpc.StreamStreamClientInterceptor):
+    """Adds "authorization: Bearer <token>" to every call's metadata."""
+
+    def __init__(self, token):
+        self._header = ("authorization", f"Bearer {token}")
+
+    def _with_token(self, details):
+        metadata = list(details.metadata or []) + [self._header]
+        return details._replace(metadata=metadata) if hasattr(details, "_replace") else \
+            _CallDetails(details.method, details.timeout, metadata, details.credentials,
+                         details.wait_for_ready, details.compression)
+
+    def intercept_unary_unary(self, continuation, details, request):
+        return continuation(self._with_token(details), request)
+
+    def intercept_unary_stream(self, continuation, details, request):
+        return continuation(self._with_token(details), request)
+
+    def intercept_stream_unary(self, continuation, details, requests):
+        return continuation(self._with_token(details), requests)
+
+    def intercept_stream_stream(self, continuation, details, requests):
+        return continuation(self._with_token(details), requests)
+
+
+class _CallDetails(grpc.ClientCallDetails):
+    def __init__(self, method, timeout, metadata, credentials, wait_for_ready, compression):
+        self.method = method
+        self.timeout = timeout
+        self.metadata = metadata
+        self.credentials = credentials
+        self.wait_for_ready = wait_for_ready
+        self.compression = compression
+
+
+def open_channel(server, tls_ca, token):
+    """A channel to `server`: TLS when `tls_ca` names a CA file, the token on every call."""
+    if tls_ca:
+        with open(tls_ca, "rb") as f:
+            channel = grpc.secure_channel(server, grpc.ssl_channel_credentials(f.read()))
+    else:
+        channel = grpc.insecure_channel(server)
+    return grpc.intercept_channel(channel, BearerToken(token)) if token else channel
 
 
 def health(channel):
@@ -152,9 +202,13 @@ def main():
     parser.add_argument("--clip", required=True, help="clip manifest (clip.json)")
     parser.add_argument("--views", required=True, help="RenderViews JSON (as for pf render)")
     parser.add_argument("--out", required=True, help="directory for the downloaded outputs")
+    parser.add_argument("--token", default=os.environ.get("PF_TOKEN", ""),
+                        help="bearer token (default: $PF_TOKEN; none: authentication off)")
+    parser.add_argument("--tls-ca", default=os.environ.get("PF_TLS_CA", ""),
+                        help="CA of the server's certificate: connect with TLS (default $PF_TLS_CA)")
     args = parser.parse_args()
 
-    channel = grpc.insecure_channel(args.server)
+    channel = open_channel(args.server, args.tls_ca, args.token.strip())
     if not health(channel):
         sys.exit(f"pf_client: {args.server} is not SERVING")
     services = reflection_services(channel)

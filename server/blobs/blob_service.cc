@@ -90,6 +90,9 @@ grpc::Status BlobServiceImpl::WriteBlob(grpc::ServerContext* context,
     }
   }
 
+  if (make_room_) {
+    if (absl::Status room = make_room_(); !room.ok()) return ToGrpc(room);
+  }
   absl::StatusOr<BlobWriter> writer = store_->StartWrite(expected, max_upload_bytes_);
   if (!writer.ok()) return ToGrpc(writer.status());
   do {
@@ -105,6 +108,12 @@ grpc::Status BlobServiceImpl::WriteBlob(grpc::ServerContext* context,
   }
   absl::StatusOr<BlobDigest> stored = writer->Finish();
   if (!stored.ok()) return ToGrpc(stored.status());
+  if (make_room_) {
+    // Over the limit now: the next upload is refused unless scenes go.
+    if (absl::Status room = make_room_(); !room.ok()) {
+      spdlog::warn("after storing blob {}: {}", stored->sha256, std::string(room.message()));
+    }
+  }
   response->mutable_digest()->set_sha256(stored->sha256);
   response->mutable_digest()->set_size_bytes(stored->size_bytes);
   response->set_already_present(false);

@@ -8,6 +8,7 @@
 #define POINTFORWARD_SERVER_BLOBS_BLOB_SERVICE_H_
 
 #include <cstdint>
+#include <functional>
 
 #include "pointforward/v1/blobs.grpc.pb.h"
 #include "server/auth.h"
@@ -23,6 +24,11 @@ class BlobServiceImpl final : public pointforward::v1::BlobService::Service {
   // role; blobs are named by their SHA-256, so reading one needs its digest,
   // which only the resources of its owner reveal.
   BlobServiceImpl(BlobStore* store, int64_t max_upload_bytes, Authenticator* auth = nullptr);
+
+  // Keeps the store under its size limit (pf-server --max-blob-bytes): run
+  // before an upload is accepted (an error refuses it) and after one is
+  // stored. Unset: no limit.
+  void set_make_room(std::function<absl::Status()> make_room) { make_room_ = std::move(make_room); }
 
   // The first message must carry the digest; the content is kept only when
   // its size and hash match it. A cancelled stream keeps nothing.
@@ -42,6 +48,7 @@ class BlobServiceImpl final : public pointforward::v1::BlobService::Service {
   BlobStore* store_;
   int64_t max_upload_bytes_;
   Authenticator* auth_;  // Null: authentication off.
+  std::function<absl::Status()> make_room_;
 };
 
 }  // namespace pf

@@ -345,4 +345,31 @@ absl::Status BlobStore::Verify(const std::string& sha256) const {
   return absl::OkStatus();
 }
 
+absl::Status BlobStore::Remove(const std::string& sha256) const {
+  ASSIGN_OR_RETURN(const std::string path, PathOf(sha256));
+  std::error_code ec;
+  if (!fs::remove(path, ec) && ec) return absl::InternalError(absl::StrCat(path, ": ", ec.message()));
+  return absl::OkStatus();
+}
+
+absl::StatusOr<int64_t> BlobStore::TotalBytes() const {
+  int64_t total = 0;
+  std::error_code ec;
+  for (fs::directory_iterator dir(root_, ec); !ec && dir != fs::directory_iterator();
+       dir.increment(ec)) {
+    const std::string name = dir->path().filename().string();
+    // Blobs live in the two-hex-digit directories; tmp/ and scratch/ are not blobs.
+    if (name.size() != 2 || !IsValidSha256Hex(name + std::string(62, '0'))) continue;
+    std::error_code inner;
+    for (fs::directory_iterator it(dir->path(), inner); !inner && it != fs::directory_iterator();
+         it.increment(inner)) {
+      std::error_code size_ec;
+      const uintmax_t size = it->file_size(size_ec);
+      if (!size_ec) total += static_cast<int64_t>(size);
+    }
+  }
+  if (ec) return absl::InternalError(absl::StrCat(root_, ": ", ec.message()));
+  return total;
+}
+
 }  // namespace pf

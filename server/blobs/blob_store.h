@@ -80,6 +80,11 @@ class BlobStore {
   // Checks the stored file against its name: DATA_LOSS (and removes the
   // file) on mismatch.
   absl::Status Verify(const std::string& sha256) const;
+  // Deletes the blob; NOT_FOUND when absent.
+  absl::Status Remove(const std::string& sha256) const;
+  // Bytes of every blob stored (unfinished uploads and scratch space not
+  // counted). Walks the directory: O(number of blobs).
+  absl::StatusOr<int64_t> TotalBytes() const;
 
  private:
   std::string root_;

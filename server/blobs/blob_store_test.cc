@@ -287,5 +287,24 @@ TEST(BlobStore, PutFileCopiesAndHashes) {
   EXPECT_NE(std::string(missing.status().message()).find("absent.bin"), std::string::npos);
 }
 
+TEST(BlobStore, TotalBytesCountsBlobsOnlyAndRemoveDeletesOne) {
+  const std::string root = testing::MakeTempDir("blob_store");
+  BlobStore store(root);
+  EXPECT_EQ(store.TotalBytes().value(), 0);
+  const BlobDigest a = store.Put(std::string(1000, 'a')).value();
+  const BlobDigest b = store.Put(std::string(234, 'b')).value();
+  // Neither an unfinished upload nor scratch files count.
+  ASSERT_TRUE(WriteFileAtomic(root + "/tmp/upload-in-progress", std::string(50, 'x')).ok());
+  ASSERT_TRUE(MakeDirs(root + "/scratch/clip-1").ok());
+  ASSERT_TRUE(WriteFileAtomic(root + "/scratch/clip-1/clip.json", "{}").ok());
+  EXPECT_EQ(store.TotalBytes().value(), 1234);
+
+  ASSERT_TRUE(store.Remove(a.sha256).ok());
+  EXPECT_FALSE(store.Contains(a.sha256));
+  EXPECT_EQ(store.TotalBytes().value(), 234);
+  EXPECT_EQ(store.Remove(a.sha256).code(), absl::StatusCode::kNotFound);
+  EXPECT_EQ(store.Get(b.sha256).value(), std::string(234, 'b'));
+}
+
 }  // namespace
 }  // namespace pf

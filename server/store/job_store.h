@@ -297,6 +297,14 @@ class JobStore {
                                                    const std::string& reason,
                                                    const std::string& description,
                                                    int64_t now_ms) = 0;
+
+  // The scene cache's eviction (--max-blob-bytes): removes the row of the
+  // least recently used READY scene that no unfinished render job needs
+  // and returns it (the caller removes its scene file); nullopt when every
+  // scene is in use or being created. A scene's use (its update time) is
+  // its creation, a cache hit of CreateSceneJob, and each lease of one of
+  // its render chunks. Jobs and their outputs are never touched.
+  virtual absl::StatusOr<std::optional<SceneRecord>> EvictLeastRecentlyUsedScene() = 0;
 };
 
 // Opens the store a --store flag names: "sqlite:PATH" (created if absent,

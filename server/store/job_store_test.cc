@@ -907,6 +907,64 @@ TEST_P(JobStoreTest, RebuildSceneRefusesAbsentAndFailedScenes) {
             absl::StatusCode::kFailedPrecondition);
 }
 
+// A scene built at `done_ms` (created just before).
+void BuildSceneAt(JobStore& store, const std::string& scene_id, int64_t done_ms) {
+  ASSERT_TRUE(store
+                  .CreateSceneJob(scene_id, "hash-" + scene_id, "{}", "", "{}", "{}", "alice",
+                                  done_ms - 1)
+                  .ok());
+  absl::StatusOr<std::optional<TaskLease>> lease = store.LeaseTask("builder", {}, done_ms - 1);
+  ASSERT_TRUE(lease.ok() && lease->has_value());
+  ASSERT_EQ((*lease)->task.scene_id, scene_id);
+  ASSERT_TRUE(store.CompleteTask((*lease)->task.id, (*lease)->task.attempt, "{}", "", done_ms).ok());
+}
+
+TEST_P(JobStoreTest, EvictionTakesTheLeastRecentlyUsedSceneThatNoJobNeeds) {
+  BuildSceneAt(*store_, "old", kT0 + 10);
+  BuildSceneAt(*store_, "newer", kT0 + 20);
+  CreateScene("building", "", kT0 + 30);  // CREATING: never evicted.
+  const JobRecord render = CreateRender("old", 1, 2, "", nullptr, kT0 + 40);  // "old" in use.
+
+  absl::StatusOr<std::optional<SceneRecord>> evicted = store_->EvictLeastRecentlyUsedScene();
+  ASSERT_TRUE(evicted.ok()) << evicted.status();
+  ASSERT_TRUE(evicted->has_value());
+  EXPECT_EQ((*evicted)->id, "newer");
+  EXPECT_EQ(store_->GetScene("newer").status().code(), absl::StatusCode::kNotFound);
+  EXPECT_EQ(Job((*evicted)->job_id).state, JobState::kSucceeded);  // History stays.
+
+  // Nothing more while "old" has an unfinished render job.
+  evicted = store_->EvictLeastRecentlyUsedScene();
+  ASSERT_TRUE(evicted.ok()) << evicted.status();
+  EXPECT_FALSE(evicted->has_value());
+  EXPECT_EQ(Scene("old").state, SceneState::kReady);
+  EXPECT_EQ(Scene("building").state, SceneState::kCreating);
+
+  ASSERT_TRUE(store_->CancelJob(render.id, kT0 + 50).ok());
+  evicted = store_->EvictLeastRecentlyUsedScene();
+  ASSERT_TRUE(evicted.ok() && evicted->has_value());
+  EXPECT_EQ((*evicted)->id, "old");
+  EXPECT_EQ(Job(render.id).state, JobState::kCancelled);
+}
+
+TEST_P(JobStoreTest, LeasesAndCacheHitsCountAsUsesOfAScene) {
+  BuildSceneAt(*store_, "a", kT0 + 10);
+  BuildSceneAt(*store_, "b", kT0 + 20);
+  // A chunk of "a" leased and done at +30: "a" is now the more recent.
+  const JobRecord render = CreateRender("a", 1, 2, "", nullptr, kT0 + 25);
+  TaskLease chunk = Lease("w1", {"a"}, kT0 + 30);
+  ASSERT_EQ(chunk.job.id, render.id);
+  ASSERT_TRUE(store_->CompleteTask(chunk.task.id, chunk.task.attempt, "{}", "", kT0 + 31).ok());
+  EXPECT_EQ(Scene("a").update_time_ms, kT0 + 30);
+  // A cache hit of "b" at +40 makes it the more recent again.
+  CreateSceneOutcome hit = CreateScene("b", "", kT0 + 40);
+  ASSERT_EQ(hit.kind, CreateSceneOutcome::Kind::kCacheHit);
+  EXPECT_EQ(Scene("b").update_time_ms, kT0 + 40);
+
+  absl::StatusOr<std::optional<SceneRecord>> evicted = store_->EvictLeastRecentlyUsedScene();
+  ASSERT_TRUE(evicted.ok() && evicted->has_value());
+  EXPECT_EQ((*evicted)->id, "a");
+}
+
 TEST_P(JobStoreTest, AFailedRebuildFailsTheRenderJobsWaitingForIt) {
   MakeReadyScene("s1");
   const JobRecord render = CreateRender("s1", 1);
@@ -917,6 +975,77 @@ TEST_P(JobStoreTest, AFailedRebuildFailsTheRenderJobsWaitingForIt) {
   EXPECT_EQ(Scene("s1").state, SceneState::kFailed);
   EXPECT_EQ(Job(render.id).state, JobState::kFailed);
   EXPECT_EQ(Job(render.id).error_code, static_cast<int>(absl::StatusCode::kFailedPrecondition));
+}
+
+// Authentication: scene access is gained by creating, joining, hitting the
+// cache of, or rendering a scene; lists are filtered by it.
+TEST_P(JobStoreTest, OwnersSeeScenesTheyCreatedHitInTheCacheOrRendered) {
+  MakeReadyScene("s1");  // Alice's.
+  const CreateSceneOutcome s2 = CreateScene("s2");
+  const auto has = [&](const std::string& owner, const std::string& scene) {
+    absl::StatusOr<bool> access = store_->HasSceneAccess(owner, scene);
+    EXPECT_TRUE(access.ok()) << access.status();
+    return access.ok() && *access;
+  };
+  const auto scenes_of = [&](const std::string& owner) {
+    std::vector<std::string> ids;
+    absl::StatusOr<Page<SceneRecord>> page = store_->ListScenesOf(owner, 50, "");
+    EXPECT_TRUE(page.ok()) << page.status();
+    if (page.ok()) {
+      for (const SceneRecord& scene : page->items) ids.push_back(scene.id);
+    }
+    return ids;
+  };
+  const auto jobs_of = [&](const std::string& owner, std::optional<JobKind> kind) {
+    std::set<std::string> ids;
+    absl::StatusOr<Page<JobRecord>> page = store_->ListJobsOf(owner, kind, 50, "");
+    EXPECT_TRUE(page.ok()) << page.status();
+    if (page.ok()) {
+      for (const JobRecord& job : page->items) ids.insert(job.id);
+    }
+    return ids;
+  };
+  EXPECT_TRUE(has("alice", "s1"));
+  EXPECT_TRUE(has("alice", "s2"));
+  EXPECT_FALSE(has("bob", "s1"));
+  EXPECT_TRUE(scenes_of("bob").empty());
+  EXPECT_TRUE(jobs_of("bob", std::nullopt).empty());
+  EXPECT_EQ(scenes_of("alice"), (std::vector<std::string>{"s2", "s1"}));
+
+  // Bob renders s1: he sees s1, its reconstruction and his render job; not s2.
+  const JobRecord render = CreateRender("s1", 1);
+  EXPECT_EQ(render.owner, "bob");
+  EXPECT_TRUE(has("bob", "s1"));
+  EXPECT_FALSE(has("bob", "s2"));
+  EXPECT_EQ(scenes_of("bob"), std::vector<std::string>{"s1"});
+  const std::string s1_job = store_->GetScene("s1")->job_id;
+  EXPECT_EQ(jobs_of("bob", std::nullopt), (std::set<std::string>{render.id, s1_job}));
+  EXPECT_EQ(jobs_of("bob", JobKind::kRender), std::set<std::string>{render.id});
+  EXPECT_EQ(jobs_of("alice", std::nullopt), (std::set<std::string>{s1_job, s2.job.id}));
+  EXPECT_TRUE(jobs_of("alice", JobKind::kRender).empty());
+
+  // Carol hits the cache of s1 and joins the build of s2.
+  for (const std::string scene : {"s1", "s2"}) {
+    absl::StatusOr<CreateSceneOutcome> outcome = store_->CreateSceneJob(
+        scene, "hash-" + scene, "{}", "", "{}", "{}", "carol", kT0 + 1);
+    ASSERT_TRUE(outcome.ok()) << outcome.status();
+    EXPECT_EQ(outcome->kind, scene == "s1" ? CreateSceneOutcome::Kind::kCacheHit
+                                           : CreateSceneOutcome::Kind::kJoined);
+    EXPECT_TRUE(has("carol", scene));
+  }
+  EXPECT_EQ(jobs_of("carol", JobKind::kReconstruct), (std::set<std::string>{s1_job, s2.job.id}));
+
+  // Pages of an owner's scenes.
+  absl::StatusOr<Page<SceneRecord>> first = store_->ListScenesOf("alice", 1, "");
+  ASSERT_TRUE(first.ok()) << first.status();
+  ASSERT_EQ(first->items.size(), 1u);
+  EXPECT_EQ(first->items[0].id, "s2");
+  absl::StatusOr<Page<SceneRecord>> second =
+      store_->ListScenesOf("alice", 1, first->next_page_token);
+  ASSERT_TRUE(second.ok()) << second.status();
+  ASSERT_EQ(second->items.size(), 1u);
+  EXPECT_EQ(second->items[0].id, "s1");
+  EXPECT_TRUE(second->next_page_token.empty());
 }
 
 INSTANTIATE_TEST_SUITE_P(Backends, JobStoreTest, ::testing::ValuesIn(kBackends),

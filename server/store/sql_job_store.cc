@@ -439,6 +439,15 @@ absl::Status EndJob(SqlExecutor& tx, const std::string& job_id, JobKind kind,
                     const std::string& scene_id, JobState state, absl::StatusCode code,
                     const std::string& message, int64_t now_ms);
 
+// Records a use of READY scene `scene_id` (a cache hit, a render chunk
+// leased): its update time orders the least recently used for eviction.
+absl::Status TouchScene(SqlExecutor& tx, const std::string& scene_id, int64_t now_ms) {
+  return Run(tx,
+             "UPDATE scenes SET update_time_ms = $2 WHERE id = $1 AND state = 'READY'"
+             " AND update_time_ms < $2",
+             {scene_id, now_ms});
+}
+
 // Fails scene `scene_id` if job `job_id` is still creating it, and with it
 // the render jobs waiting for it.
 absl::Status FailScene(SqlExecutor& tx, const std::string& scene_id, const std::string& job_id,
@@ -713,6 +722,9 @@ absl::StatusOr<CreateSceneOutcome> SqlJobStore::CreateSceneJob(
                                                         : CreateSceneOutcome::Kind::kJoined;
       ASSIGN_OR_RETURN(outcome.job, LoadJob(tx, scene->job_id));
       outcome.scene = *std::move(scene);
+      if (outcome.kind == CreateSceneOutcome::Kind::kCacheHit) {
+        RETURN_IF_ERROR(TouchScene(tx, scene_id, now_ms));
+      }
       return GrantSceneAccess(tx, owner, scene_id);
     }
 
@@ -942,6 +954,7 @@ absl::StatusOr<std::optional<TaskLease>> SqlJobStore::LeaseTask(
                                WHERE id = $1)sql",
                         {task_id, now_ms}));
     ASSIGN_OR_RETURN(TaskRecord task, LoadTask(tx, task_id, /*lock=*/false));
+    if (task.kind == JobKind::kRender) RETURN_IF_ERROR(TouchScene(tx, task.scene_id, now_ms));
     RETURN_IF_ERROR(Run(tx,
                         R"sql(UPDATE jobs SET state = 'RUNNING', update_time_ms = $2
                                WHERE id = $1 AND state = 'QUEUED')sql",
@@ -1165,6 +1178,38 @@ absl::StatusOr<Page<JobRecord>> SqlJobStore::ListJobsOf(const std::string& owner
                                                         int page_size,
                                                         const std::string& page_token) {
   return ListJobsFor(*db_, owner, kind, page_size, page_token);
+}
+
+absl::StatusOr<std::optional<SceneRecord>> SqlJobStore::EvictLeastRecentlyUsedScene() {
+  std::optional<SceneRecord> evicted;
+  RETURN_IF_ERROR(db_->Transaction([&](SqlExecutor& tx) -> absl::Status {
+    evicted.reset();
+    // Candidates oldest use first; each is locked and checked again, as a
+    // render job may have come for it meanwhile.
+    ASSIGN_OR_RETURN(SqlRows candidates, tx.Exec(R"sql(SELECT s.id FROM scenes s
+                       WHERE s.state = 'READY' AND NOT EXISTS
+                             (SELECT 1 FROM jobs j
+                               WHERE j.scene_id = s.id AND j.kind = 'render'
+                                 AND j.state IN ('WAITING_FOR_SCENE', 'QUEUED', 'RUNNING'))
+                       ORDER BY s.update_time_ms, s.id LIMIT 8)sql",
+                                                 {}));
+    for (const SqlRow& candidate : candidates) {
+      const std::string scene_id = candidate[0].AsString();
+      ASSIGN_OR_RETURN(std::optional<SceneRecord> scene,
+                       FindScene(tx, scene_id, RowLock::kUpdate));
+      if (!scene || scene->state != SceneState::kReady) continue;
+      ASSIGN_OR_RETURN(SqlRows in_use, tx.Exec(R"sql(SELECT COUNT(*) FROM jobs
+                         WHERE scene_id = $1 AND kind = 'render'
+                           AND state IN ('WAITING_FOR_SCENE', 'QUEUED', 'RUNNING'))sql",
+                                               {scene_id}));
+      if (in_use[0][0].AsInt() > 0) continue;
+      RETURN_IF_ERROR(Run(tx, "DELETE FROM scenes WHERE id = $1", {scene_id}));
+      evicted = *std::move(scene);
+      return absl::OkStatus();
+    }
+    return absl::OkStatus();
+  }));
+  return evicted;
 }
 
 }  // namespace pf

@@ -92,6 +92,7 @@ class SqlJobStore : public JobStore {
   absl::StatusOr<SceneRecord> RebuildScene(const std::string& scene_id, const std::string& reason,
                                            const std::string& description,
                                            int64_t now_ms) override;
+  absl::StatusOr<std::optional<SceneRecord>> EvictLeastRecentlyUsedScene() override;
 
  private:
   SqlJobStore(std::unique_ptr<SqlDatabase> db, const StoreOptions& options)

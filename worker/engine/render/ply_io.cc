@@ -249,6 +249,14 @@ class BodyReader {
           const double count = ReadBinary(bytes_.data() + pos_, property.count_type, swap());
           pos_ += TypeSize(property.count_type);
           if (count < 0) return Corrupt(element, i, "negative list length");
+          // Checked before the conversion, which is undefined for NaN and for
+          // values beyond uint64_t (a float count type can hold 1e30).
+          const uint64_t left = bytes_.size() - pos_;
+          if (!(count <= static_cast<double>(left))) {
+            return Corrupt(
+                element, i,
+                absl::StrCat("list length ", count, " exceeds the ", left, " bytes left"));
+          }
           items = static_cast<uint64_t>(count);
         }
         const uint64_t size = items * TypeSize(property.type);

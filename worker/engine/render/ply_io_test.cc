@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <cstring>
+#include <limits>
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_split.h"
@@ -382,6 +383,32 @@ TEST(PlyImport, ErrorsNameTheProblem) {
                 .find("declares 99999999999999 items"),
             std::string::npos);
   EXPECT_EQ(ImportPly("/nonexistent/x.ply").status().code(), absl::StatusCode::kNotFound);
+}
+
+// Found by ply_fuzzer: a list length of float type beyond uint64_t (or NaN)
+// was converted to an integer, which is undefined behaviour.
+TEST(PlyImport, HugeOrNanFloatListLengthIsAnError) {
+  for (float count : {1e30f, std::numeric_limits<float>::quiet_NaN()}) {
+    std::string ply =
+        "ply\nformat binary_little_endian 1.0\nelement face 1\n"
+        "property list float int vertex_indices\nelement vertex 1\n";
+    for (const char* name : {"x", "y", "z", "opacity", "scale_0", "scale_1", "scale_2", "rot_0",
+                             "rot_1", "rot_2", "rot_3"}) {
+      absl::StrAppend(&ply, "property float ", name, "\n");
+    }
+    ply += "end_header\n";
+    char bytes[4];
+    std::memcpy(bytes, &count, 4);
+    ply.append(bytes, 4);
+    ply.append(11 * 4, '\0');  // The vertex.
+    const absl::Status status = DecodePly(ply, "f.ply").status();
+    EXPECT_EQ(status.code(), absl::StatusCode::kInvalidArgument) << count;
+    EXPECT_NE(std::string(status.message()).find("element 'face' item 0: list length"),
+              std::string::npos)
+        << status;
+    EXPECT_NE(std::string(status.message()).find("exceeds the 44 bytes left"), std::string::npos)
+        << status;
+  }
 }
 
 }  // namespace

@@ -139,18 +139,19 @@ TEST(RenderViews, CarriesFisheyeCoefficients) {
   ASSERT_TRUE(request.ok()) << request.status();
   const RenderView& view = request->views[0];
   EXPECT_EQ(view.name, "fish_7");
+  EXPECT_EQ(view.camera_model, "fisheye");
+  EXPECT_EQ(view.camera.model.kind(), CameraModel::Kind::kFisheye);
+  EXPECT_EQ(view.distortion, (std::vector<double>{0.1, -0.02, 0.003, -0.0004}));
+  EXPECT_TRUE(request->edits.empty());
 
-  // A default name is made fit for a file.
+  // A default name is made fit for a file. (`view` refers into the first
+  // result, so it is checked above, before `request` is replaced.)
   std::string renamed = json;
   renamed.replace(renamed.find(R"("camera": "fish")"), 16, R"("camera": "fish/left")");
   renamed.replace(renamed.find(R"("id": "fish")"), 12, R"("id": "fish/left")");
   request = ParseRenderViews(renamed, GaussianScene{});
   ASSERT_TRUE(request.ok()) << request.status();
   EXPECT_EQ(request->views[0].name, "fish_left_7");
-  EXPECT_EQ(view.camera_model, "fisheye");
-  EXPECT_EQ(view.camera.model.kind(), CameraModel::Kind::kFisheye);
-  EXPECT_EQ(view.distortion, (std::vector<double>{0.1, -0.02, 0.003, -0.0004}));
-  EXPECT_TRUE(request->edits.empty());
 }
 
 TEST(RenderViews, RejectsAnEmptyViewList) {
