@@ -120,9 +120,8 @@ Histogram::Histogram(std::vector<double> bounds)
 void Histogram::Observe(double value) {
   // First bucket whose upper bound is >= value; past the end (and NaN) is +Inf.
   const size_t bucket =
-      std::isnan(value)
-          ? bounds_.size()
-          : std::lower_bound(bounds_.begin(), bounds_.end(), value) - bounds_.begin();
+      std::isnan(value) ? bounds_.size()
+                        : std::lower_bound(bounds_.begin(), bounds_.end(), value) - bounds_.begin();
   std::lock_guard<std::mutex> lock(mutex_);
   ++bucket_counts_[bucket];
   sum_ += value;
@@ -148,8 +147,8 @@ std::vector<double> DurationBuckets() {
 }
 
 std::pair<MetricsRegistry::Child*, bool> MetricsRegistry::FindOrAdd(
-    std::string_view name, std::string_view help, Type type,
-    const std::vector<double>& bounds, const MetricLabels& labels) {
+    std::string_view name, std::string_view help, Type type, const std::vector<double>& bounds,
+    const MetricLabels& labels) {
   std::vector<std::string> label_names;
   std::vector<std::string> label_values;
   for (const auto& [label, value] : labels) {
@@ -262,11 +261,9 @@ std::string MetricsRegistry::Render() const {
     }
     for (const auto& child : family->children) {
       if (child->counter != nullptr) {
-        AppendSample(name, child->labels, nullptr, FormatMetricValue(child->counter->Value()),
-                     out);
+        AppendSample(name, child->labels, nullptr, FormatMetricValue(child->counter->Value()), out);
       } else if (child->gauge != nullptr) {
-        AppendSample(name, child->labels, nullptr, FormatMetricValue(child->gauge->Value()),
-                     out);
+        AppendSample(name, child->labels, nullptr, FormatMetricValue(child->gauge->Value()), out);
       } else if (child->read) {
         AppendSample(name, child->labels, nullptr, FormatMetricValue(child->read()), out);
       } else if (child->histogram != nullptr) {
@@ -275,8 +272,8 @@ std::string MetricsRegistry::Render() const {
         const std::string bucket_name = name + "_bucket";
         for (size_t i = 0; i < counts.bucket_counts.size(); ++i) {
           const std::string le = i < bounds.size() ? FormatMetricValue(bounds[i]) : "+Inf";
-          AppendSample(bucket_name, child->labels, &le,
-                       std::to_string(counts.bucket_counts[i]), out);
+          AppendSample(bucket_name, child->labels, &le, std::to_string(counts.bucket_counts[i]),
+                       out);
         }
         AppendSample(name + "_sum", child->labels, nullptr, FormatMetricValue(counts.sum), out);
         AppendSample(name + "_count", child->labels, nullptr, std::to_string(counts.count), out);

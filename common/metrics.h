@@ -99,19 +99,17 @@ class MetricsRegistry {
   // `help`) on first use. The reference stays valid for the registry's life.
   pf::Counter& Counter(std::string_view name, std::string_view help,
                        const MetricLabels& labels = {});
-  pf::Gauge& Gauge(std::string_view name, std::string_view help,
-                   const MetricLabels& labels = {});
+  pf::Gauge& Gauge(std::string_view name, std::string_view help, const MetricLabels& labels = {});
   // `bounds` is used when the family is created (later calls' are ignored).
   pf::Histogram& Histogram(std::string_view name, std::string_view help,
-                           const std::vector<double>& bounds,
-                           const MetricLabels& labels = {});
+                           const std::vector<double>& bounds, const MetricLabels& labels = {});
 
   // Registers a gauge whose value is `read()`, called at every Render() (so a
   // queue depth can be read from the store at scrape time). Registering the
   // same name and labels again replaces the function. `read` runs with the
   // registry locked: it must not call this registry.
-  void CallbackGauge(std::string_view name, std::string_view help,
-                     const MetricLabels& labels, std::function<double()> read);
+  void CallbackGauge(std::string_view name, std::string_view help, const MetricLabels& labels,
+                     std::function<double()> read);
 
   // Returns all metrics in the Prometheus text format 0.0.4: families in
   // registration order, each with one # HELP and one # TYPE line, then its
@@ -140,9 +138,8 @@ class MetricsRegistry {
 
   // Returns the child of family `name` for `labels`, creating either; the
   // second member is true when the child is new. Requires mutex_ held.
-  std::pair<Child*, bool> FindOrAdd(std::string_view name, std::string_view help,
-                                    Type type, const std::vector<double>& bounds,
-                                    const MetricLabels& labels);
+  std::pair<Child*, bool> FindOrAdd(std::string_view name, std::string_view help, Type type,
+                                    const std::vector<double>& bounds, const MetricLabels& labels);
 
   mutable std::mutex mutex_;
   std::vector<std::unique_ptr<Family>> families_;

@@ -102,8 +102,7 @@ size_t HeadEnd(const std::string& data) {
 std::string Response(int code, absl::string_view reason, absl::string_view content_type,
                      absl::string_view body) {
   return absl::StrCat("HTTP/1.1 ", code, " ", reason, "\r\nContent-Type: ", content_type,
-                      "\r\nContent-Length: ", body.size(), "\r\nConnection: close\r\n\r\n",
-                      body);
+                      "\r\nContent-Length: ", body.size(), "\r\nConnection: close\r\n\r\n", body);
 }
 
 std::string TextResponse(int code, absl::string_view reason, absl::string_view body) {
@@ -165,14 +164,14 @@ absl::Status MetricsHttpServer::Start() {
   const int gai = getaddrinfo(address->host.empty() ? nullptr : address->host.c_str(),
                               address->port.c_str(), &hints, &results);
   if (gai != 0) {
-    return absl::InvalidArgumentError(absl::StrCat(kFlag, ": cannot resolve host '",
-                                                   address->host, "': ", gai_strerror(gai)));
+    return absl::InvalidArgumentError(
+        absl::StrCat(kFlag, ": cannot resolve host '", address->host, "': ", gai_strerror(gai)));
   }
   // Bind the first address that works.
   int bind_errno = 0;
   for (addrinfo* ai = results; ai != nullptr && listen_fd_ < 0; ai = ai->ai_next) {
-    const int fd = socket(ai->ai_family, ai->ai_socktype | SOCK_CLOEXEC | SOCK_NONBLOCK,
-                          ai->ai_protocol);
+    const int fd =
+        socket(ai->ai_family, ai->ai_socktype | SOCK_CLOEXEC | SOCK_NONBLOCK, ai->ai_protocol);
     if (fd < 0) {
       bind_errno = errno;
       continue;
@@ -195,9 +194,8 @@ absl::Status MetricsHttpServer::Start() {
   sockaddr_storage bound{};
   socklen_t bound_size = sizeof(bound);
   getsockname(listen_fd_, reinterpret_cast<sockaddr*>(&bound), &bound_size);
-  port_ = ntohs(bound.ss_family == AF_INET6
-                    ? reinterpret_cast<sockaddr_in6*>(&bound)->sin6_port
-                    : reinterpret_cast<sockaddr_in*>(&bound)->sin_port);
+  port_ = ntohs(bound.ss_family == AF_INET6 ? reinterpret_cast<sockaddr_in6*>(&bound)->sin6_port
+                                            : reinterpret_cast<sockaddr_in*>(&bound)->sin_port);
 
   int pipe_fds[2];
   if (pipe2(pipe_fds, O_CLOEXEC | O_NONBLOCK) != 0) {
@@ -319,7 +317,8 @@ std::string MetricsHttpServer::Respond(const std::string& head) const {
   }
   for (size_t i = 1; i < lines.size(); ++i) {
     if (lines[i].empty()) continue;
-    if (lines[i].find(':') == std::string_view::npos || !IsPrintable(lines[i], /*allow_tab=*/true)) {
+    if (lines[i].find(':') == std::string_view::npos ||
+        !IsPrintable(lines[i], /*allow_tab=*/true)) {
       return TextResponse(400, "Bad Request", "malformed header line\n");
     }
   }

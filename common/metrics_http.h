@@ -55,7 +55,7 @@ class MetricsHttpServer {
   const std::string listen_;
   MetricsRegistry* const registry_;
   int listen_fd_ = -1;
-  int wake_read_fd_ = -1;   // self-pipe: readable once Stop() is called
+  int wake_read_fd_ = -1;  // self-pipe: readable once Stop() is called
   int wake_write_fd_ = -1;
   int port_ = 0;
   std::thread thread_;

@@ -75,15 +75,14 @@ HttpResponse Parse(const std::string& raw) {
 }
 
 HttpResponse Get(int port, std::string_view path) {
-  return Parse(Exchange(port, std::string("GET ") + std::string(path) +
-                                  " HTTP/1.1\r\nHost: localhost\r\n\r\n"));
+  return Parse(Exchange(
+      port, std::string("GET ") + std::string(path) + " HTTP/1.1\r\nHost: localhost\r\n\r\n"));
 }
 
 class MetricsHttpServerTest : public testing::Test {
  protected:
   void SetUp() override {
-    registry_.Counter("pf_tasks_completed_total", "Tasks completed.", {{"kind", "render"}})
-        .Inc(7);
+    registry_.Counter("pf_tasks_completed_total", "Tasks completed.", {{"kind", "render"}}).Inc(7);
     registry_.CallbackGauge("pf_queue_depth", "Jobs waiting.", {{"kind", "render"}},
                             [this] { return static_cast<double>(depth_.load()); });
     ASSERT_TRUE(server_.Start().ok());
@@ -133,12 +132,10 @@ TEST_F(MetricsHttpServerTest, GarbageGets400AndTheServerKeepsAnswering) {
   EXPECT_EQ(Parse(Exchange(server_.port(), "GET\r\n\r\n")).code, 400);
   EXPECT_EQ(Parse(Exchange(server_.port(), "GET metrics HTTP/1.1\r\n\r\n")).code, 400);
   EXPECT_EQ(Parse(Exchange(server_.port(), "GET /metrics HTTP/9\r\n\r\n")).code, 400);
-  EXPECT_EQ(Parse(Exchange(server_.port(), "GET /metrics HTTP/1.1\r\nno colon\r\n\r\n")).code,
-            400);
+  EXPECT_EQ(Parse(Exchange(server_.port(), "GET /metrics HTTP/1.1\r\nno colon\r\n\r\n")).code, 400);
   EXPECT_EQ(Parse(Exchange(server_.port(), "GET /metrics\tHTTP/1.1\r\n\r\n")).code, 400);
   // A tab inside a header value is fine.
-  EXPECT_EQ(Parse(Exchange(server_.port(), "GET /healthz HTTP/1.1\r\nX-A:\tb\r\n\r\n")).code,
-            200);
+  EXPECT_EQ(Parse(Exchange(server_.port(), "GET /healthz HTTP/1.1\r\nX-A:\tb\r\n\r\n")).code, 200);
   // A request cut short by the client, and one too long to be a request head.
   EXPECT_EQ(Parse(Exchange(server_.port(), "GET /met", /*half_close=*/true)).code, 400);
   EXPECT_EQ(Parse(Exchange(server_.port(), std::string(20000, 'A'))).code, 400);
@@ -150,9 +147,8 @@ TEST_F(MetricsHttpServerTest, GarbageGets400AndTheServerKeepsAnswering) {
 
 TEST(MetricsHttpServer, ThrowingCallbackGets500AndTheServerKeepsAnswering) {
   MetricsRegistry registry;
-  registry.CallbackGauge("broken", "Throws.", {}, []() -> double {
-    throw std::runtime_error("store closed");
-  });
+  registry.CallbackGauge("broken", "Throws.", {},
+                         []() -> double { throw std::runtime_error("store closed"); });
   MetricsHttpServer server("127.0.0.1:0", &registry);
   ASSERT_TRUE(server.Start().ok());
   EXPECT_EQ(Get(server.port(), "/metrics").code, 500);

@@ -82,8 +82,9 @@ TEST(MetricsRegistry, GaugeSetsIncrementsAndDecrements) {
 
 TEST(MetricsRegistry, EscapesLabelValuesAndHelpText) {
   MetricsRegistry registry;
-  registry.Gauge("odd", "Help with \\ and\nnewline \"quoted\".",
-                 {{"path", "C:\\dir\\"}, {"text", "say \"hi\"\nbye"}})
+  registry
+      .Gauge("odd", "Help with \\ and\nnewline \"quoted\".",
+             {{"path", "C:\\dir\\"}, {"text", "say \"hi\"\nbye"}})
       .Set(1);
   EXPECT_EQ(registry.Render(),
             "# HELP odd Help with \\\\ and\\nnewline \"quoted\".\n"

@@ -114,7 +114,7 @@ std::shared_ptr<grpc::Channel> MakeChannel(const std::string& address,
     interceptors.push_back(std::make_unique<BearerTokenInterceptorFactory>(options.token));
   }
   return grpc::experimental::CreateCustomChannelWithInterceptors(address, credentials, args,
-                                                                  std::move(interceptors));
+                                                                 std::move(interceptors));
 }
 
 absl::StatusOr<ChannelOptions> LoadChannelOptions(ChannelFlags flags,

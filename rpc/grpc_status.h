@@ -27,7 +27,7 @@ struct ChannelOptions {
   std::string tls_ca_pem;    // Roots the server's certificate must chain to; empty: system roots.
   std::string tls_cert_pem;  // Client certificate chain for mutual TLS (with tls_key_pem).
   std::string tls_key_pem;
-  std::string token;         // Sent as "authorization: Bearer <token>" on every call; empty: none.
+  std::string token;  // Sent as "authorization: Bearer <token>" on every call; empty: none.
 };
 
 // A channel to "HOST:PORT" in plaintext without a token. Messages up to 64 MiB.

@@ -8,6 +8,8 @@ set -euo pipefail
 PACKAGES=(
   # Toolchain.
   build-essential cmake ninja-build ccache pkg-config clang-format
+  # clang and its runtime (libFuzzer) for `make fuzz-smoke` (fuzz/).
+  clang libclang-rt-14-dev
   # Libraries.
   libabsl-dev libprotobuf-dev protobuf-compiler libspdlog-dev libgtest-dev
   libopenimageio-dev libopenexr-dev nlohmann-json3-dev zlib1g-dev

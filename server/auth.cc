@@ -62,8 +62,8 @@ absl::StatusOr<std::vector<TokenEntry>> ParseTokenFile(const std::string& text,
     const std::vector<absl::string_view> words =
         absl::StrSplit(line, absl::ByAnyChar(" \t"), absl::SkipEmpty());
     const auto bad = [&](const std::string& why) {
-      return absl::InvalidArgumentError(absl::StrCat(path, ":", line_number, ": ", why,
-                                                     " (expected '", kLineFormat, "')"));
+      return absl::InvalidArgumentError(
+          absl::StrCat(path, ":", line_number, ": ", why, " (expected '", kLineFormat, "')"));
     };
     if (words.size() < 2 || words.size() > 3) {
       return bad(absl::StrCat(words.size(), " words"));
@@ -95,9 +95,9 @@ absl::StatusOr<std::vector<TokenEntry>> ParseTokenFile(const std::string& text,
 
 absl::StatusOr<std::string> HashToken(std::string_view token) {
   if (token.size() < kMinTokenLength) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("token: ", token.size(), " characters; use at least ", kMinTokenLength,
-                     " (e.g. openssl rand -hex 32)"));
+    return absl::InvalidArgumentError(absl::StrCat("token: ", token.size(),
+                                                   " characters; use at least ", kMinTokenLength,
+                                                   " (e.g. openssl rand -hex 32)"));
   }
   for (char c : token) {
     if (c <= ' ' || c == 0x7f) {
@@ -138,9 +138,8 @@ absl::Status Authenticator::LoadIfChanged() {
   if (stat(path_.c_str(), &info) != 0) {
     return absl::NotFoundError(absl::StrCat(path_, ": cannot stat the token file"));
   }
-  const FileVersion version{
-      int64_t{info.st_mtim.tv_sec} * 1000000000 + info.st_mtim.tv_nsec,
-      static_cast<int64_t>(info.st_size), info.st_ino};
+  const FileVersion version{int64_t{info.st_mtim.tv_sec} * 1000000000 + info.st_mtim.tv_nsec,
+                            static_cast<int64_t>(info.st_size), info.st_ino};
   if (version == version_) return absl::OkStatus();
   absl::StatusOr<std::string> text = ReadFileToString(path_);
   if (!text.ok()) return text.status();
@@ -149,8 +148,7 @@ absl::Status Authenticator::LoadIfChanged() {
   const bool first = version_.size < 0;
   tokens_ = *std::move(tokens);
   version_ = version;
-  spdlog::info("{} token file {}: {} token(s)", first ? "read" : "reloaded", path_,
-               tokens_.size());
+  spdlog::info("{} token file {}: {} token(s)", first ? "read" : "reloaded", path_, tokens_.size());
   return absl::OkStatus();
 }
 

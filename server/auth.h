@@ -119,9 +119,9 @@ class Authenticator {
 
   std::string path_;
   std::mutex mu_;
-  std::vector<TokenEntry> tokens_;                          // Guarded by mu_.
-  FileVersion version_;                                     // Guarded by mu_.
-  std::chrono::steady_clock::time_point last_check_{};      // Guarded by mu_.
+  std::vector<TokenEntry> tokens_;                      // Guarded by mu_.
+  FileVersion version_;                                 // Guarded by mu_.
+  std::chrono::steady_clock::time_point last_check_{};  // Guarded by mu_.
 };
 
 }  // namespace pf

@@ -36,9 +36,10 @@ absl::Status BlobQuota::MakeRoom() {
         freed = 0;
       }
     }
-    spdlog::info("evicted scenes/{} (scene file of {} bytes, last used at {} ms) to keep the blob "
-                 "store under --max-blob-bytes {}",
-                 evicted->id, freed, evicted->update_time_ms, max_bytes_);
+    spdlog::info(
+        "evicted scenes/{} (scene file of {} bytes, last used at {} ms) to keep the blob "
+        "store under --max-blob-bytes {}",
+        evicted->id, freed, evicted->update_time_ms, max_bytes_);
     // Re-count: another replica sharing the directory may have written too.
     ASSIGN_OR_RETURN(total, blobs_->TotalBytes());
   }

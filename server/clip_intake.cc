@@ -54,9 +54,9 @@ absl::Status ValidateStaged(const std::string& manifest_path, const std::string&
   if (report.ok()) return absl::OkStatus();
   std::vector<std::string> lines;
   for (const ClipProblem& problem : report.problems) lines.push_back(problem.ToString());
-  return absl::InvalidArgumentError(absl::StrCat(field, ": ", report.problems.size(),
-                                                 report.problems.size() == 1 ? " problem" : " problems",
-                                                 "\n", absl::StrJoin(lines, "\n")));
+  return absl::InvalidArgumentError(absl::StrCat(
+      field, ": ", report.problems.size(), report.problems.size() == 1 ? " problem" : " problems",
+      "\n", absl::StrJoin(lines, "\n")));
 }
 
 absl::StatusOr<AcceptedClip> AcceptUploaded(const v1::UploadedClip& uploaded, BlobStore& blobs,
@@ -64,9 +64,8 @@ absl::StatusOr<AcceptedClip> AcceptUploaded(const v1::UploadedClip& uploaded, Bl
                                             const ClipLimits& limits) {
   const std::string& manifest_sha = uploaded.manifest().sha256();
   if (!IsValidSha256Hex(manifest_sha)) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("clip.uploaded.manifest.sha256: '", manifest_sha,
-                     "' is not 64 lowercase hex digits"));
+    return absl::InvalidArgumentError(absl::StrCat("clip.uploaded.manifest.sha256: '", manifest_sha,
+                                                   "' is not 64 lowercase hex digits"));
   }
   if (!blobs.Contains(manifest_sha)) {
     return absl::InvalidArgumentError(absl::StrCat("clip.uploaded.manifest: blob ", manifest_sha,
@@ -84,9 +83,9 @@ absl::StatusOr<AcceptedClip> AcceptUploaded(const v1::UploadedClip& uploaded, Bl
   if (!loaded.ok()) {
     std::vector<std::string> lines;
     for (const ClipProblem& problem : problems) lines.push_back(problem.ToString());
-    return absl::InvalidArgumentError(
-        absl::StrCat("clip.uploaded.manifest: ",
-                     lines.empty() ? std::string(loaded.status().message()) : absl::StrJoin(lines, "\n")));
+    return absl::InvalidArgumentError(absl::StrCat(
+        "clip.uploaded.manifest: ",
+        lines.empty() ? std::string(loaded.status().message()) : absl::StrJoin(lines, "\n")));
   }
   RETURN_IF_ERROR(CheckClipLimits(loaded->clip, limits));
   std::map<std::string, std::string> referenced;  // path -> field
@@ -97,7 +96,8 @@ absl::StatusOr<AcceptedClip> AcceptUploaded(const v1::UploadedClip& uploaded, Bl
       return absl::InvalidArgumentError(
           absl::StrCat(field, ": the manifest does not reference this file"));
     }
-    absl::StatusOr<std::string> target = ResolvePath(staging.path, path, PathPolicy::kUnderRootOnly);
+    absl::StatusOr<std::string> target =
+        ResolvePath(staging.path, path, PathPolicy::kUnderRootOnly);
     if (!target.ok()) {
       return absl::InvalidArgumentError(absl::StrCat(field, ": ", target.status().message()));
     }
@@ -113,8 +113,9 @@ absl::StatusOr<AcceptedClip> AcceptUploaded(const v1::UploadedClip& uploaded, Bl
   }
   for (const auto& [path, field] : referenced) {
     if (!uploaded.files().contains(path)) {
-      return absl::InvalidArgumentError(absl::StrCat(
-          "clip.uploaded.files: ", field, " names '", path, "', which was not uploaded with the clip"));
+      return absl::InvalidArgumentError(absl::StrCat("clip.uploaded.files: ", field, " names '",
+                                                     path,
+                                                     "', which was not uploaded with the clip"));
     }
   }
   RETURN_IF_ERROR(ValidateStaged(manifest_path, "clip"));
@@ -195,19 +196,19 @@ absl::StatusOr<AcceptedClip> AcceptUri(const std::string& uri, BlobStore& blobs,
 
 absl::Status CheckClipLimits(const v1::Clip& clip, const ClipLimits& limits) {
   if (limits.max_images_per_clip > 0 && clip.frames_size() > limits.max_images_per_clip) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        "clip: ", clip.frames_size(), " images exceed the limit of ", limits.max_images_per_clip,
-        " per clip (--max-images-per-clip)"));
+    return absl::InvalidArgumentError(
+        absl::StrCat("clip: ", clip.frames_size(), " images exceed the limit of ",
+                     limits.max_images_per_clip, " per clip (--max-images-per-clip)"));
   }
   if (limits.max_pixels_per_image > 0) {
     for (int i = 0; i < clip.cameras_size(); ++i) {
       const v1::Camera& camera = clip.cameras(i);
       const int64_t pixels = int64_t{camera.width()} * int64_t{camera.height()};
       if (pixels > limits.max_pixels_per_image) {
-        return absl::InvalidArgumentError(absl::StrCat(
-            "clip.cameras[", i, "]: ", camera.width(), "x", camera.height(), " = ", pixels,
-            " pixels per image exceed the limit of ", limits.max_pixels_per_image,
-            " (--max-pixels-per-image)"));
+        return absl::InvalidArgumentError(
+            absl::StrCat("clip.cameras[", i, "]: ", camera.width(), "x", camera.height(), " = ",
+                         pixels, " pixels per image exceed the limit of ",
+                         limits.max_pixels_per_image, " (--max-pixels-per-image)"));
       }
     }
   }
@@ -227,12 +228,13 @@ absl::StatusOr<AcceptedClip> AcceptClip(const v1::ClipSource& source, BlobStore&
   }
 }
 
-absl::StatusOr<v1::ReconstructionOptions> NormalizeOptions(const v1::ReconstructionOptions& options) {
+absl::StatusOr<v1::ReconstructionOptions> NormalizeOptions(
+    const v1::ReconstructionOptions& options) {
   v1::ReconstructionOptions out = options;
   if (out.model().empty()) out.set_model("analytic");
   if (out.model() != "analytic" && out.model() != "pixel-aligned") {
-    return absl::InvalidArgumentError(absl::StrCat(
-        "options.model: unknown model '", out.model(), "'; expected analytic or pixel-aligned"));
+    return absl::InvalidArgumentError(absl::StrCat("options.model: unknown model '", out.model(),
+                                                   "'; expected analytic or pixel-aligned"));
   }
   if (out.fusion().empty()) out.set_fusion("softmax");
   if (out.fusion() != "softmax" && out.fusion() != "average" && out.fusion() != "no-depth") {

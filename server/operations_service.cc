@@ -1,8 +1,5 @@
 // google.longrunning.Operations over the job store: every job is an
 // operation named "operations/{job_id}".
-#include "google/longrunning/operations.pb.h"
-#include "server/services.h"
-
 #include <google/protobuf/util/time_util.h>
 
 #include <algorithm>
@@ -12,8 +9,10 @@
 #include <thread>
 
 #include "absl/strings/str_cat.h"
+#include "google/longrunning/operations.pb.h"
 #include "rpc/grpc_status.h"
 #include "server/ownership.h"
+#include "server/services.h"
 #include "spdlog/spdlog.h"
 
 namespace pf {
@@ -28,8 +27,8 @@ absl::StatusOr<std::optional<JobKind>> ParseFilter(const std::string& filter) {
   if (filter.empty()) return std::optional<JobKind>();
   if (filter == "kind=reconstruct") return std::optional<JobKind>(JobKind::kReconstruct);
   if (filter == "kind=render") return std::optional<JobKind>(JobKind::kRender);
-  return absl::InvalidArgumentError(absl::StrCat(
-      "filter: unsupported filter '", filter, "'; expected kind=reconstruct or kind=render"));
+  return absl::InvalidArgumentError(absl::StrCat("filter: unsupported filter '", filter,
+                                                 "'; expected kind=reconstruct or kind=render"));
 }
 
 }  // namespace
@@ -119,7 +118,8 @@ grpc::Status OperationsServiceImpl::WaitOperation(
   int64_t wait_ms = kMaxWaitMs;
   if (request->has_timeout()) {
     wait_ms = std::clamp<int64_t>(
-        google::protobuf::util::TimeUtil::DurationToMilliseconds(request->timeout()), 0, kMaxWaitMs);
+        google::protobuf::util::TimeUtil::DurationToMilliseconds(request->timeout()), 0,
+        kMaxWaitMs);
   }
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(wait_ms);
   while (true) {

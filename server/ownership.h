@@ -23,8 +23,7 @@ namespace pf {
 // `name` is the resource as the request named it ("operations/X").
 absl::Status CheckCanSeeJob(const Caller& caller, const JobRecord& job, JobStore& store,
                             const std::string& name);
-absl::Status CheckCanCancelJob(const Caller& caller, const JobRecord& job,
-                               const std::string& name);
+absl::Status CheckCanCancelJob(const Caller& caller, const JobRecord& job, const std::string& name);
 absl::Status CheckCanUseScene(const Caller& caller, const std::string& scene_id, JobStore& store,
                               const std::string& name);
 // WorkerService: PERMISSION_DENIED unless the caller has the worker or

@@ -1,16 +1,15 @@
 // RenderService: CreateRenderJob (optionally creating its scene first),
 // GetRenderJob, ListRenderJobs.
-#include "google/longrunning/operations.pb.h"
-#include "pointforward/v1/service.pb.h"
-#include "server/services.h"
-
 #include <algorithm>
 #include <string>
 #include <vector>
 
 #include "absl/strings/str_cat.h"
+#include "google/longrunning/operations.pb.h"
+#include "pointforward/v1/service.pb.h"
 #include "rpc/grpc_status.h"
 #include "server/ownership.h"
+#include "server/services.h"
 #include "spdlog/spdlog.h"
 #include "worker/engine/render/render_outputs.h"
 #include "worker/engine/render/views.h"
@@ -58,7 +57,8 @@ grpc::Status RenderServiceImpl::CreateRenderJob(grpc::ServerContext* context,
   if (absl::StatusOr<OutputChannels> channels =
           ParseOutputChannels({request->outputs().begin(), request->outputs().end()});
       !channels.ok()) {
-    return ToGrpc(absl::InvalidArgumentError(absl::StrCat("outputs: ", channels.status().message())));
+    return ToGrpc(
+        absl::InvalidArgumentError(absl::StrCat("outputs: ", channels.status().message())));
   }
   if (request->chunk_frames() < 0) {
     return ToGrpc(absl::InvalidArgumentError(
@@ -106,7 +106,8 @@ grpc::Status RenderServiceImpl::CreateRenderJob(grpc::ServerContext* context,
 
   // Frame chunks.
   const int total = request->views().views_size();
-  const int chunk = request->chunk_frames() > 0 ? request->chunk_frames() : core_->options().chunk_frames;
+  const int chunk =
+      request->chunk_frames() > 0 ? request->chunk_frames() : core_->options().chunk_frames;
   std::vector<NewTask> tasks;
   for (int first = 0; first < total; first += chunk) {
     NewTask task;
@@ -127,14 +128,15 @@ grpc::Status RenderServiceImpl::CreateRenderJob(grpc::ServerContext* context,
       core_->store().CreateRenderJob(scene_id, request->request_id(), ToJson(stored), total, tasks,
                                      caller->owner, core_->NowMs(), &same_request);
   if (!job.ok()) {
-    return ToGrpc(absl::Status(job.status().code(), absl::StrCat("scene: ", job.status().message())));
+    return ToGrpc(
+        absl::Status(job.status().code(), absl::StrCat("scene: ", job.status().message())));
   }
   if (same_request && !CheckCanCancelJob(*caller, *job, "").ok()) {
-    return ToGrpc(absl::PermissionDeniedError(absl::StrCat(
-        "request_id: '", request->request_id(), "' names a request of another owner")));
+    return ToGrpc(absl::PermissionDeniedError(absl::StrCat("request_id: '", request->request_id(),
+                                                           "' names a request of another owner")));
   }
-  spdlog::info("CreateRenderJob renderJobs/{}: {} views of scenes/{} in {} chunks{}", job->id, total,
-               scene_id, tasks.size(), same_request ? " (same request_id as before)" : "");
+  spdlog::info("CreateRenderJob renderJobs/{}: {} views of scenes/{} in {} chunks{}", job->id,
+               total, scene_id, tasks.size(), same_request ? " (same request_id as before)" : "");
   absl::StatusOr<google::longrunning::Operation> op = core_->OperationFor(*job);
   if (!op.ok()) return ToGrpc(op.status());
   *response = *std::move(op);
@@ -169,10 +171,9 @@ grpc::Status RenderServiceImpl::ListRenderJobs(grpc::ServerContext* context,
   absl::StatusOr<int> page_size = PageSize(request->page_size());
   if (!page_size.ok()) return ToGrpc(page_size.status());
   absl::StatusOr<Page<JobRecord>> page =
-      caller->admin()
-          ? core_->store().ListJobs(JobKind::kRender, *page_size, request->page_token())
-          : core_->store().ListJobsOf(caller->owner, JobKind::kRender, *page_size,
-                                      request->page_token());
+      caller->admin() ? core_->store().ListJobs(JobKind::kRender, *page_size, request->page_token())
+                      : core_->store().ListJobsOf(caller->owner, JobKind::kRender, *page_size,
+                                                  request->page_token());
   if (!page.ok()) return ToGrpc(page.status());
   for (const JobRecord& job : page->items) {
     absl::StatusOr<v1::RenderJob> out = core_->RenderJobFor(job);

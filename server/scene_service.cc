@@ -1,15 +1,14 @@
 // SceneService: CreateScene, GetScene, ListScenes, DeleteScene, ExportScene.
-#include "google/longrunning/operations.pb.h"
-#include "pointforward/v1/service.pb.h"
-#include "server/services.h"
-
 #include <algorithm>
 #include <string>
 
 #include "absl/strings/str_cat.h"
 #include "common/hash.h"
+#include "google/longrunning/operations.pb.h"
+#include "pointforward/v1/service.pb.h"
 #include "rpc/grpc_status.h"
 #include "server/ownership.h"
+#include "server/services.h"
 #include "worker/engine/render/ply_io.h"
 #include "worker/engine/render/scene_file.h"
 
@@ -39,11 +38,11 @@ grpc::Status SceneServiceImpl::CreateScene(grpc::ServerContext* context,
   if (!outcome.ok()) return ToGrpc(outcome.status());
   if (outcome->kind == CreateSceneOutcome::Kind::kSameRequest &&
       !CheckCanSeeJob(*caller, outcome->job, core_->store(), "").ok()) {
-    return ToGrpc(absl::PermissionDeniedError(absl::StrCat(
-        "request_id: '", request->request_id(), "' names a request of another owner")));
+    return ToGrpc(absl::PermissionDeniedError(absl::StrCat("request_id: '", request->request_id(),
+                                                           "' names a request of another owner")));
   }
-  absl::StatusOr<google::longrunning::Operation> op = core_->OperationFor(
-      outcome->job, outcome->kind == CreateSceneOutcome::Kind::kCacheHit);
+  absl::StatusOr<google::longrunning::Operation> op =
+      core_->OperationFor(outcome->job, outcome->kind == CreateSceneOutcome::Kind::kCacheHit);
   if (!op.ok()) return ToGrpc(op.status());
   *response = *std::move(op);
   return grpc::Status::OK;

@@ -1,12 +1,9 @@
 // pf-server: the gRPC front end. Holds no state but its job store and blob
 // store; see `pf-server --help` and docs/SERVICE.md.
-#include "google/longrunning/operations.grpc.pb.h"
-#include "server/services.h"
-
 #include <grpcpp/ext/proto_server_reflection_plugin.h>
 #include <grpcpp/health_check_service_interface.h>
-#include <grpcpp/server.h>
 #include <grpcpp/security/server_credentials.h>
+#include <grpcpp/server.h>
 #include <grpcpp/server_builder.h>
 
 #include <atomic>
@@ -20,21 +17,23 @@
 #include <thread>
 #include <vector>
 
+#include "absl/strings/ascii.h"
 #include "absl/strings/match.h"
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
-#include "absl/strings/ascii.h"
 #include "absl/strings/str_split.h"
 #include "common/command_line.h"
 #include "common/file_util.h"
 #include "common/logging.h"
-#include "common/status_macros.h"
 #include "common/metrics_http.h"
+#include "common/status_macros.h"
+#include "google/longrunning/operations.grpc.pb.h"
 #include "server/auth.h"
 #include "server/blob_quota.h"
 #include "server/blobs/blob_service.h"
-#include "server/server_metrics.h"
 #include "server/blobs/blob_store.h"
+#include "server/server_metrics.h"
+#include "server/services.h"
 #include "server/store/job_store.h"
 #include "spdlog/spdlog.h"
 
@@ -195,8 +194,8 @@ absl::Status Run(const CommandLine& cl) {
                    IntSetting(cl, "max-attempts", "PF_MAX_ATTEMPTS", 3, 1));
   store_options.max_attempts = static_cast<int>(max_attempts);
   ServerOptions options;
-  for (absl::string_view root :
-       absl::StrSplit(Setting(cl, "trusted-root", "PF_TRUSTED_ROOTS", ""), ',', absl::SkipEmpty())) {
+  for (absl::string_view root : absl::StrSplit(Setting(cl, "trusted-root", "PF_TRUSTED_ROOTS", ""),
+                                               ',', absl::SkipEmpty())) {
     options.trusted_roots.emplace_back(root);
   }
   ASSIGN_OR_RETURN(const int64_t chunk_frames,
@@ -216,8 +215,9 @@ absl::Status Run(const CommandLine& cl) {
   }
   ASSIGN_OR_RETURN(options.clip_limits.max_images_per_clip,
                    IntSetting(cl, "max-images-per-clip", "PF_MAX_IMAGES_PER_CLIP", 1000, 0));
-  ASSIGN_OR_RETURN(options.clip_limits.max_pixels_per_image,
-                   IntSetting(cl, "max-pixels-per-image", "PF_MAX_PIXELS_PER_IMAGE", 50'000'000, 0));
+  ASSIGN_OR_RETURN(
+      options.clip_limits.max_pixels_per_image,
+      IntSetting(cl, "max-pixels-per-image", "PF_MAX_PIXELS_PER_IMAGE", 50'000'000, 0));
   ASSIGN_OR_RETURN(options.max_gaussians,
                    IntSetting(cl, "max-gaussians", "PF_MAX_GAUSSIANS", 20'000'000, 0));
   ASSIGN_OR_RETURN(options.max_jobs_per_owner,
@@ -279,7 +279,8 @@ absl::Status Run(const CommandLine& cl) {
   const std::string host = listen.substr(0, listen.rfind(':'));
   spdlog::info("pf-server listening on {}:{} (store {}, blobs {}, lease {} s, {} attempts)", host,
                port, store_spec, blob_dir, lease_seconds, max_attempts);
-  if (cl.Has("port-file")) RETURN_IF_ERROR(WriteFileAtomic(cl.Get("port-file"), absl::StrCat(port, "\n")));
+  if (cl.Has("port-file"))
+    RETURN_IF_ERROR(WriteFileAtomic(cl.Get("port-file"), absl::StrCat(port, "\n")));
 
   // Leases of dead workers go back to the queue.
   std::thread expirer([&] {
@@ -291,7 +292,8 @@ absl::Status Run(const CommandLine& cl) {
         metrics.leases_expired->Inc(*expired);
         spdlog::warn("{} lease(s) expired: tasks requeued or failed", *expired);
       }
-      for (int i = 0; i < 5 && !g_stop; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+      for (int i = 0; i < 5 && !g_stop; ++i)
+        std::this_thread::sleep_for(std::chrono::milliseconds(100));
     }
   });
   while (!g_stop) std::this_thread::sleep_for(std::chrono::milliseconds(100));
@@ -321,12 +323,28 @@ int main(int argc, char** argv) {
       return 0;
     }
   }
-  absl::StatusOr<pf::CommandLine> cl = pf::CommandLine::Parse(
-      args, {"listen", "store", "blobs", "trusted-root", "lease-seconds", "max-attempts",
-             "chunk-frames", "max-views", "max-upload-bytes", "port-file", "log-level",
-             "metrics-listen", "max-request-bytes", "max-images-per-clip", "max-pixels-per-image",
-             "max-gaussians", "max-jobs-per-owner", "max-blob-bytes", "auth-token-file", "tls-cert", "tls-key",
-             "tls-client-ca"});
+  absl::StatusOr<pf::CommandLine> cl = pf::CommandLine::Parse(args, {"listen",
+                                                                     "store",
+                                                                     "blobs",
+                                                                     "trusted-root",
+                                                                     "lease-seconds",
+                                                                     "max-attempts",
+                                                                     "chunk-frames",
+                                                                     "max-views",
+                                                                     "max-upload-bytes",
+                                                                     "port-file",
+                                                                     "log-level",
+                                                                     "metrics-listen",
+                                                                     "max-request-bytes",
+                                                                     "max-images-per-clip",
+                                                                     "max-pixels-per-image",
+                                                                     "max-gaussians",
+                                                                     "max-jobs-per-owner",
+                                                                     "max-blob-bytes",
+                                                                     "auth-token-file",
+                                                                     "tls-cert",
+                                                                     "tls-key",
+                                                                     "tls-client-ca"});
   if (!cl.ok() || !cl->positional().empty()) {
     std::fprintf(stderr, "pf-server: %s\n%s",
                  cl.ok() ? "unexpected arguments" : std::string(cl.status().message()).c_str(),

@@ -12,15 +12,15 @@ ServerMetrics MakeMetrics(MetricsRegistry& registry) {
                                    "CreateScene calls answered by a scene already built.");
   m.cache_misses = &registry.Counter("pf_scene_cache_misses_total",
                                      "CreateScene calls that started a reconstruction.");
-  m.heartbeats = &registry.Counter("pf_worker_heartbeats_total", "Heartbeats received from workers.");
+  m.heartbeats =
+      &registry.Counter("pf_worker_heartbeats_total", "Heartbeats received from workers.");
   m.leases_expired = &registry.Counter("pf_leases_expired_total",
                                        "Task leases that expired (worker died or hung).");
   for (JobKind kind : {JobKind::kReconstruct, JobKind::kRender}) {
     const int k = static_cast<int>(kind);
     const MetricLabels labels = {{"kind", JobKindName(kind)}};
-    m.tasks_completed[k] = &registry.Counter("pf_tasks_completed_total",
-                                             "Tasks (reconstructions, render chunks) completed.",
-                                             labels);
+    m.tasks_completed[k] = &registry.Counter(
+        "pf_tasks_completed_total", "Tasks (reconstructions, render chunks) completed.", labels);
     m.tasks_failed[k] = &registry.Counter(
         "pf_tasks_failed_total", "Task attempts that failed (reported by a worker).", labels);
     m.job_seconds[k] = &registry.Histogram("pf_job_duration_seconds",

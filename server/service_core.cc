@@ -3,12 +3,12 @@
 
 #include <google/protobuf/util/json_util.h>
 #include <google/protobuf/util/time_util.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <chrono>
 #include <nlohmann/json.hpp>
 #include <string>
-#include <unistd.h>
 
 #include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
@@ -85,10 +85,9 @@ absl::StatusOr<std::string> ParseResourceName(const std::string& name,
                                               const std::string& field) {
   const std::string prefix = collection + "/";
   std::string id = absl::StartsWith(name, prefix) ? name.substr(prefix.size()) : "";
-  const bool ok = !id.empty() && id.size() <= 64 &&
-                  std::all_of(id.begin(), id.end(), [](char c) {
-                    return (c >= '0' && c <= '9') || (c >= 'a' && c <= 'z') || c == '-';
-                  });
+  const bool ok = !id.empty() && id.size() <= 64 && std::all_of(id.begin(), id.end(), [](char c) {
+    return (c >= '0' && c <= '9') || (c >= 'a' && c <= 'z') || c == '-';
+  });
   if (!ok) {
     return absl::InvalidArgumentError(
         absl::StrCat(field, ": expected '", collection, "/{id}', got '", name, "'"));
@@ -211,7 +210,8 @@ absl::StatusOr<v1::RenderJob> ServiceCore::RenderJobFor(const JobRecord& job) {
     const nlohmann::json chunk_views =
         nlohmann::json::parse(result.manifest_views_json(), nullptr, /*allow_exceptions=*/false);
     if (!chunk_views.is_array()) {
-      return absl::InternalError(absl::StrCat("manifest views of ", TaskLabel(task), " are not a JSON array"));
+      return absl::InternalError(
+          absl::StrCat("manifest views of ", TaskLabel(task), " are not a JSON array"));
     }
     for (const nlohmann::json& view : chunk_views) views.push_back(view);
   }

@@ -11,11 +11,11 @@
 #include <string>
 #include <vector>
 
+#include "absl/status/statusor.h"
 #include "google/longrunning/operations.pb.h"
 #include "pointforward/v1/resources.pb.h"
 #include "pointforward/v1/service.pb.h"
 #include "pointforward/v1/worker.pb.h"
-#include "absl/status/statusor.h"
 #include "server/auth.h"
 #include "server/blobs/blob_store.h"
 #include "server/clip_intake.h"
@@ -31,8 +31,8 @@ struct ServerOptions {
   ClipLimits clip_limits;                  // --max-images-per-clip, --max-pixels-per-image.
   int64_t max_gaussians = 20'000'000;      // Per scene; the worker checks (0: none).
   int64_t max_jobs_per_owner = 100;        // Unfinished jobs per owner (0: none).
-  int64_t max_lease_wait_ms = 10000;  // Longest LeaseTask long-poll.
-  std::string scratch_dir;            // Staging of clips being checked.
+  int64_t max_lease_wait_ms = 10000;       // Longest LeaseTask long-poll.
+  std::string scratch_dir;                 // Staging of clips being checked.
   Authenticator* authenticator = nullptr;  // --auth-token-file; null: authentication off.
 };
 
@@ -52,8 +52,8 @@ class ServiceCore {
 
   // CreateScene: checks the clip and options, computes the cache key, and
   // finds or starts the reconstruction.
-  absl::StatusOr<CreateSceneOutcome> CreateScene(const pointforward::v1::CreateSceneRequest& request,
-                                                 const std::string& owner);
+  absl::StatusOr<CreateSceneOutcome> CreateScene(
+      const pointforward::v1::CreateSceneRequest& request, const std::string& owner);
 
   // The Operation of `job`; `cache_hit` sets metadata.cache_hit.
   absl::StatusOr<google::longrunning::Operation> OperationFor(const JobRecord& job,
@@ -98,7 +98,8 @@ class ServiceCore {
 };
 
 // "scenes/X" -> X; INVALID_ARGUMENT naming `field` when malformed.
-absl::StatusOr<std::string> ParseResourceName(const std::string& name, const std::string& collection,
+absl::StatusOr<std::string> ParseResourceName(const std::string& name,
+                                              const std::string& collection,
                                               const std::string& field);
 
 // A List call's page size: 0 means 50, more than 1000 means 1000;

@@ -1,9 +1,6 @@
 // WorkerService: workers lease tasks (long poll), heartbeat, complete and
 // fail them. Every call after the lease names (task, attempt); the store
 // refuses calls of an attempt that lost its lease.
-#include "pointforward/v1/worker.pb.h"
-#include "server/services.h"
-
 #include <google/protobuf/util/time_util.h>
 
 #include <algorithm>
@@ -14,9 +11,11 @@
 
 #include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
+#include "pointforward/v1/worker.pb.h"
 #include "rpc/grpc_status.h"
 #include "server/ownership.h"
 #include "server/server_metrics.h"
+#include "server/services.h"
 #include "spdlog/spdlog.h"
 
 namespace pf {
@@ -36,8 +35,8 @@ absl::Status CheckWorkerId(const std::string& worker_id) {
 
 absl::Status CheckBlob(BlobStore& blobs, const v1::Digest& digest, const std::string& field) {
   if (!IsValidSha256Hex(digest.sha256()) || !blobs.Contains(digest.sha256())) {
-    return absl::InvalidArgumentError(absl::StrCat(field, ": blob '", digest.sha256(),
-                                                   "' was not uploaded"));
+    return absl::InvalidArgumentError(
+        absl::StrCat(field, ": blob '", digest.sha256(), "' was not uploaded"));
   }
   return blobs.Verify(digest.sha256());
 }
@@ -117,10 +116,10 @@ grpc::Status WorkerServiceImpl::Heartbeat(grpc::ServerContext* context,
                                           v1::HeartbeatResponse* response) {
   if (absl::Status ok = AuthorizeWorker(*core_, *context); !ok.ok()) return ToGrpc(ok);
   int64_t deadline_ms = 0;
-  absl::StatusOr<bool> cancelled = core_->store().Heartbeat(
-      request->task_id(), request->attempt(), request->progress().stage(),
-      request->progress().fraction(), request->progress().frames_done(), core_->NowMs(),
-      &deadline_ms);
+  absl::StatusOr<bool> cancelled =
+      core_->store().Heartbeat(request->task_id(), request->attempt(), request->progress().stage(),
+                               request->progress().fraction(), request->progress().frames_done(),
+                               core_->NowMs(), &deadline_ms);
   if (!cancelled.ok()) return ToGrpc(cancelled.status());
   GetServerMetrics().heartbeats->Inc();
   response->set_cancelled(*cancelled);
@@ -138,8 +137,8 @@ grpc::Status WorkerServiceImpl::CompleteTask(grpc::ServerContext* context,
   std::string scene_description;
   if (request->has_reconstruct()) {
     const v1::Scene& scene = request->reconstruct().scene();
-    if (absl::Status ok = CheckBlob(core_->blobs(), scene.scene_file(),
-                                    "reconstruct.scene.scene_file");
+    if (absl::Status ok =
+            CheckBlob(core_->blobs(), scene.scene_file(), "reconstruct.scene.scene_file");
         !ok.ok()) {
       return ToGrpc(ok);
     }

@@ -4,11 +4,6 @@
 // stubs. Each promise of docs/SERVICE.md "Authentication and TLS" is
 // checked by trying to break it: no token, a wrong token, another owner's
 // token, a user token on WorkerService, a plaintext client on a TLS port.
-#include "google/longrunning/operations.grpc.pb.h"
-#include "pointforward/v1/blobs.grpc.pb.h"
-#include "pointforward/v1/service.grpc.pb.h"
-#include "pointforward/v1/worker.grpc.pb.h"
-
 #include <google/protobuf/descriptor.h>
 #include <google/protobuf/util/json_util.h>
 #include <grpcpp/grpcpp.h>
@@ -24,8 +19,13 @@
 #include <vector>
 
 #include "common/hash.h"
+#include "google/longrunning/operations.grpc.pb.h"
 #include "gtest/gtest.h"
+#include "pointforward/v1/blobs.grpc.pb.h"
+#include "pointforward/v1/service.grpc.pb.h"
+#include "pointforward/v1/worker.grpc.pb.h"
 #include "rpc/grpc_status.h"
+#include "tests/service_checks.h"
 #include "tests/service_harness.h"
 #include "tests/test_util.h"
 
@@ -39,6 +39,7 @@ using testing::BinPath;
 using testing::CommandResult;
 using testing::RunCommand;
 using testing::ServerProcess;
+using testing::SynthSmallClip;
 using testing::WaitFor;
 using testing::WorkerProcess;
 
@@ -266,9 +267,7 @@ class AuthE2e : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     dir_ = new std::string(testing::MakeTempDir("auth_e2e"));
-    const CommandResult synth =
-        RunCommand({BinPath("pf"), "synth", "--out", *dir_ + "/clip", "--width", "192",
-                    "--height", "144", "--frames", "6", "--cameras", "2"});
+    const CommandResult synth = SynthSmallClip(*dir_ + "/clip");
     ASSERT_EQ(synth.exit_code, 0) << synth.err;
     WriteViews(*dir_ + "/clip/clip.json", *dir_ + "/views.json");
     MakeCertificates(*dir_);
@@ -320,9 +319,10 @@ class AuthE2e : public ::testing::Test {
     WriteFile(tokens_, "# owners of the test\n" + TokenLine(kAliceToken, "alice") +
                            TokenLine(kBobToken, "bob") + TokenLine(kAdminToken, "root", "admin") +
                            "\n" + TokenLine(kWorkerToken, "farm", "worker"));
-    for (const auto& [name, token] :
-         std::map<std::string, std::string>{{"alice", kAliceToken}, {"bob", kBobToken},
-                                            {"admin", kAdminToken}, {"worker", kWorkerToken}}) {
+    for (const auto& [name, token] : std::map<std::string, std::string>{{"alice", kAliceToken},
+                                                                        {"bob", kBobToken},
+                                                                        {"admin", kAdminToken},
+                                                                        {"worker", kWorkerToken}}) {
       WriteFile(TokenFile(name), token + "\n");
     }
   }
@@ -371,9 +371,9 @@ class AuthE2e : public ::testing::Test {
 std::string* AuthE2e::dir_ = nullptr;
 
 TEST_F(AuthE2e, HashTokenPrintsTheSha256OfTheTokenOnStdin) {
-  const CommandResult hashed = RunCommand(
-      {"/bin/sh", "-c", "printf '%s\\n' " + std::string(kAliceToken) + " | " +
-                            BinPath("pf-server") + " hash-token"});
+  const CommandResult hashed = RunCommand({"/bin/sh", "-c",
+                                           "printf '%s\\n' " + std::string(kAliceToken) + " | " +
+                                               BinPath("pf-server") + " hash-token"});
   ASSERT_EQ(hashed.exit_code, 0) << hashed.err;
   EXPECT_EQ(hashed.out, Sha256Hex(kAliceToken) + "\n");
   const CommandResult short_token =
@@ -384,10 +384,9 @@ TEST_F(AuthE2e, HashTokenPrintsTheSha256OfTheTokenOnStdin) {
 
 TEST_F(AuthE2e, MalformedTokenFileStopsTheServerNamingTheLine) {
   WriteFile(tokens_, TokenLine(kAliceToken, "alice") + "not-a-hash bob\n");
-  const CommandResult result =
-      RunCommand({BinPath("pf-server"), "--listen", "127.0.0.1:0", "--store",
-                  "sqlite:" + test_dir_ + "/jobs.db", "--blobs", test_dir_ + "/blobs",
-                  "--auth-token-file", tokens_});
+  const CommandResult result = RunCommand({BinPath("pf-server"), "--listen", "127.0.0.1:0",
+                                           "--store", "sqlite:" + test_dir_ + "/jobs.db", "--blobs",
+                                           test_dir_ + "/blobs", "--auth-token-file", tokens_});
   EXPECT_EQ(result.exit_code, 2);
   EXPECT_NE(result.err.find("tokens.txt:2: 'not-a-hash' is not a SHA-256"), std::string::npos)
       << result.err;
@@ -406,10 +405,9 @@ TEST_F(AuthE2e, EveryRpcButHealthRefusesCallsWithoutOrWithAWrongToken) {
 
   // The table covers every method the five services declare.
   std::set<std::string> declared;
-  for (const char* service :
-       {"pointforward.v1.SceneService", "pointforward.v1.RenderService",
-        "google.longrunning.Operations", "pointforward.v1.BlobService",
-        "pointforward.v1.WorkerService"}) {
+  for (const char* service : {"pointforward.v1.SceneService", "pointforward.v1.RenderService",
+                              "google.longrunning.Operations", "pointforward.v1.BlobService",
+                              "pointforward.v1.WorkerService"}) {
     const google::protobuf::ServiceDescriptor* descriptor =
         google::protobuf::DescriptorPool::generated_pool()->FindServiceByName(service);
     ASSERT_NE(descriptor, nullptr) << service;
@@ -449,10 +447,9 @@ TEST_F(AuthE2e, OwnersSeeAndCancelOnlyTheirOwnAdminsEverything) {
   ASSERT_TRUE(worker.Start({"--token-file", TokenFile("worker")}));
 
   // Alice: the whole flow through the command line and pf-worker.
-  const CommandResult rendered =
-      Pf(server, "alice",
-         {"render", "--clip", *dir_ + "/clip/clip.json", "--cameras", *dir_ + "/views.json",
-          "--out", test_dir_ + "/out", "--wait"});
+  const CommandResult rendered = Pf(server, "alice",
+                                    {"render", "--clip", *dir_ + "/clip/clip.json", "--cameras",
+                                     *dir_ + "/views.json", "--out", test_dir_ + "/out", "--wait"});
   ASSERT_EQ(rendered.exit_code, 0) << rendered.err << worker.Log() << server.Log();
   EXPECT_TRUE(fs::exists(test_dir_ + "/out/v0.exr"));
   EXPECT_TRUE(fs::exists(test_dir_ + "/out/v1.exr"));
@@ -612,9 +609,9 @@ TEST_F(AuthE2e, WithTlsPlaintextClientsAreRefusedAndTlsClientsWork) {
 TEST_F(AuthE2e, MutualTlsRequiresAClientCertificateSignedByTheCa) {
   ServerProcess server(test_dir_);
   server.set_health_channel(Tls(/*client_certificate=*/true));
-  ASSERT_TRUE(server.Start({"--auth-token-file", tokens_, "--tls-cert", *dir_ + "/server.pem",
-                            "--tls-key", *dir_ + "/server.key", "--tls-client-ca",
-                            *dir_ + "/ca.pem"}))
+  ASSERT_TRUE(
+      server.Start({"--auth-token-file", tokens_, "--tls-cert", *dir_ + "/server.pem", "--tls-key",
+                    *dir_ + "/server.key", "--tls-client-ca", *dir_ + "/ca.pem"}))
       << server.Log();
   grpc::Status status;
   Client no_certificate(server.address(), kWorkerToken, Tls());

@@ -5,9 +5,6 @@
 // replicas while one worker is SIGKILLed and one replica is killed and
 // restarted. Every job must complete exactly once: each chunk succeeds once,
 // no output is listed twice, every output blob is intact, nothing is lost.
-#include "google/longrunning/operations.grpc.pb.h"
-#include "pointforward/v1/resources.pb.h"
-
 #include <grpcpp/grpcpp.h>
 #include <signal.h>
 
@@ -21,9 +18,12 @@
 #include <vector>
 
 #include "common/hash.h"
+#include "google/longrunning/operations.grpc.pb.h"
 #include "gtest/gtest.h"
+#include "pointforward/v1/resources.pb.h"
 #include "rpc/grpc_status.h"
 #include "tests/postgres_server.h"
+#include "tests/service_checks.h"
 #include "tests/service_harness.h"
 #include "tests/test_util.h"
 
@@ -34,45 +34,14 @@ namespace v1 = pointforward::v1;
 using google::longrunning::Operation;
 using testing::BinPath;
 using testing::CommandResult;
+using testing::Find;
+using testing::GetOperation;
+using testing::ListOperations;
 using testing::RunCommand;
 using testing::ServerProcess;
+using testing::SynthSmallClip;
 using testing::WaitFor;
 using testing::WorkerProcess;
-
-std::string Find(const std::string& text, const std::string& pattern) {
-  std::smatch match;
-  return std::regex_search(text, match, std::regex(pattern)) ? match.str(0) : "";
-}
-
-absl::StatusOr<Operation> GetOperation(const std::string& address, const std::string& name) {
-  auto stub = google::longrunning::Operations::NewStub(MakeChannel(address));
-  grpc::ClientContext context;
-  context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(5));
-  google::longrunning::GetOperationRequest request;
-  request.set_name(name);
-  Operation op;
-  const grpc::Status status = stub->GetOperation(&context, request, &op);
-  if (!status.ok()) return FromGrpc(status);
-  return op;
-}
-
-std::vector<Operation> ListOperations(const std::string& address, const std::string& filter) {
-  auto stub = google::longrunning::Operations::NewStub(MakeChannel(address));
-  std::vector<Operation> all;
-  std::string token;
-  do {
-    grpc::ClientContext context;
-    google::longrunning::ListOperationsRequest request;
-    request.set_filter(filter);
-    request.set_page_size(7);  // Several pages: paging across replicas too.
-    request.set_page_token(token);
-    google::longrunning::ListOperationsResponse response;
-    if (!stub->ListOperations(&context, request, &response).ok()) return {};
-    all.insert(all.end(), response.operations().begin(), response.operations().end());
-    token = response.next_page_token();
-  } while (!token.empty());
-  return all;
-}
 
 TEST(Cluster, TwoReplicasThreeWorkersEveryJobOnceDespiteAKilledWorkerAndARestartedServer) {
   if (std::optional<std::string> why = testing::PostgresServer::WhyUnavailable()) {
@@ -87,9 +56,7 @@ TEST(Cluster, TwoReplicasThreeWorkersEveryJobOnceDespiteAKilledWorkerAndARestart
   std::vector<std::string> clips;
   for (int seed = 1; seed <= 3; ++seed) {
     const std::string out = dir + "/clip" + std::to_string(seed);
-    const CommandResult synth =
-        RunCommand({BinPath("pf"), "synth", "--out", out, "--seed", std::to_string(seed),
-                    "--width", "192", "--height", "144", "--frames", "6", "--cameras", "2"});
+    const CommandResult synth = SynthSmallClip(out, {"--seed", std::to_string(seed)});
     ASSERT_EQ(synth.exit_code, 0) << synth.err;
     clips.push_back(out + "/clip.json");
   }
@@ -169,7 +136,8 @@ TEST(Cluster, TwoReplicasThreeWorkersEveryJobOnceDespiteAKilledWorkerAndARestart
       [&] {
         for (size_t i = 0; i < all_ops.size(); ++i) {
           if (done.count(all_ops[i])) continue;
-          absl::StatusOr<Operation> op = GetOperation(servers[i % 2], all_ops[i]);
+          absl::StatusOr<Operation> op =
+              GetOperation(servers[i % 2], all_ops[i], /*deadline_seconds=*/5);
           if (op.ok() && op->done()) done[all_ops[i]] = *op;
         }
         return done.size() == all_ops.size();
@@ -222,9 +190,10 @@ TEST(Cluster, TwoReplicasThreeWorkersEveryJobOnceDespiteAKilledWorkerAndARestart
     for (const auto& [task, count] : successes) EXPECT_EQ(count, 1) << name << " " << task;
   }
 
-  // No job lost or duplicated: the store holds exactly the 3 + 30 submitted.
-  EXPECT_EQ(ListOperations(server2.address(), "kind=reconstruct").size(), 3u);
-  EXPECT_EQ(ListOperations(server1.address(), "kind=render").size(), 30u);
+  // No job lost or duplicated: the store holds exactly the 3 + 30 submitted,
+  // listed in pages of 7 (several pages, paging across replicas too).
+  EXPECT_EQ(ListOperations(server2.address(), "kind=reconstruct", 7).size(), 3u);
+  EXPECT_EQ(ListOperations(server1.address(), "kind=render", 7).size(), 30u);
   EXPECT_EQ(server1.Kill(SIGTERM), 0);
   EXPECT_EQ(server2.Kill(SIGTERM), 0);
 }

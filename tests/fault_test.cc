@@ -21,15 +21,9 @@
 // start when it is READY; naming the scene rather than the clip keeps the
 // number of jobs exactly 100 (a render job naming a clip whose scene had
 // failed would queue a new reconstruction).
-#include "google/longrunning/operations.grpc.pb.h"
-#include "pointforward/v1/resources.pb.h"
-#include "pointforward/v1/service.grpc.pb.h"
-
 #include <google/protobuf/util/json_util.h>
 #include <grpcpp/grpcpp.h>
 #include <signal.h>
-
-#include <OpenImageIO/imageio.h>
 
 #include <atomic>
 #include <chrono>
@@ -51,9 +45,14 @@
 
 #include "client/remote/clip_upload.h"
 #include "common/hash.h"
+#include "google/longrunning/operations.grpc.pb.h"
 #include "gtest/gtest.h"
+#include "pointforward/v1/resources.pb.h"
+#include "pointforward/v1/service.grpc.pb.h"
 #include "rpc/blob_transfer.h"
 #include "rpc/grpc_status.h"
+#include "tests/exr_compare.h"
+#include "tests/service_checks.h"
 #include "tests/service_harness.h"
 #include "tests/test_util.h"
 
@@ -65,8 +64,12 @@ namespace v1 = pointforward::v1;
 using google::longrunning::Operation;
 using testing::BinPath;
 using testing::CommandResult;
+using testing::Metadata;
+using testing::RgbPsnr;
 using testing::RunCommand;
 using testing::ServerProcess;
+using testing::ViewName;
+using testing::ViewsOfFirstCamera;
 using testing::WaitFor;
 using testing::WorkerProcess;
 using Clock = std::chrono::steady_clock;
@@ -75,7 +78,7 @@ constexpr int kScenes = 3;
 constexpr int kRenderJobs = 97;
 constexpr int kViewsPerJob = 4;
 constexpr int kChunkFrames = 2;
-constexpr int kMaxAttempts = 6;
+constexpr int kMaxAttempts = 10;
 constexpr int kMinWorkerKills = 10;
 constexpr int kClientThreads = 4;
 
@@ -118,75 +121,6 @@ std::vector<Operation> ListOperations(const std::string& address, const std::str
     token = response.next_page_token();
   } while (!token.empty());
   return all;
-}
-
-v1::OperationMetadata Metadata(const Operation& op) {
-  v1::OperationMetadata metadata;
-  op.metadata().UnpackTo(&metadata);
-  return metadata;
-}
-
-// EXR channels by name, read with OpenImageIO.
-std::map<std::string, std::vector<float>> ReadExr(const std::string& path) {
-  std::map<std::string, std::vector<float>> out;
-  auto in = OIIO::ImageInput::open(path);
-  if (!in) return out;
-  const OIIO::ImageSpec& spec = in->spec();
-  std::vector<float> pixels(static_cast<size_t>(spec.width) * spec.height * spec.nchannels);
-  if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, pixels.data())) return out;
-  for (int c = 0; c < spec.nchannels; ++c) {
-    std::vector<float>& channel = out[spec.channelnames[c]];
-    for (size_t p = 0; p < static_cast<size_t>(spec.width) * spec.height; ++p) {
-      channel.push_back(pixels[p * spec.nchannels + c]);
-    }
-  }
-  return out;
-}
-
-// PSNR of the R, G, B channels of two EXRs (peak 1); +inf when identical,
-// -1 when either cannot be read or they differ in size.
-double RgbPsnr(const std::string& a_path, const std::string& b_path) {
-  const auto a = ReadExr(a_path);
-  const auto b = ReadExr(b_path);
-  double squared = 0;
-  size_t count = 0;
-  for (const char* name : {"R", "G", "B"}) {
-    if (!a.count(name) || !b.count(name) || a.at(name).size() != b.at(name).size()) return -1;
-    for (size_t i = 0; i < a.at(name).size(); ++i) {
-      const double d = a.at(name)[i] - b.at(name)[i];
-      squared += d * d;
-      ++count;
-    }
-  }
-  if (count == 0) return -1;
-  if (squared == 0) return INFINITY;
-  return 10 * std::log10(1.0 / (squared / count));
-}
-
-// `count` views of the clip's first camera: its frames' poses moved
-// sideways by 0.1 m per view, at the frames' times.
-std::string ViewsJson(const std::string& clip_path, int count) {
-  std::ifstream in(clip_path);
-  const nlohmann::json clip = nlohmann::json::parse(in);
-  nlohmann::json views;
-  views["cameras"] = nlohmann::json::array({clip["cameras"][0]});
-  const std::string camera = clip["cameras"][0]["id"];
-  std::vector<nlohmann::json> frames;
-  for (const nlohmann::json& frame : clip["frames"]) {
-    if (frame["camera"] == camera) frames.push_back(frame);
-  }
-  for (int i = 0; i < count; ++i) {
-    const nlohmann::json& frame = frames[i % frames.size()];
-    nlohmann::json pose = frame["worldFromCamera"];
-    for (int r = 0; r < 3; ++r) {
-      pose[r * 4 + 3] = pose[r * 4 + 3].get<double>() + 0.1 * i * pose[r * 4].get<double>();
-    }
-    views["views"].push_back({{"camera", camera},
-                              {"timestampUs", frame["timestampUs"]},
-                              {"worldFromCamera", pose},
-                              {"name", "v" + std::to_string(i)}});
-  }
-  return views.dump(2);
 }
 
 std::string BlobPath(const std::string& blobs, const std::string& sha256) {
@@ -247,15 +181,17 @@ TEST(Fault, HundredJobsSurviveRandomWorkerKillsAndAServerKill) {
                     "--width", "160", "--height", "120", "--frames", "4", "--cameras", "2"});
     ASSERT_EQ(synth.exit_code, 0) << synth.err;
     clips.push_back(out + "/clip.json");
-    const std::string views_json = ViewsJson(clips[s], kViewsPerJob);
+    std::ifstream clip_in(clips[s]);
+    const std::string views_json =
+        ViewsOfFirstCamera(nlohmann::json::parse(clip_in), kViewsPerJob, 0.1).dump(2);
     std::ofstream(out + "/views.json") << views_json;
     ASSERT_TRUE(google::protobuf::util::JsonStringToMessage(views_json, &views[s]).ok());
     const CommandResult recon =
         RunCommand({BinPath("pf"), "reconstruct", clips[s], "--out", out + "/embedded.pfs"});
     ASSERT_EQ(recon.exit_code, 0) << recon.err;
-    const CommandResult render = RunCommand({BinPath("pf"), "render", out + "/embedded.pfs",
-                                             "--cameras", out + "/views.json", "--out",
-                                             out + "/embedded"});
+    const CommandResult render =
+        RunCommand({BinPath("pf"), "render", out + "/embedded.pfs", "--cameras",
+                    out + "/views.json", "--out", out + "/embedded"});
     ASSERT_EQ(render.exit_code, 0) << render.err;
   }
   const auto setup_done = Clock::now();
@@ -281,7 +217,7 @@ TEST(Fault, HundredJobsSurviveRandomWorkerKillsAndAServerKill) {
   std::atomic<int> worker_kills{0};
   pid_t killed_server_pid = -1;
   std::vector<std::string> killer_errors;
-  std::uniform_int_distribution<int> pause_ms(700, 2200);
+  std::uniform_int_distribution<int> pause_ms(1000, 2500);
   std::uniform_int_distribution<int> pick_worker(0, 1);
   const int server_kill_after = std::uniform_int_distribution<int>(2, 6)(random);
   std::vector<int> pauses;  // Drawn up front, so the seed alone fixes the schedule.
@@ -297,8 +233,8 @@ TEST(Fault, HundredJobsSurviveRandomWorkerKillsAndAServerKill) {
       WorkerProcess& victim = *workers[victims[i]];
       const int status = victim.Kill(SIGKILL);
       if (status != 128 + SIGKILL) {
-        killer_errors.push_back("worker " + victim.id() + " exited with " +
-                                std::to_string(status) + " before it was killed:\n" + victim.Log());
+        killer_errors.push_back("worker " + victim.id() + " exited with " + std::to_string(status) +
+                                " before it was killed:\n" + victim.Log());
       }
       if (!victim.Start(worker_flags)) killer_errors.push_back("cannot restart " + victim.id());
       ++worker_kills;
@@ -352,9 +288,8 @@ TEST(Fault, HundredJobsSurviveRandomWorkerKillsAndAServerKill) {
     request.set_request_id("fault-scene-" + std::to_string(s));
     auto scenes = v1::SceneService::NewStub(channel);
     Operation op;
-    const grpc::Status status = Retry([&](grpc::ClientContext* context) {
-      return scenes->CreateScene(context, request, &op);
-    });
+    const grpc::Status status = Retry(
+        [&](grpc::ClientContext* context) { return scenes->CreateScene(context, request, &op); });
     ASSERT_TRUE(status.ok()) << status.error_message();
     recon_ops[s] = op.name();
     scene_names[s] = Metadata(op).target();
@@ -515,8 +450,7 @@ TEST(Fault, HundredJobsSurviveRandomWorkerKillsAndAServerKill) {
       absl::StatusOr<std::string> actual = Sha256File(path);
       ASSERT_TRUE(actual.ok()) << actual.status();
       EXPECT_EQ(*actual, sha) << render_ops[i] << " " << file.name();
-      const std::string reference =
-          dir + "/clip" + std::to_string(s) + "/embedded/" + file.name();
+      const std::string reference = dir + "/clip" + std::to_string(s) + "/embedded/" + file.name();
       const double psnr = RgbPsnr(path, reference);
       psnr_by_sha[sha] = psnr;
       worst_psnr = std::min(worst_psnr, psnr);
@@ -525,8 +459,8 @@ TEST(Fault, HundredJobsSurviveRandomWorkerKillsAndAServerKill) {
     }
     EXPECT_EQ(names.size(), static_cast<size_t>(2 * kViewsPerJob + 1)) << render_ops[i];
     for (int v = 0; v < kViewsPerJob; ++v) {
-      EXPECT_TRUE(names.count("v" + std::to_string(v) + ".exr")) << render_ops[i];
-      EXPECT_TRUE(names.count("v" + std::to_string(v) + ".png")) << render_ops[i];
+      EXPECT_TRUE(names.count(ViewName(v) + ".exr")) << render_ops[i];
+      EXPECT_TRUE(names.count(ViewName(v) + ".png")) << render_ops[i];
     }
     EXPECT_TRUE(names.count("manifest.json")) << render_ops[i];
   }
@@ -543,10 +477,9 @@ TEST(Fault, HundredJobsSurviveRandomWorkerKillsAndAServerKill) {
           {BinPath("pf"), "--server", address, "jobs", "wait", render_ops[i], "--out", out});
       ASSERT_EQ(wait.exit_code, 0) << wait.out << wait.err;
       for (int v = 0; v < kViewsPerJob; ++v) {
-        const std::string name = "v" + std::to_string(v) + ".exr";
+        const std::string name = ViewName(v) + ".exr";
         const std::string reference = dir + "/clip" + std::to_string(s) + "/embedded/" + name;
-        EXPECT_GE(RgbPsnr(out + "/" + name, reference), 60.0)
-            << out << "/" << name;
+        EXPECT_GE(RgbPsnr(out + "/" + name, reference), 60.0) << out << "/" << name;
       }
       for (const fs::directory_entry& entry : fs::directory_iterator(out)) {
         EXPECT_EQ(entry.path().filename().string().find(".pf-tmp"), std::string::npos)
@@ -597,9 +530,7 @@ TEST(Fault, HundredJobsSurviveRandomWorkerKillsAndAServerKill) {
   }
   EXPECT_EQ(server.Kill(SIGTERM), 0);
 
-  const auto seconds = [](Clock::duration d) {
-    return std::chrono::duration<double>(d).count();
-  };
+  const auto seconds = [](Clock::duration d) { return std::chrono::duration<double>(d).count(); };
   std::string outcomes;
   for (const auto& [outcome, count] : figures.outcomes) {
     outcomes += (outcomes.empty() ? "" : ", ") + outcome + " " + std::to_string(count);

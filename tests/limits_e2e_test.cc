@@ -4,19 +4,11 @@
 // its error must name the limit's flag; each way out of a clip's directory
 // or a trusted root is tried and refused; a scene file corrupted on disk is
 // detected, dropped and rebuilt, and the render still matches embedded mode.
-#include "google/longrunning/operations.grpc.pb.h"
-#include "pointforward/v1/blobs.grpc.pb.h"
-#include "pointforward/v1/resources.pb.h"
-#include "pointforward/v1/service.grpc.pb.h"
-
 #include <google/protobuf/util/json_util.h>
 #include <grpcpp/grpcpp.h>
 #include <signal.h>
 
-#include <OpenImageIO/imageio.h>
-
 #include <chrono>
-#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -27,9 +19,15 @@
 
 #include "common/file_util.h"
 #include "common/hash.h"
+#include "google/longrunning/operations.grpc.pb.h"
 #include "gtest/gtest.h"
+#include "pointforward/v1/blobs.grpc.pb.h"
+#include "pointforward/v1/resources.pb.h"
+#include "pointforward/v1/service.grpc.pb.h"
 #include "rpc/blob_transfer.h"
 #include "rpc/grpc_status.h"
+#include "tests/exr_compare.h"
+#include "tests/service_checks.h"
 #include "tests/service_harness.h"
 #include "tests/test_util.h"
 
@@ -41,46 +39,16 @@ namespace v1 = pointforward::v1;
 using google::longrunning::Operation;
 using testing::BinPath;
 using testing::CommandResult;
+using testing::GetOperation;
+using testing::Metadata;
+using testing::RgbPsnr;
 using testing::RunCommand;
 using testing::ServerProcess;
+using testing::SynthSmallClip;
+using testing::ViewsOfFirstCamera;
+using testing::WaitDone;
 using testing::WaitFor;
 using testing::WorkerProcess;
-
-// EXR channels by name, read with OpenImageIO.
-std::map<std::string, std::vector<float>> ReadExr(const std::string& path) {
-  std::map<std::string, std::vector<float>> out;
-  auto in = OIIO::ImageInput::open(path);
-  if (!in) return out;
-  const OIIO::ImageSpec& spec = in->spec();
-  const size_t count = static_cast<size_t>(spec.width) * spec.height;
-  std::vector<float> pixels(count * spec.nchannels);
-  if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, pixels.data())) return out;
-  for (int c = 0; c < spec.nchannels; ++c) {
-    std::vector<float>& channel = out[spec.channelnames[c]];
-    for (size_t p = 0; p < count; ++p) channel.push_back(pixels[p * spec.nchannels + c]);
-  }
-  return out;
-}
-
-// PSNR of the R, G, B channels of two EXRs (peak 1); +inf when identical,
-// -1 when they cannot be compared.
-double RgbPsnr(const std::string& a_path, const std::string& b_path) {
-  const auto a = ReadExr(a_path);
-  const auto b = ReadExr(b_path);
-  double squared = 0;
-  size_t count = 0;
-  for (const char* name : {"R", "G", "B"}) {
-    if (!a.count(name) || !b.count(name) || a.at(name).size() != b.at(name).size()) return -1;
-    for (size_t i = 0; i < a.at(name).size(); ++i) {
-      const double d = a.at(name)[i] - b.at(name)[i];
-      squared += d * d;
-      ++count;
-    }
-  }
-  if (count == 0) return -1;
-  if (squared == 0) return INFINITY;
-  return 10 * std::log10(1.0 / (squared / count));
-}
 
 bool Contains(const std::string& text, const std::string& part) {
   return text.find(part) != std::string::npos;
@@ -92,13 +60,12 @@ class LimitsE2e : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     dir_ = new std::string(testing::MakeTempDir("limits_e2e"));
-    const CommandResult synth =
-        RunCommand({BinPath("pf"), "synth", "--out", *dir_ + "/clip", "--width", "192", "--height",
-                    "144", "--frames", "6", "--cameras", "2"});
+    const CommandResult synth = SynthSmallClip(*dir_ + "/clip");
     ASSERT_EQ(synth.exit_code, 0) << synth.err;
     std::ifstream in(*dir_ + "/clip/clip.json");
     manifest_ = new nlohmann::json(nlohmann::json::parse(in));
-    WriteViews(*dir_ + "/views4.json");
+    // Views v00..v03 at the first camera's frames, each moved 0.1 m sideways.
+    std::ofstream(*dir_ + "/views4.json") << ViewsOfFirstCamera(*manifest_, 4, 0.1).dump(2);
     const CommandResult recon =
         RunCommand({BinPath("pf"), "reconstruct", ClipPath(), "--out", *dir_ + "/embedded.pfs"});
     ASSERT_EQ(recon.exit_code, 0) << recon.err;
@@ -110,28 +77,6 @@ class LimitsE2e : public ::testing::Test {
   static void TearDownTestSuite() {
     delete manifest_;
     delete dir_;
-  }
-
-  // Views v00..v03 at the first camera's frames, each moved 0.1 m sideways.
-  static void WriteViews(const std::string& path) {
-    const nlohmann::json& clip = *manifest_;
-    nlohmann::json views;
-    views["cameras"] = nlohmann::json::array({clip["cameras"][0]});
-    const std::string camera = clip["cameras"][0]["id"];
-    int i = 0;
-    for (const nlohmann::json& frame : clip["frames"]) {
-      if (frame["camera"] != camera || i == 4) continue;
-      nlohmann::json pose = frame["worldFromCamera"];
-      for (int r = 0; r < 3; ++r) {
-        pose[r * 4 + 3] = pose[r * 4 + 3].get<double>() + 0.1 * i * pose[r * 4].get<double>();
-      }
-      views["views"].push_back({{"camera", camera},
-                                {"timestampUs", frame["timestampUs"]},
-                                {"worldFromCamera", pose},
-                                {"name", "v0" + std::to_string(i)}});
-      ++i;
-    }
-    std::ofstream(path) << views.dump(2);
   }
 
   static std::string ClipPath() { return *dir_ + "/clip/clip.json"; }
@@ -194,35 +139,6 @@ class LimitsE2e : public ::testing::Test {
     return stub->CreateRenderJob(&context, request, op);
   }
 
-  static absl::StatusOr<Operation> GetOperation(ServerProcess& server, const std::string& name) {
-    auto stub = google::longrunning::Operations::NewStub(MakeChannel(server.address()));
-    grpc::ClientContext context;
-    google::longrunning::GetOperationRequest request;
-    request.set_name(name);
-    Operation op;
-    const grpc::Status status = stub->GetOperation(&context, request, &op);
-    if (!status.ok()) return FromGrpc(status);
-    return op;
-  }
-
-  static Operation WaitDone(ServerProcess& server, const std::string& name, int seconds = 120) {
-    Operation op;
-    WaitFor(
-        [&] {
-          absl::StatusOr<Operation> got = GetOperation(server, name);
-          if (got.ok()) op = *got;
-          return got.ok() && got->done();
-        },
-        std::chrono::seconds(seconds));
-    return op;
-  }
-
-  static v1::OperationMetadata Metadata(const Operation& op) {
-    v1::OperationMetadata metadata;
-    op.metadata().UnpackTo(&metadata);
-    return metadata;
-  }
-
   static v1::Scene GetScene(ServerProcess& server, const std::string& name) {
     auto stub = v1::SceneService::NewStub(MakeChannel(server.address()));
     grpc::ClientContext context;
@@ -238,7 +154,7 @@ class LimitsE2e : public ::testing::Test {
     Operation op;
     const grpc::Status created = CreateScene(server, Uri(ClipPath()), &op);
     EXPECT_TRUE(created.ok()) << created.error_message();
-    const Operation done = WaitDone(server, op.name());
+    const Operation done = WaitDone(server.address(), op.name());
     EXPECT_TRUE(done.done() && !done.has_error()) << done.error().message() << server.Log();
     v1::Scene scene;
     EXPECT_TRUE(done.response().UnpackTo(&scene));
@@ -255,16 +171,18 @@ class LimitsE2e : public ::testing::Test {
     Operation op;
     const grpc::Status status = CreateRender(server, request, &op);
     EXPECT_TRUE(status.ok()) << status.error_message();
-    const Operation done = WaitDone(server, op.name());
+    const Operation done = WaitDone(server.address(), op.name());
     v1::RenderJob job;
     if (!done.done() || done.has_error() || !done.response().UnpackTo(&job)) {
       ADD_FAILURE() << "render " << op.name() << " did not succeed: " << done.error().message()
-                    << "\n" << server.Log();
+                    << "\n"
+                    << server.Log();
       return done;
     }
     BlobClient blobs(MakeChannel(server.address()));
     for (const v1::OutputFile& file : job.files()) {
-      const absl::Status got = blobs.DownloadToFile(file.digest().sha256(), out + "/" + file.name());
+      const absl::Status got =
+          blobs.DownloadToFile(file.digest().sha256(), out + "/" + file.name());
       EXPECT_TRUE(got.ok()) << file.name() << ": " << got;
     }
     return done;
@@ -287,8 +205,8 @@ nlohmann::json* LimitsE2e::manifest_ = nullptr;
 TEST_F(LimitsE2e, ImagesPerClipAndPixelsPerImageAreCheckedBeforeAnythingIsQueued) {
   const int images = static_cast<int>((*manifest_)["frames"].size());
   ServerProcess server(test_dir_);
-  ASSERT_TRUE(server.Start({"--trusted-root", *dir_, "--max-images-per-clip",
-                            std::to_string(images - 1)}))
+  ASSERT_TRUE(
+      server.Start({"--trusted-root", *dir_, "--max-images-per-clip", std::to_string(images - 1)}))
       << server.Log();
   Operation op;
   grpc::Status status = CreateScene(server, Uri(ClipPath()), &op);
@@ -302,7 +220,8 @@ TEST_F(LimitsE2e, ImagesPerClipAndPixelsPerImageAreCheckedBeforeAnythingIsQueued
   *uploaded.mutable_uploaded() = Upload(blobs, *manifest_);
   status = CreateScene(server, uploaded, &op);
   EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
-  EXPECT_TRUE(Contains(status.error_message(), "(--max-images-per-clip)")) << status.error_message();
+  EXPECT_TRUE(Contains(status.error_message(), "(--max-images-per-clip)"))
+      << status.error_message();
   const CommandResult cli =
       RunCommand({BinPath("pf"), "--server", server.address(), "scene", "create", ClipPath()});
   EXPECT_EQ(cli.exit_code, 2) << cli.out << cli.err;
@@ -336,7 +255,7 @@ TEST_F(LimitsE2e, AReconstructionOverMaxGaussiansFailsNamingTheFlag) {
   ASSERT_TRUE(worker.Start());
   Operation op;
   ASSERT_TRUE(CreateScene(server, Uri(ClipPath()), &op).ok());
-  const Operation done = WaitDone(server, op.name());
+  const Operation done = WaitDone(server.address(), op.name());
   ASSERT_TRUE(done.done()) << server.Log();
   ASSERT_TRUE(done.has_error());
   EXPECT_EQ(done.error().code(), static_cast<int>(grpc::StatusCode::INVALID_ARGUMENT));
@@ -357,8 +276,9 @@ TEST_F(LimitsE2e, UploadSizeViewsPerJobAndRequestSizeAreLimited) {
   BlobClient blobs(MakeChannel(server.address()));
   absl::StatusOr<v1::Digest> big = blobs.UploadBytes(std::string(100001, 'x'));
   EXPECT_EQ(big.status().code(), absl::StatusCode::kInvalidArgument);
-  EXPECT_TRUE(Contains(std::string(big.status().message()),
-                       "100001 bytes exceeds the upload limit of 100000 bytes (--max-upload-bytes)"))
+  EXPECT_TRUE(
+      Contains(std::string(big.status().message()),
+               "100001 bytes exceeds the upload limit of 100000 bytes (--max-upload-bytes)"))
       << big.status();
   EXPECT_TRUE(blobs.UploadBytes(std::string(100000, 'x')).ok());
 
@@ -455,7 +375,7 @@ TEST_F(LimitsE2e, TheBlobStoreLimitEvictsLeastRecentlyUsedScenesNeverOnesInUse) 
       grpc::ClientContext context;
       Operation op;
       ASSERT_TRUE(stub->CreateScene(&context, request, &op).ok());
-      const Operation done = WaitDone(server, op.name());
+      const Operation done = WaitDone(server.address(), op.name());
       v1::Scene scene;
       ASSERT_TRUE(done.done() && done.response().UnpackTo(&scene)) << server.Log();
       (scene_a.empty() ? scene_a : scene_b) = scene.name();
@@ -472,8 +392,8 @@ TEST_F(LimitsE2e, TheBlobStoreLimitEvictsLeastRecentlyUsedScenesNeverOnesInUse) 
   // One byte over the limit: the next upload first evicts the least
   // recently used scene, A, and no more.
   ServerProcess server(test_dir_, "limited");
-  ASSERT_TRUE(server.Start({"--trusted-root", *dir_, "--max-blob-bytes",
-                            std::to_string(total - 1)}))
+  ASSERT_TRUE(
+      server.Start({"--trusted-root", *dir_, "--max-blob-bytes", std::to_string(total - 1)}))
       << server.Log();
   BlobClient blobs(MakeChannel(server.address()));
   ASSERT_TRUE(blobs.UploadBytes("a small upload").ok());
@@ -522,7 +442,7 @@ TEST_F(LimitsE2e, TheBlobStoreLimitEvictsLeastRecentlyUsedScenesNeverOnesInUse) 
   EXPECT_TRUE(blobs.UploadBytes("one more").ok());
   EXPECT_EQ(scene_state(scene_b), "NOT_FOUND");
   // The cancelled job is still readable (its scene is gone).
-  EXPECT_TRUE(GetOperation(server, job.name()).ok());
+  EXPECT_TRUE(GetOperation(server.address(), job.name()).ok());
 }
 
 // -- Path safety ----------------------------------------------------------------
@@ -600,8 +520,8 @@ TEST_F(LimitsE2e, FileUriClipsAndTheirPathsMustStayUnderTheTrustedRoot) {
 TEST_F(LimitsE2e, OutputNamesThatAreNotPlainFileNamesAreRefused) {
   ServerProcess server(test_dir_);
   ASSERT_TRUE(server.Start({"--trusted-root", *dir_})) << server.Log();
-  for (const std::string& name : {std::string("../x"), std::string("a/b"), std::string(".hidden"),
-                                  std::string("/abs")}) {
+  for (const std::string& name :
+       {std::string("../x"), std::string("a/b"), std::string(".hidden"), std::string("/abs")}) {
     v1::CreateRenderJobRequest request;
     request.mutable_create_scene()->mutable_clip()->set_uri("file://" + ClipPath());
     *request.mutable_views() = Views();

@@ -13,10 +13,6 @@
 //
 //   pf_load_bench [--seconds 120] [--clients 16] [--workers 2] [--poll-ms 50]
 //                 [--rss-bound-mib 64] [--dir DIR]
-#include "google/longrunning/operations.grpc.pb.h"
-#include "pointforward/v1/resources.pb.h"
-#include "pointforward/v1/service.grpc.pb.h"
-
 #include <google/protobuf/util/json_util.h>
 #include <grpcpp/grpcpp.h>
 #include <signal.h>
@@ -39,6 +35,9 @@
 #include "client/remote/clip_upload.h"
 #include "common/command_line.h"
 #include "common/status_macros.h"
+#include "google/longrunning/operations.grpc.pb.h"
+#include "pointforward/v1/resources.pb.h"
+#include "pointforward/v1/service.grpc.pb.h"
 #include "rpc/blob_transfer.h"
 #include "rpc/grpc_status.h"
 #include "tests/service_harness.h"
@@ -207,8 +206,7 @@ ClientResult RunClient(const std::string& address, const std::string& scene,
         }
         result.get_render_job.ms.push_back(MillisSince(call_at));
         finished = job.state() == v1::RenderJob::SUCCEEDED ||
-                   job.state() == v1::RenderJob::FAILED ||
-                   job.state() == v1::RenderJob::CANCELLED;
+                   job.state() == v1::RenderJob::FAILED || job.state() == v1::RenderJob::CANCELLED;
         if (finished && job.state() != v1::RenderJob::SUCCEEDED) ++result.failed;
       }
     }
@@ -222,9 +220,8 @@ ClientResult RunClient(const std::string& address, const std::string& scene,
 
 absl::StatusOr<Options> ParseOptions(int argc, char** argv) {
   const std::vector<std::string> words(argv + 1, argv + argc);
-  ASSIGN_OR_RETURN(CommandLine cl,
-                   CommandLine::Parse(words, {"seconds", "clients", "workers", "poll-ms",
-                                              "rss-bound-mib", "dir"}));
+  ASSIGN_OR_RETURN(CommandLine cl, CommandLine::Parse(words, {"seconds", "clients", "workers",
+                                                              "poll-ms", "rss-bound-mib", "dir"}));
   if (!cl.positional().empty()) {
     return absl::InvalidArgumentError(
         absl::StrCat("unexpected argument '", cl.positional()[0], "'"));
@@ -278,8 +275,8 @@ int Main(int argc, char** argv) {
   const int64_t rss_after_boot = RssKib(server.pid());
   std::vector<std::unique_ptr<testing::WorkerProcess>> workers;
   for (int w = 0; w < options.workers; ++w) {
-    workers.push_back(std::make_unique<testing::WorkerProcess>(server.address(), dir,
-                                                               absl::StrCat("w", w + 1)));
+    workers.push_back(
+        std::make_unique<testing::WorkerProcess>(server.address(), dir, absl::StrCat("w", w + 1)));
     if (!workers.back()->Start()) return Fail("pf-worker did not start");
   }
   auto channel = MakeChannel(server.address());
@@ -385,12 +382,9 @@ int Main(int argc, char** argv) {
   out["get_calls"] = gets.Summary();
   out["get_calls_per_s"] = std::round(gets.ms.size() / load_seconds * 10) / 10;
   out["turnaround"] = total.turnaround.Summary();
-  out["server_rss_mib"] = {{"after_boot", mib(rss_after_boot)},
-                           {"start", mib(rss_start)},
-                           {"end", mib(rss_end)},
-                           {"end_idle_2s", mib(rss_idle)},
-                           {"peak", mib(rss_peak)},
-                           {"every_10s", series_mib}};
+  out["server_rss_mib"] = {
+      {"after_boot", mib(rss_after_boot)}, {"start", mib(rss_start)}, {"end", mib(rss_end)},
+      {"end_idle_2s", mib(rss_idle)},      {"peak", mib(rss_peak)},   {"every_10s", series_mib}};
   out["rss_growth_mib"] = std::round(growth_mib * 10) / 10;
   out["rss_bound_mib"] = options.rss_bound_mib;
   out["rss_bound_held"] = growth_mib <= options.rss_bound_mib;

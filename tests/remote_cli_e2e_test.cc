@@ -26,6 +26,7 @@
 
 #include "common/hash.h"
 #include "gtest/gtest.h"
+#include "tests/service_checks.h"
 #include "tests/service_harness.h"
 #include "tests/test_util.h"
 
@@ -35,17 +36,14 @@ namespace {
 namespace fs = std::filesystem;
 using testing::BinPath;
 using testing::CommandResult;
+using testing::Find;
 using testing::RunCommand;
 using testing::ServerProcess;
+using testing::SynthSmallClip;
+using testing::ViewsOfFirstCamera;
 using testing::WorkerProcess;
 
 std::string Pf() { return BinPath("pf"); }
-
-// The first match of `pattern` in `text`, or "".
-std::string Find(const std::string& text, const std::string& pattern) {
-  std::smatch match;
-  return std::regex_search(text, match, std::regex(pattern)) ? match.str(0) : "";
-}
 
 // The first capture group of `pattern` in `text`, or "".
 std::string Capture(const std::string& text, const std::string& pattern) {
@@ -95,17 +93,18 @@ class RemoteCliE2e : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     dir_ = new std::string(testing::MakeTempDir("remote_cli_e2e"));
-    const CommandResult synth =
-        RunCommand({Pf(), "synth", "--out", *dir_ + "/clip", "--width", "192", "--height", "144",
-                    "--frames", "6", "--cameras", "2"});
+    const CommandResult synth = SynthSmallClip(*dir_ + "/clip");
     ASSERT_EQ(synth.exit_code, 0) << synth.err;
     std::ifstream in(Clip());
     const nlohmann::json clip = nlohmann::json::parse(in);
-    WriteViews(clip, 4, {}, *dir_ + "/views4.json");
-    WriteViews(clip, 20, {}, *dir_ + "/views20.json");
+    // Views at the first camera's frames and times, unmoved.
+    std::ofstream(Views4()) << ViewsOfFirstCamera(clip, 4, 0).dump(2);
+    std::ofstream(*dir_ + "/views20.json") << ViewsOfFirstCamera(clip, 20, 0).dump(2);
     // An actor edit naming an instance no scene of this clip has.
-    WriteViews(clip, 4, {{{"instance", "no-such-actor"}, {"kind", "REMOVE"}}},
-               *dir_ + "/bad_edit.json");
+    const nlohmann::json edits = {{{"instance", "no-such-actor"}, {"kind", "REMOVE"}}};
+    nlohmann::json bad_edit = ViewsOfFirstCamera(clip, 4, 0);
+    bad_edit["edits"] = nlohmann::json::array({edits});
+    std::ofstream(*dir_ + "/bad_edit.json") << bad_edit.dump(2);
     // A time between the clip's first and last frame, where actors are
     // placed differently than at the time origin.
     const nlohmann::json& time = clip["frames"][clip["frames"].size() / 2]["timestampUs"];
@@ -128,30 +127,6 @@ class RemoteCliE2e : public ::testing::Test {
     delete dir_;
     delete mid_time_us_;
     dir_ = mid_time_us_ = nullptr;
-  }
-
-  // `count` views of the clip's first camera at its frames' poses and
-  // times, named v00, v01, ..., with `edits`.
-  static void WriteViews(const nlohmann::json& clip, int count, const nlohmann::json& edits,
-                         const std::string& path) {
-    nlohmann::json views;
-    views["cameras"] = nlohmann::json::array({clip["cameras"][0]});
-    const std::string camera = clip["cameras"][0]["id"];
-    std::vector<nlohmann::json> frames;
-    for (const nlohmann::json& frame : clip["frames"]) {
-      if (frame["camera"] == camera) frames.push_back(frame);
-    }
-    for (int i = 0; i < count; ++i) {
-      const nlohmann::json& frame = frames[i % frames.size()];
-      char name[16];
-      std::snprintf(name, sizeof(name), "v%02d", i);
-      views["views"].push_back({{"camera", camera},
-                                {"timestampUs", frame["timestampUs"]},
-                                {"worldFromCamera", frame["worldFromCamera"]},
-                                {"name", name}});
-    }
-    if (!edits.empty()) views["edits"] = nlohmann::json::array({edits});
-    std::ofstream(path) << views.dump(2);
   }
 
   static std::string Clip() { return *dir_ + "/clip/clip.json"; }

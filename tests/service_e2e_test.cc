@@ -3,33 +3,30 @@
 // stubs, checked against what embedded mode (`pf reconstruct`, `pf render`)
 // produces for the same input. Nothing is mocked: real processes, real gRPC,
 // a real SQLite file, EXRs read back with OpenImageIO.
-#include "google/longrunning/operations.grpc.pb.h"
-#include "pointforward/v1/blobs.grpc.pb.h"
-#include "pointforward/v1/resources.pb.h"
-#include "pointforward/v1/service.grpc.pb.h"
-
 #include <google/protobuf/util/json_util.h>
 #include <google/protobuf/util/time_util.h>
 #include <grpcpp/grpcpp.h>
 #include <signal.h>
 
-#include <OpenImageIO/imageio.h>
-
-#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <map>
 #include <nlohmann/json.hpp>
-#include <regex>
 #include <set>
 #include <string>
 #include <thread>
 #include <vector>
 
 #include "common/file_util.h"
+#include "google/longrunning/operations.grpc.pb.h"
 #include "gtest/gtest.h"
+#include "pointforward/v1/blobs.grpc.pb.h"
+#include "pointforward/v1/resources.pb.h"
+#include "pointforward/v1/service.grpc.pb.h"
 #include "rpc/blob_transfer.h"
 #include "rpc/grpc_status.h"
+#include "tests/exr_compare.h"
+#include "tests/service_checks.h"
 #include "tests/service_harness.h"
 #include "tests/test_util.h"
 
@@ -42,54 +39,21 @@ using google::longrunning::Operation;
 using testing::BinPath;
 using testing::CommandResult;
 using testing::CountOf;
+using testing::Find;
+using testing::GetOperation;
+using testing::ListOperations;
+using testing::Metadata;
+using testing::ReadExr;
+using testing::RgbPsnr;
 using testing::RunCommand;
 using testing::ServerProcess;
+using testing::SynthSmallClip;
+using testing::ViewsOfFirstCamera;
+using testing::WaitDone;
 using testing::WaitFor;
 using testing::WorkerProcess;
 
 std::string Pf() { return BinPath("pf"); }
-
-// The first match of `pattern` in `text`, or "".
-std::string Find(const std::string& text, const std::string& pattern) {
-  std::smatch match;
-  return std::regex_search(text, match, std::regex(pattern)) ? match.str(0) : "";
-}
-
-// EXR channels by name, read with OpenImageIO.
-std::map<std::string, std::vector<float>> ReadExr(const std::string& path) {
-  std::map<std::string, std::vector<float>> out;
-  auto in = OIIO::ImageInput::open(path);
-  if (!in) return out;
-  const OIIO::ImageSpec& spec = in->spec();
-  std::vector<float> pixels(static_cast<size_t>(spec.width) * spec.height * spec.nchannels);
-  if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, pixels.data())) return out;
-  for (int c = 0; c < spec.nchannels; ++c) {
-    std::vector<float>& channel = out[spec.channelnames[c]];
-    for (size_t p = 0; p < static_cast<size_t>(spec.width) * spec.height; ++p) {
-      channel.push_back(pixels[p * spec.nchannels + c]);
-    }
-  }
-  return out;
-}
-
-// PSNR of the R, G, B channels of two EXRs (peak 1); +inf when identical.
-double RgbPsnr(const std::string& a_path, const std::string& b_path) {
-  const auto a = ReadExr(a_path);
-  const auto b = ReadExr(b_path);
-  double squared = 0;
-  size_t count = 0;
-  for (const char* name : {"R", "G", "B"}) {
-    if (!a.count(name) || !b.count(name) || a.at(name).size() != b.at(name).size()) return -1;
-    for (size_t i = 0; i < a.at(name).size(); ++i) {
-      const double d = a.at(name)[i] - b.at(name)[i];
-      squared += d * d;
-      ++count;
-    }
-  }
-  if (count == 0) return -1;
-  if (squared == 0) return INFINITY;
-  return 10 * std::log10(1.0 / (squared / count));
-}
 
 // A small synth clip, its views file, and the embedded-mode reference
 // renders, made once for all tests.
@@ -97,51 +61,24 @@ class ServiceE2e : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     dir_ = new std::string(testing::MakeTempDir("service_e2e"));
-    const CommandResult synth =
-        RunCommand({Pf(), "synth", "--out", *dir_ + "/clip", "--width", "192", "--height", "144",
-                    "--frames", "6", "--cameras", "2"});
+    const CommandResult synth = SynthSmallClip(*dir_ + "/clip");
     ASSERT_EQ(synth.exit_code, 0) << synth.err;
-    WriteViews(20, *dir_ + "/views20.json");
-    WriteViews(4, *dir_ + "/views4.json");
+    // Views moved 0.1 m sideways from each other.
+    std::ifstream in(Clip());
+    const nlohmann::json clip = nlohmann::json::parse(in);
+    std::ofstream(*dir_ + "/views20.json") << ViewsOfFirstCamera(clip, 20, 0.1).dump(2);
+    std::ofstream(*dir_ + "/views4.json") << ViewsOfFirstCamera(clip, 4, 0.1).dump(2);
     const CommandResult recon =
         RunCommand({Pf(), "reconstruct", Clip(), "--out", *dir_ + "/embedded.pfs"});
     ASSERT_EQ(recon.exit_code, 0) << recon.err;
-    const CommandResult render = RunCommand({Pf(), "render", *dir_ + "/embedded.pfs", "--cameras",
-                                             *dir_ + "/views20.json", "--out", *dir_ + "/embedded"});
+    const CommandResult render =
+        RunCommand({Pf(), "render", *dir_ + "/embedded.pfs", "--cameras", *dir_ + "/views20.json",
+                    "--out", *dir_ + "/embedded"});
     ASSERT_EQ(render.exit_code, 0) << render.err;
   }
   static void TearDownTestSuite() {
     delete dir_;
     dir_ = nullptr;
-  }
-
-  // `count` views of the clip's first camera: its frames' poses moved
-  // sideways by 0.1 m per view, at the frames' times.
-  static void WriteViews(int count, const std::string& path) {
-    std::ifstream in(Clip());
-    const nlohmann::json clip = nlohmann::json::parse(in);
-    nlohmann::json views;
-    views["cameras"] = nlohmann::json::array({clip["cameras"][0]});
-    const std::string camera = clip["cameras"][0]["id"];
-    std::vector<nlohmann::json> frames;
-    for (const nlohmann::json& frame : clip["frames"]) {
-      if (frame["camera"] == camera) frames.push_back(frame);
-    }
-    for (int i = 0; i < count; ++i) {
-      const nlohmann::json& frame = frames[i % frames.size()];
-      nlohmann::json pose = frame["worldFromCamera"];
-      // Move along the camera's x axis (first column of the rotation).
-      for (int r = 0; r < 3; ++r) {
-        pose[r * 4 + 3] = pose[r * 4 + 3].get<double>() + 0.1 * i * pose[r * 4].get<double>();
-      }
-      char name[16];
-      std::snprintf(name, sizeof(name), "v%02d", i);
-      views["views"].push_back({{"camera", camera},
-                                {"timestampUs", frame["timestampUs"]},
-                                {"worldFromCamera", pose},
-                                {"name", name}});
-    }
-    std::ofstream(path) << views.dump(2);
   }
 
   static std::string Clip() { return *dir_ + "/clip/clip.json"; }
@@ -153,47 +90,6 @@ class ServiceE2e : public ::testing::Test {
   CommandResult Remote(ServerProcess& server, std::vector<std::string> args) {
     args.insert(args.begin(), {Pf(), "--server", server.address()});
     return RunCommand(args);
-  }
-
-  static absl::StatusOr<Operation> GetOperation(ServerProcess& server, const std::string& name) {
-    auto stub = google::longrunning::Operations::NewStub(MakeChannel(server.address()));
-    grpc::ClientContext context;
-    google::longrunning::GetOperationRequest request;
-    request.set_name(name);
-    Operation op;
-    const grpc::Status status = stub->GetOperation(&context, request, &op);
-    if (!status.ok()) return FromGrpc(status);
-    return op;
-  }
-
-  static std::vector<Operation> ListOperations(ServerProcess& server, const std::string& filter) {
-    auto stub = google::longrunning::Operations::NewStub(MakeChannel(server.address()));
-    grpc::ClientContext context;
-    google::longrunning::ListOperationsRequest request;
-    request.set_filter(filter);
-    request.set_page_size(1000);
-    google::longrunning::ListOperationsResponse response;
-    EXPECT_TRUE(stub->ListOperations(&context, request, &response).ok());
-    return {response.operations().begin(), response.operations().end()};
-  }
-
-  static v1::OperationMetadata Metadata(const Operation& op) {
-    v1::OperationMetadata metadata;
-    op.metadata().UnpackTo(&metadata);
-    return metadata;
-  }
-
-  // Waits for the operation to be done (at most `seconds`) and returns it.
-  static Operation WaitDone(ServerProcess& server, const std::string& name, int seconds = 120) {
-    Operation op;
-    WaitFor(
-        [&] {
-          absl::StatusOr<Operation> got = GetOperation(server, name);
-          if (got.ok()) op = *got;
-          return got.ok() && got->done();
-        },
-        std::chrono::seconds(seconds));
-    return op;
   }
 
   std::string test_dir_;
@@ -234,7 +130,7 @@ TEST_F(ServiceE2e, TwoWorkersRenderTwentyViewsThatMatchEmbeddedModeAndTheCacheHi
   EXPECT_EQ(manifest["views"][7]["name"], "v07");
 
   // Ten chunks of two views, spread over both workers.
-  const std::vector<Operation> renders = ListOperations(server, "kind=render");
+  const std::vector<Operation> renders = ListOperations(server.address(), "kind=render", 1000);
   ASSERT_EQ(renders.size(), 1u);
   const v1::OperationMetadata metadata = Metadata(renders[0]);
   EXPECT_EQ(metadata.frames_done(), 20);
@@ -251,7 +147,7 @@ TEST_F(ServiceE2e, TwoWorkersRenderTwentyViewsThatMatchEmbeddedModeAndTheCacheHi
   ASSERT_EQ(again.exit_code, 0) << again.err;
   EXPECT_NE(again.out.find("cache hit"), std::string::npos) << again.out;
   EXPECT_NE(again.out.find(scene), std::string::npos) << again.out;
-  EXPECT_EQ(ListOperations(server, "kind=reconstruct").size(), 1u);
+  EXPECT_EQ(ListOperations(server.address(), "kind=reconstruct", 1000).size(), 1u);
   EXPECT_EQ(CountOf(w1.Log() + w2.Log(), "reconstructed " + scene), 1) << w1.Log() << w2.Log();
 
   // Clean stops on SIGTERM.
@@ -272,7 +168,7 @@ TEST_F(ServiceE2e, WorkerKilledDuringReconstructionTheOtherFinishesIt) {
   ASSERT_FALSE(op_name.empty()) << create.out;
   ASSERT_TRUE(WaitFor(
       [&] {
-        absl::StatusOr<Operation> op = GetOperation(server, op_name);
+        absl::StatusOr<Operation> op = GetOperation(server.address(), op_name);
         return op.ok() && !Metadata(*op).stage().empty();
       },
       std::chrono::seconds(30)))
@@ -281,7 +177,7 @@ TEST_F(ServiceE2e, WorkerKilledDuringReconstructionTheOtherFinishesIt) {
 
   WorkerProcess fast(server.address(), test_dir_, "fast");
   ASSERT_TRUE(fast.Start());
-  const Operation done = WaitDone(server, op_name);
+  const Operation done = WaitDone(server.address(), op_name);
   ASSERT_TRUE(done.done()) << server.Log();
   ASSERT_FALSE(done.has_error()) << done.error().message();
   const v1::OperationMetadata metadata = Metadata(done);
@@ -296,8 +192,8 @@ TEST_F(ServiceE2e, WorkerKilledDuringReconstructionTheOtherFinishesIt) {
 
   // The scene is complete and correct: its renders match embedded mode.
   const std::string out = test_dir_ + "/remote";
-  const CommandResult render = Remote(
-      server, {"render", scene.name(), "--cameras", *dir_ + "/views4.json", "--out", out, "--wait"});
+  const CommandResult render = Remote(server, {"render", scene.name(), "--cameras",
+                                               *dir_ + "/views4.json", "--out", out, "--wait"});
   ASSERT_EQ(render.exit_code, 0) << render.out << render.err;
   for (const char* name : {"v00", "v01", "v02", "v03"}) {
     EXPECT_GE(RgbPsnr(out + "/" + name + ".exr", *dir_ + "/embedded/" + name + ".exr"), 60.0);
@@ -333,9 +229,9 @@ TEST_F(ServiceE2e, ServerKilledAndRestartedLosesNoAcceptedJob) {
   EXPECT_EQ(server.Kill(SIGKILL), 128 + SIGKILL);
   ASSERT_TRUE(server.Restart()) << server.Log();
 
-  EXPECT_EQ(ListOperations(server, "kind=render").size(), 3u);
+  EXPECT_EQ(ListOperations(server.address(), "kind=render", 1000).size(), 3u);
   for (const std::string& op_name : ops) {
-    const Operation done = WaitDone(server, op_name);
+    const Operation done = WaitDone(server.address(), op_name);
     ASSERT_TRUE(done.done()) << op_name << "\n" << server.Log() << worker.Log();
     EXPECT_FALSE(done.has_error()) << done.error().message();
     v1::RenderJob job;
@@ -361,14 +257,14 @@ TEST_F(ServiceE2e, CancelStopsARunningRenderJob) {
   const std::string op_name = Find(render.out, "operations/[0-9a-f]+");
   ASSERT_TRUE(WaitFor(
       [&] {
-        absl::StatusOr<Operation> op = GetOperation(server, op_name);
+        absl::StatusOr<Operation> op = GetOperation(server.address(), op_name);
         return op.ok() && Metadata(*op).frames_done() >= 1;
       },
       std::chrono::seconds(30)));
   const CommandResult cancel = Remote(server, {"jobs", "cancel", op_name});
   ASSERT_EQ(cancel.exit_code, 0) << cancel.out << cancel.err;
 
-  const Operation done = WaitDone(server, op_name, 10);
+  const Operation done = WaitDone(server.address(), op_name, 10);
   ASSERT_TRUE(done.done());
   EXPECT_EQ(done.error().code(), static_cast<int>(grpc::StatusCode::CANCELLED));
   EXPECT_EQ(Metadata(done).state(), "CANCELLED");
@@ -481,7 +377,8 @@ TEST_F(ServiceE2e, BadRequestsNameTheFieldAndTheServerKeepsServing) {
     request.set_scene("scenes/0123456789abcdef01234567");
     std::ifstream views_in(*dir_ + "/views4.json");
     std::string views_json((std::istreambuf_iterator<char>(views_in)), {});
-    ASSERT_TRUE(google::protobuf::util::JsonStringToMessage(views_json, request.mutable_views()).ok());
+    ASSERT_TRUE(
+        google::protobuf::util::JsonStringToMessage(views_json, request.mutable_views()).ok());
     grpc::ClientContext context;
     Operation op;
     status = renders->CreateRenderJob(&context, request, &op);
@@ -504,8 +401,7 @@ TEST_F(ServiceE2e, BadRequestsNameTheFieldAndTheServerKeepsServing) {
   // An upload over the server's limit.
   absl::StatusOr<v1::Digest> big = blobs.UploadBytes(std::string(900000, 'x'));
   EXPECT_EQ(big.status().code(), absl::StatusCode::kInvalidArgument);
-  EXPECT_NE(std::string(big.status().message()).find("800000"), std::string::npos)
-      << big.status();
+  EXPECT_NE(std::string(big.status().message()).find("800000"), std::string::npos) << big.status();
 
   // Still serving: a list works and the process is alive.
   grpc::ClientContext context;
@@ -534,9 +430,9 @@ TEST_F(ServiceE2e, PythonClientCreatesASceneRendersAndReadsAnExr) {
   EXPECT_EQ(summary["height"], 144);
   EXPECT_EQ(summary["exr"], "v00.exr");
   const std::set<std::string> services = summary["services"];
-  for (const char* service : {"pointforward.v1.SceneService", "pointforward.v1.RenderService",
-                              "pointforward.v1.BlobService", "google.longrunning.Operations",
-                              "grpc.health.v1.Health"}) {
+  for (const char* service :
+       {"pointforward.v1.SceneService", "pointforward.v1.RenderService",
+        "pointforward.v1.BlobService", "google.longrunning.Operations", "grpc.health.v1.Health"}) {
     EXPECT_TRUE(services.count(service)) << service;
   }
   // The EXR it read is the one embedded mode renders.

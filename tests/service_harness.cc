@@ -11,15 +11,15 @@
 
 #include <condition_variable>
 #include <cstdlib>
-#include <mutex>
 #include <fstream>
+#include <mutex>
 #include <sstream>
 #include <thread>
 
 #include "grpcpp/create_channel.h"
-#include "grpcpp/health_check_service_interface.h"
 #include "grpcpp/generic/generic_stub.h"
 #include "grpcpp/grpcpp.h"
+#include "grpcpp/health_check_service_interface.h"
 #include "tests/test_util.h"
 
 namespace pf::testing {
@@ -60,8 +60,8 @@ bool Serving(const std::string& address, const ChannelOptions& channel_options) 
   bool done = false;
   std::mutex mu;
   std::condition_variable cv;
-  stub.UnaryCall(&context, "/grpc.health.v1.Health/Check", grpc::StubOptions(), &request,
-                 &response, [&](grpc::Status s) {
+  stub.UnaryCall(&context, "/grpc.health.v1.Health/Check", grpc::StubOptions(), &request, &response,
+                 [&](grpc::Status s) {
                    std::lock_guard<std::mutex> lock(mu);
                    status = s;
                    done = true;
@@ -160,7 +160,7 @@ std::string ServerProcess::address() const { return "127.0.0.1:" + std::to_strin
 
 bool WorkerProcess::Start(const std::vector<std::string>& extra) {
   std::vector<std::string> argv = {BinPath("pf-worker"), "--server", server_, "--id", id_,
-                                   "--work-dir", work_dir()};
+                                   "--work-dir",         work_dir()};
   argv.insert(argv.end(), extra.begin(), extra.end());
   ++starts_;
   return process_.Start(argv, dir_ + "/worker-" + id_ + ".log");

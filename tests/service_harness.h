@@ -60,7 +60,9 @@ class ServerProcess {
  public:
   explicit ServerProcess(std::string dir, std::string name = "server", std::string store = "",
                          std::string blobs = "")
-      : dir_(std::move(dir)), name_(std::move(name)), store_(std::move(store)),
+      : dir_(std::move(dir)),
+        name_(std::move(name)),
+        store_(std::move(store)),
         blobs_(std::move(blobs)) {}
   // Starts pf-server with `extra` flags and waits until it answers health
   // checks (at most 20 s).

@@ -266,10 +266,11 @@ absl::StatusOr<ReconstructOutput> RunReconstruction(const pb::ReconstructWork& w
   RETURN_IF_ERROR(CheckCancelled(cancelled, "before reconstructing"));
   stages.Begin("depth");
   ASSIGN_OR_RETURN(const ReconResult result, ReconstructInputs(inputs, options));
-  if (work.max_gaussians() > 0 && static_cast<int64_t>(result.scene.size()) > work.max_gaussians()) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        "scene: ", result.scene.size(), " Gaussians exceed the limit of ", work.max_gaussians(),
-        " per scene (pf-server --max-gaussians)"));
+  if (work.max_gaussians() > 0 &&
+      static_cast<int64_t>(result.scene.size()) > work.max_gaussians()) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("scene: ", result.scene.size(), " Gaussians exceed the limit of ",
+                     work.max_gaussians(), " per scene (pf-server --max-gaussians)"));
   }
   RETURN_IF_ERROR(CheckCancelled(cancelled, "before saving the scene"));
 

@@ -147,9 +147,9 @@ struct WorkerMetrics {
         heartbeats(registry.Counter("pf_worker_heartbeats_total", "Heartbeats sent.")),
         busy(registry.Gauge("pf_worker_busy", "1 while the worker runs a task, else 0.")) {}
   pf::Counter& Tasks(const pb::Task& task, const std::string& outcome) {
-    return DefaultMetrics().Counter("pf_worker_tasks_total", "Tasks this worker ran, by outcome.",
-                                    {{"kind", task.has_reconstruct() ? "reconstruct" : "render"},
-                                     {"outcome", outcome}});
+    return DefaultMetrics().Counter(
+        "pf_worker_tasks_total", "Tasks this worker ran, by outcome.",
+        {{"kind", task.has_reconstruct() ? "reconstruct" : "render"}, {"outcome", outcome}});
   }
   pf::Counter& cache_hits;
   pf::Counter& cache_misses;

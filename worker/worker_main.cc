@@ -55,10 +55,14 @@ wins. PF_WORKER_TOKEN holds the token itself, not a path.
 
 // Environment variables standing in for flags that were not given.
 constexpr std::pair<const char*, const char*> kEnvFallbacks[] = {
-    {"server", "PF_SERVER"},         {"device", "PF_DEVICE"},
-    {"cache-bytes", "PF_CACHE_BYTES"}, {"work-dir", "PF_WORK_DIR"},
-    {"id", "PF_WORKER_ID"},          {"heartbeat-ms", "PF_HEARTBEAT_MS"},
-    {"lease-wait-ms", "PF_LEASE_WAIT_MS"}, {"stage-delay-ms", "PF_STAGE_DELAY_MS"},
+    {"server", "PF_SERVER"},
+    {"device", "PF_DEVICE"},
+    {"cache-bytes", "PF_CACHE_BYTES"},
+    {"work-dir", "PF_WORK_DIR"},
+    {"id", "PF_WORKER_ID"},
+    {"heartbeat-ms", "PF_HEARTBEAT_MS"},
+    {"lease-wait-ms", "PF_LEASE_WAIT_MS"},
+    {"stage-delay-ms", "PF_STAGE_DELAY_MS"},
     {"metrics-listen", "PF_METRICS_LISTEN"}};
 
 // `words` with "--flag value" appended for every fallback variable set
@@ -129,12 +133,11 @@ absl::StatusOr<pf::WorkerOptions> ParseFlags(const pf::CommandLine& cl) {
                    IntFlag(cl, "lease-wait-ms", options.lease_wait_ms, 0, 600000));
   ASSIGN_OR_RETURN(options.stage_delay_ms,
                    IntFlag(cl, "stage-delay-ms", options.stage_delay_ms, 0, 600000));
-  ASSIGN_OR_RETURN(options.channel,
-                   pf::LoadChannelOptions({.tls_ca = cl.Get("tls-ca"),
-                                           .tls_cert = cl.Get("tls-cert"),
-                                           .tls_key = cl.Get("tls-key"),
-                                           .token_file = cl.Get("token-file")},
-                                          {"PF_WORKER_TOKEN"}));
+  ASSIGN_OR_RETURN(options.channel, pf::LoadChannelOptions({.tls_ca = cl.Get("tls-ca"),
+                                                            .tls_cert = cl.Get("tls-cert"),
+                                                            .tls_key = cl.Get("tls-key"),
+                                                            .token_file = cl.Get("token-file")},
+                                                           {"PF_WORKER_TOKEN"}));
   return options;
 }
 
@@ -142,12 +145,11 @@ absl::StatusOr<pf::WorkerOptions> ParseFlags(const pf::CommandLine& cl) {
 
 int main(int argc, char** argv) {
   const std::vector<std::string> words = WithEnvironment({argv + 1, argv + argc});
-  absl::StatusOr<pf::CommandLine> cl =
-      pf::CommandLine::Parse(words,
-                             {"server", "device", "cache-bytes", "work-dir", "id", "heartbeat-ms",
-                              "lease-wait-ms", "stage-delay-ms", "metrics-listen", "tls-ca", "tls-cert",
-                              "tls-key", "token-file"},
-                             {"help"});
+  absl::StatusOr<pf::CommandLine> cl = pf::CommandLine::Parse(
+      words,
+      {"server", "device", "cache-bytes", "work-dir", "id", "heartbeat-ms", "lease-wait-ms",
+       "stage-delay-ms", "metrics-listen", "tls-ca", "tls-cert", "tls-key", "token-file"},
+      {"help"});
   if (cl.ok() && cl->Has("help")) {
     std::fputs(kUsage, stdout);
     return 0;

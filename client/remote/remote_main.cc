@@ -10,8 +10,8 @@
 #include "client/commands.h"
 #include "client/remote/remote_commands.h"
 #include "client/remote/remote_context.h"
-#include "rpc/grpc_status.h"
 #include "google/protobuf/util/json_util.h"
+#include "rpc/grpc_status.h"
 
 namespace pf {
 
@@ -130,9 +130,8 @@ std::optional<int> RunRemoteIfAsked(const std::vector<std::string>& words) {
   }
   const char* server = std::getenv("PF_SERVER");
   // PF_SERVER: remote commands, with or without connection flags first.
-  const bool connection_flag =
-      !words.empty() && (absl::StartsWith(words[0], "--tls-") ||
-                         absl::StartsWith(words[0], "--token-file"));
+  const bool connection_flag = !words.empty() && (absl::StartsWith(words[0], "--tls-") ||
+                                                  absl::StartsWith(words[0], "--token-file"));
   if (server != nullptr && server[0] != '\0' && !words.empty() &&
       (IsRemoteCommand(words[0]) || connection_flag)) {
     return RunRemote(server, words);

@@ -7,8 +7,8 @@
 
 #include <atomic>
 #include <cerrno>
-#include <cstring>
 #include <chrono>
+#include <cstring>
 #include <filesystem>
 #include <string>
 #include <system_error>
@@ -226,9 +226,9 @@ absl::StatusOr<BlobWriter> BlobStore::StartWrite(const BlobDigest& expected,
   static std::atomic<uint64_t> counter{0};
   const std::string tmp = TmpDir(root_);
   RETURN_IF_ERROR(MakeDirs(tmp));
-  const std::string temp_path =
-      (fs::path(tmp) / absl::StrCat(ProcessToken(), "-", counter++, "-", expected.sha256.substr(0, 16)))
-          .string();
+  const std::string temp_path = (fs::path(tmp) / absl::StrCat(ProcessToken(), "-", counter++, "-",
+                                                              expected.sha256.substr(0, 16)))
+                                    .string();
   const int fd = ::open(temp_path.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
   if (fd < 0) return ErrnoError(absl::StrCat(temp_path, ": cannot create"), errno);
 
@@ -348,7 +348,8 @@ absl::Status BlobStore::Verify(const std::string& sha256) const {
 absl::Status BlobStore::Remove(const std::string& sha256) const {
   ASSIGN_OR_RETURN(const std::string path, PathOf(sha256));
   std::error_code ec;
-  if (!fs::remove(path, ec) && ec) return absl::InternalError(absl::StrCat(path, ": ", ec.message()));
+  if (!fs::remove(path, ec) && ec)
+    return absl::InternalError(absl::StrCat(path, ": ", ec.message()));
   return absl::OkStatus();
 }
 

@@ -50,10 +50,10 @@ enum class TaskState {
 
 enum class SceneState { kCreating, kReady, kFailed };
 
-const char* JobKindName(JobKind kind);        // "reconstruct", "render".
-const char* JobStateName(JobState state);     // "WAITING_FOR_SCENE", "QUEUED", ...
-const char* TaskStateName(TaskState state);   // "WAITING_FOR_SCENE", "QUEUED", "LEASED", ...
-const char* SceneStateName(SceneState state); // "CREATING", "READY", "FAILED".
+const char* JobKindName(JobKind kind);         // "reconstruct", "render".
+const char* JobStateName(JobState state);      // "WAITING_FOR_SCENE", "QUEUED", ...
+const char* TaskStateName(TaskState state);    // "WAITING_FOR_SCENE", "QUEUED", "LEASED", ...
+const char* SceneStateName(SceneState state);  // "CREATING", "READY", "FAILED".
 bool IsTerminal(JobState state);
 
 // One try at a task.
@@ -68,10 +68,10 @@ struct AttemptRecord {
 struct SceneRecord {
   std::string id;  // The scene id (without "scenes/").
   SceneState state = SceneState::kCreating;
-  std::string job_id;       // The reconstruction job that creates or created it.
-  std::string content_hash; // Cache key.
-  std::string description;  // Scene proto JSON as the last writer left it.
-  std::string error;        // When kFailed.
+  std::string job_id;        // The reconstruction job that creates or created it.
+  std::string content_hash;  // Cache key.
+  std::string description;   // Scene proto JSON as the last writer left it.
+  std::string error;         // When kFailed.
   int64_t create_time_ms = 0;
   int64_t update_time_ms = 0;
 };
@@ -85,14 +85,14 @@ struct JobRecord {
   std::string request;     // CreateSceneRequest / CreateRenderJobRequest JSON.
   int error_code = 0;      // absl::StatusCode when kFailed / kCancelled.
   std::string error_message;
-  std::string owner;       // Who submitted it (the token's owner; "" with authentication off).
-  int frames_total = 0;    // Render: views; reconstruct: 0.
+  std::string owner;     // Who submitted it (the token's owner; "" with authentication off).
+  int frames_total = 0;  // Render: views; reconstruct: 0.
   // Aggregated over the tasks on every read:
-  int frames_done = 0;     // Done chunks' views + progress of leased chunks.
+  int frames_done = 0;  // Done chunks' views + progress of leased chunks.
   int tasks_total = 0;
   int tasks_done = 0;
-  std::string stage;       // Latest stage reported by a heartbeat.
-  double fraction = 0;     // 0..1 of the whole job.
+  std::string stage;    // Latest stage reported by a heartbeat.
+  double fraction = 0;  // 0..1 of the whole job.
   int64_t create_time_ms = 0;
   int64_t update_time_ms = 0;
 };
@@ -101,15 +101,15 @@ struct TaskRecord {
   std::string id;
   std::string job_id;
   JobKind kind = JobKind::kRender;
-  int index = 0;       // Chunk number within the job, from 0.
+  int index = 0;  // Chunk number within the job, from 0.
   TaskState state = TaskState::kQueued;
   std::string scene_id;
   int first_view = 0;  // Render chunks: views [first_view, first_view + view_count).
   int view_count = 0;
-  std::string work;    // What a worker needs (WorkerService Task.work as JSON).
-  std::string result;  // What CompleteTask stored.
-  int attempt = 0;     // Number of the current or last attempt; 0 before the first lease.
-  std::string worker_id;        // Holder of the current lease.
+  std::string work;       // What a worker needs (WorkerService Task.work as JSON).
+  std::string result;     // What CompleteTask stored.
+  int attempt = 0;        // Number of the current or last attempt; 0 before the first lease.
+  std::string worker_id;  // Holder of the current lease.
   int64_t lease_deadline_ms = 0;
   std::string stage;
   double fraction = 0;
@@ -132,10 +132,10 @@ struct NewTask {
 
 struct CreateSceneOutcome {
   enum class Kind {
-    kCreated,       // A new scene row and reconstruction job (with one task).
-    kCacheHit,      // The scene was READY: `job` is the job that built it.
-    kJoined,        // The scene is being created: `job` is that job.
-    kSameRequest,   // `request_id` was seen before: `job` is that request's job.
+    kCreated,      // A new scene row and reconstruction job (with one task).
+    kCacheHit,     // The scene was READY: `job` is the job that built it.
+    kJoined,       // The scene is being created: `job` is that job.
+    kSameRequest,  // `request_id` was seen before: `job` is that request's job.
   };
   Kind kind = Kind::kCreated;
   JobRecord job;
@@ -151,7 +151,7 @@ struct Page {
 };
 
 struct StoreOptions {
-  int max_attempts = 3;           // Attempts before a task, and its job, fail.
+  int max_attempts = 3;  // Attempts before a task, and its job, fail.
   int64_t lease_duration_ms = 30000;
 };
 
@@ -227,9 +227,8 @@ class JobStore {
   // FAILED_PRECONDITION when that attempt no longer holds the lease.
   // Also sets *deadline_ms to the new deadline when non-null.
   virtual absl::StatusOr<bool> Heartbeat(const std::string& task_id, int attempt,
-                                         const std::string& stage, double fraction,
-                                         int frames_done, int64_t now_ms,
-                                         int64_t* deadline_ms) = 0;
+                                         const std::string& stage, double fraction, int frames_done,
+                                         int64_t now_ms, int64_t* deadline_ms) = 0;
 
   // Marks the task DONE with `result`; the job SUCCEEDS when it was its last
   // task. For a reconstruction, the scene becomes READY with
@@ -237,8 +236,8 @@ class JobStore {
   // FAILED_PRECONDITION when that attempt no longer holds the lease (its
   // result is dropped).
   virtual absl::Status CompleteTask(const std::string& task_id, int attempt,
-                                    const std::string& result,
-                                    const std::string& scene_description, int64_t now_ms) = 0;
+                                    const std::string& result, const std::string& scene_description,
+                                    int64_t now_ms) = 0;
 
   // Records the attempt as failed with `reason`. `permanent` (bad input) or
   // the attempt limit reached: the task FAILS and so does its job, with an

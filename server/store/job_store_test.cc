@@ -836,7 +836,8 @@ TEST_P(JobStoreTest, RebuildSceneQueuesANewReconstructionAndRenderChunksWaitForI
   // Chunk 0 done, chunk 1 leased, chunk 2 queued.
   TaskLease first = Lease("w1", {"s1"});
   ASSERT_EQ(first.task.id, chunks[0].id);
-  ASSERT_TRUE(store_->CompleteTask(first.task.id, first.task.attempt, "{\"files\":0}", "", kT0).ok());
+  ASSERT_TRUE(
+      store_->CompleteTask(first.task.id, first.task.attempt, "{\"files\":0}", "", kT0).ok());
   TaskLease second = Lease("w2", {"s1"});
   ASSERT_EQ(second.task.id, chunks[1].id);
 
@@ -909,14 +910,14 @@ TEST_P(JobStoreTest, RebuildSceneRefusesAbsentAndFailedScenes) {
 
 // A scene built at `done_ms` (created just before).
 void BuildSceneAt(JobStore& store, const std::string& scene_id, int64_t done_ms) {
-  ASSERT_TRUE(store
-                  .CreateSceneJob(scene_id, "hash-" + scene_id, "{}", "", "{}", "{}", "alice",
-                                  done_ms - 1)
-                  .ok());
+  ASSERT_TRUE(
+      store.CreateSceneJob(scene_id, "hash-" + scene_id, "{}", "", "{}", "{}", "alice", done_ms - 1)
+          .ok());
   absl::StatusOr<std::optional<TaskLease>> lease = store.LeaseTask("builder", {}, done_ms - 1);
   ASSERT_TRUE(lease.ok() && lease->has_value());
   ASSERT_EQ((*lease)->task.scene_id, scene_id);
-  ASSERT_TRUE(store.CompleteTask((*lease)->task.id, (*lease)->task.attempt, "{}", "", done_ms).ok());
+  ASSERT_TRUE(
+      store.CompleteTask((*lease)->task.id, (*lease)->task.attempt, "{}", "", done_ms).ok());
 }
 
 TEST_P(JobStoreTest, EvictionTakesTheLeastRecentlyUsedSceneThatNoJobNeeds) {
@@ -1026,8 +1027,8 @@ TEST_P(JobStoreTest, OwnersSeeScenesTheyCreatedHitInTheCacheOrRendered) {
 
   // Carol hits the cache of s1 and joins the build of s2.
   for (const std::string scene : {"s1", "s2"}) {
-    absl::StatusOr<CreateSceneOutcome> outcome = store_->CreateSceneJob(
-        scene, "hash-" + scene, "{}", "", "{}", "{}", "carol", kT0 + 1);
+    absl::StatusOr<CreateSceneOutcome> outcome =
+        store_->CreateSceneJob(scene, "hash-" + scene, "{}", "", "{}", "{}", "carol", kT0 + 1);
     ASSERT_TRUE(outcome.ok()) << outcome.status();
     EXPECT_EQ(outcome->kind, scene == "s1" ? CreateSceneOutcome::Kind::kCacheHit
                                            : CreateSceneOutcome::Kind::kJoined);

@@ -1084,11 +1084,9 @@ absl::StatusOr<int> SqlJobStore::CountJobs(JobKind kind, JobState state) {
 }
 
 absl::StatusOr<int> SqlJobStore::CountUnfinishedJobs(const std::string& owner) {
-  ASSIGN_OR_RETURN(
-      SqlRows rows,
-      db_->Exec(R"sql(SELECT COUNT(*) FROM jobs
+  ASSIGN_OR_RETURN(SqlRows rows, db_->Exec(R"sql(SELECT COUNT(*) FROM jobs
                        WHERE owner = $1 AND state IN ('WAITING_FOR_SCENE', 'QUEUED', 'RUNNING'))sql",
-                {owner}));
+                                           {owner}));
   return static_cast<int>(rows[0][0].AsInt());
 }
 
@@ -1124,8 +1122,8 @@ absl::StatusOr<SceneRecord> SqlJobStore::RebuildScene(const std::string& scene_i
       job.owner = built.owner;
       job.create_time_ms = now_ms;
       RETURN_IF_ERROR(InsertJob(tx, job));
-      RETURN_IF_ERROR(InsertTask(tx, job.id, JobKind::kReconstruct, 0, TaskState::kQueued,
-                                 scene_id, NewTask{.work = work[0][0].AsString()}));
+      RETURN_IF_ERROR(InsertTask(tx, job.id, JobKind::kReconstruct, 0, TaskState::kQueued, scene_id,
+                                 NewTask{.work = work[0][0].AsString()}));
       RETURN_IF_ERROR(Run(tx,
                           R"sql(UPDATE scenes SET state = 'CREATING', job_id = $2, description = $3,
                                                   error = '', update_time_ms = $4
@@ -1167,15 +1165,13 @@ absl::StatusOr<bool> SqlJobStore::HasSceneAccess(const std::string& owner,
   return !rows.empty();
 }
 
-absl::StatusOr<Page<SceneRecord>> SqlJobStore::ListScenesOf(const std::string& owner,
-                                                            int page_size,
+absl::StatusOr<Page<SceneRecord>> SqlJobStore::ListScenesOf(const std::string& owner, int page_size,
                                                             const std::string& page_token) {
   return ListScenesFor(*db_, owner, page_size, page_token);
 }
 
 absl::StatusOr<Page<JobRecord>> SqlJobStore::ListJobsOf(const std::string& owner,
-                                                        std::optional<JobKind> kind,
-                                                        int page_size,
+                                                        std::optional<JobKind> kind, int page_size,
                                                         const std::string& page_token) {
   return ListJobsFor(*db_, owner, kind, page_size, page_token);
 }
@@ -1195,8 +1191,7 @@ absl::StatusOr<std::optional<SceneRecord>> SqlJobStore::EvictLeastRecentlyUsedSc
                                                  {}));
     for (const SqlRow& candidate : candidates) {
       const std::string scene_id = candidate[0].AsString();
-      ASSIGN_OR_RETURN(std::optional<SceneRecord> scene,
-                       FindScene(tx, scene_id, RowLock::kUpdate));
+      ASSIGN_OR_RETURN(std::optional<SceneRecord> scene, FindScene(tx, scene_id, RowLock::kUpdate));
       if (!scene || scene->state != SceneState::kReady) continue;
       ASSIGN_OR_RETURN(SqlRows in_use, tx.Exec(R"sql(SELECT COUNT(*) FROM jobs
                          WHERE scene_id = $1 AND kind = 'render'

@@ -90,8 +90,7 @@ class SqlJobStore : public JobStore {
                                              int page_size, const std::string& page_token) override;
   absl::StatusOr<int> CountUnfinishedJobs(const std::string& owner) override;
   absl::StatusOr<SceneRecord> RebuildScene(const std::string& scene_id, const std::string& reason,
-                                           const std::string& description,
-                                           int64_t now_ms) override;
+                                           const std::string& description, int64_t now_ms) override;
   absl::StatusOr<std::optional<SceneRecord>> EvictLeastRecentlyUsedScene() override;
 
  private:

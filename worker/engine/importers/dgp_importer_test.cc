@@ -76,6 +76,13 @@ class DgpScene : public ::testing::Test {
     ASSERT_TRUE(result.ok()) << result.status();
     result_ = new ImportResult(*std::move(result));
   }
+  static void TearDownTestSuite() {
+    delete scene_dir_;
+    delete out_dir_;
+    delete result_;
+    scene_dir_ = out_dir_ = nullptr;
+    result_ = nullptr;
+  }
 
   static std::string* scene_dir_;
   static std::string* out_dir_;
