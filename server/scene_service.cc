@@ -21,14 +21,6 @@ constexpr int64_t kExportChunkBytes = 1 << 20;
 
 }  // namespace
 
-absl::StatusOr<int> PageSize(int requested) {
-  if (requested < 0) {
-    return absl::InvalidArgumentError(absl::StrCat("page_size: must be >= 0, got ", requested));
-  }
-  if (requested == 0) return 50;
-  return std::min(requested, 1000);
-}
-
 grpc::Status SceneServiceImpl::CreateScene(grpc::ServerContext* context,
                                            const v1::CreateSceneRequest* request,
                                            google::longrunning::Operation* response) {

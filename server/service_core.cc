@@ -95,6 +95,14 @@ absl::StatusOr<std::string> ParseResourceName(const std::string& name,
   return id;
 }
 
+absl::StatusOr<int> PageSize(int requested) {
+  if (requested < 0) {
+    return absl::InvalidArgumentError(absl::StrCat("page_size: must be >= 0, got ", requested));
+  }
+  if (requested == 0) return 50;
+  return std::min(requested, 1000);
+}
+
 std::string TaskLabel(const TaskRecord& task) {
   if (task.kind == JobKind::kReconstruct) return "reconstruction";
   return absl::StrCat("chunk ", task.index, " (views ", task.first_view, "-",
