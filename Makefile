@@ -5,7 +5,8 @@ BUILD_TYPE ?= RelWithDebInfo
 JOBS ?= $(shell nproc)
 CTEST_JOBS ?= $(JOBS)
 
-.PHONY: all deps configure build test demo format format-check clean fuzz-smoke test-sanitizers
+.PHONY: all deps configure build test demo format format-check clean \
+	build-asan-tree test-asan test-tsan fuzz-smoke test-sanitizers
 
 all: build
 
@@ -35,32 +36,46 @@ format-check: deps
 clean:
 	rm -rf $(BUILD_DIR)
 
-# libFuzzer targets (fuzz/, needs clang) for 20 s each on seeds made with the
-# regular build's pf; fails if any crashes. docs/RELIABILITY.md, "Fuzzing".
-fuzz-smoke: build
-	@CC=clang CXX=clang++ cmake -S . -B build-fuzz -G Ninja -DPF_FUZZ=ON \
-		-DCMAKE_BUILD_TYPE=RelWithDebInfo >/dev/null
-	@cmake --build build-fuzz -j $(JOBS) --target pf_fuzzers
-	PF=$(abspath $(BUILD_DIR))/bin/pf fuzz/run_fuzzers.sh build-fuzz 20
-
-# The whole suite under AddressSanitizer + UBSan (build-asan), then the
-# multi-threaded store, blob, metrics, thread-pool and worker scene-cache /
-# task-runner tests under ThreadSanitizer (build-tsan). Tests that run gRPC
-# are left out of TSan: Debian's gRPC and abseil are not instrumented, and
-# TSan reports races between gRPC's own threads in every one of them.
-# docs/RELIABILITY.md, "Sanitizers".
-TSAN_TESTS = job_store_test blob_store_test scene_cache_test task_runner_test \
+# The sanitizer configurations (docs/RELIABILITY.md, "Sanitizers"), built
+# with clang at -O1 with line tables, each in its own tree:
+# - build-asan: AddressSanitizer + UBSan (undefined behaviour aborts) over
+#   the whole project and its whole test suite, every pf / pf-server /
+#   pf-worker process the end-to-end tests start included. The same tree
+#   holds the libFuzzer targets (PF_FUZZ=ON, fuzz/).
+# - build-tsan: ThreadSanitizer over the multi-threaded tests that do not
+#   run gRPC (job store on SQLite and PostgreSQL, blob store, auth token
+#   reloading, worker scene cache and task runner, metrics, thread pool).
+#   Debian's gRPC and abseil are not instrumented and TSan reports races
+#   between gRPC's own threads in every gRPC test; those run under ASan.
+SAN_CMAKE = CC=clang CXX=clang++ cmake -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+	-DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -gline-tables-only -DNDEBUG"
+ASAN_FLAGS = -fsanitize=address,undefined -fno-sanitize-recover=undefined -fno-omit-frame-pointer
+TSAN_FLAGS = -fsanitize=thread -fno-omit-frame-pointer
+ASAN_ENV = ASAN_OPTIONS=detect_leaks=1:fast_unwind_on_malloc=0 \
+	LSAN_OPTIONS=suppressions=$(CURDIR)/fuzz/lsan_suppressions.txt \
+	UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
+TSAN_TESTS = job_store_test blob_store_test auth_test scene_cache_test task_runner_test \
 	metrics_test common_test
 TSAN_REGEX = ^($(shell echo $(TSAN_TESTS) | tr ' ' '|'))\.
-test-sanitizers: deps
-	@cmake -S . -B build-asan -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
-		-DCMAKE_CXX_FLAGS="-fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined" >/dev/null
+FUZZ_SECONDS ?= 20
+
+build-asan-tree: deps
+	@$(SAN_CMAKE) -S . -B build-asan -DPF_FUZZ=ON -DCMAKE_CXX_FLAGS="$(ASAN_FLAGS)" >/dev/null
 	@cmake --build build-asan -j $(JOBS)
-	cd build-asan && ASAN_OPTIONS=detect_leaks=1:fast_unwind_on_malloc=0 \
-		LSAN_OPTIONS=suppressions=$(CURDIR)/fuzz/lsan_suppressions.txt \
-		UBSAN_OPTIONS=print_stacktrace=1 ctest --output-on-failure -j $(CTEST_JOBS)
-	@cmake -S . -B build-tsan -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
-		-DCMAKE_CXX_FLAGS="-fsanitize=thread -fno-omit-frame-pointer" >/dev/null
+
+test-asan: build-asan-tree
+	cd build-asan && $(ASAN_ENV) ctest --output-on-failure -j $(CTEST_JOBS)
+
+test-tsan: deps
+	@$(SAN_CMAKE) -S . -B build-tsan -DCMAKE_CXX_FLAGS="$(TSAN_FLAGS)" >/dev/null
 	@cmake --build build-tsan -j $(JOBS) --target $(TSAN_TESTS)
 	cd build-tsan && TSAN_OPTIONS="halt_on_error=1 second_deadlock_stack=1" \
 		ctest -R '$(TSAN_REGEX)' --output-on-failure -j $(CTEST_JOBS)
+
+# Each libFuzzer target for FUZZ_SECONDS (20) on seeds made with the tree's
+# own pf; fails if any crashes. docs/RELIABILITY.md, "Fuzzing".
+fuzz-smoke: build-asan-tree
+	PF=$(CURDIR)/build-asan/bin/pf fuzz/run_fuzzers.sh build-asan $(FUZZ_SECONDS)
+
+# What CI runs after `make test`.
+test-sanitizers: test-asan fuzz-smoke test-tsan

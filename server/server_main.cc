@@ -90,6 +90,10 @@ beside it; the flag wins.
   --tls-key PEM            the certificate's private key (PF_TLS_KEY)
   --tls-client-ca PEM      mutual TLS: every client must present a certificate signed by
                            this CA (PF_TLS_CLIENT_CA; default none); needs --tls-cert
+  --tls-worker-ca PEM      mutual TLS for workers only: WorkerService calls must present
+                           a certificate signed by this CA, other clients may present
+                           none (PF_TLS_WORKER_CA; default none); needs --tls-cert; not
+                           with --tls-client-ca
 
 Stops cleanly on SIGTERM or SIGINT: in-flight calls get 5 s to finish.
 )";
@@ -152,12 +156,18 @@ absl::StatusOr<std::string> ReadPem(const std::string& path, const char* flag) {
 }
 
 // The port's credentials: TLS with --tls-cert and --tls-key (mutual TLS
-// with --tls-client-ca), plaintext without.
+// with --tls-client-ca; certificates asked for, and verified when given, with
+// --tls-worker-ca), plaintext without.
 absl::StatusOr<std::shared_ptr<grpc::ServerCredentials>> ServerCredentialsFromSettings(
     const CommandLine& cl) {
   const std::string cert = Setting(cl, "tls-cert", "PF_TLS_CERT", "");
   const std::string key = Setting(cl, "tls-key", "PF_TLS_KEY", "");
   const std::string client_ca = Setting(cl, "tls-client-ca", "PF_TLS_CLIENT_CA", "");
+  const std::string worker_ca = Setting(cl, "tls-worker-ca", "PF_TLS_WORKER_CA", "");
+  if (!client_ca.empty() && !worker_ca.empty()) {
+    return absl::InvalidArgumentError(
+        "--tls-client-ca and --tls-worker-ca: give one (every client, or workers only)");
+  }
   if (cert.empty() != key.empty()) {
     return absl::InvalidArgumentError(
         "--tls-cert and --tls-key: give both (a certificate chain and its private key) or neither");
@@ -165,6 +175,9 @@ absl::StatusOr<std::shared_ptr<grpc::ServerCredentials>> ServerCredentialsFromSe
   if (cert.empty()) {
     if (!client_ca.empty()) {
       return absl::InvalidArgumentError("--tls-client-ca: needs --tls-cert and --tls-key");
+    }
+    if (!worker_ca.empty()) {
+      return absl::InvalidArgumentError("--tls-worker-ca: needs --tls-cert and --tls-key");
     }
     return grpc::InsecureServerCredentials();
   }
@@ -177,8 +190,14 @@ absl::StatusOr<std::shared_ptr<grpc::ServerCredentials>> ServerCredentialsFromSe
     ASSIGN_OR_RETURN(ssl.pem_root_certs, ReadPem(client_ca, "tls-client-ca"));
     ssl.client_certificate_request = GRPC_SSL_REQUEST_AND_REQUIRE_CLIENT_CERTIFICATE_AND_VERIFY;
     ssl.force_client_auth = true;
+  } else if (!worker_ca.empty()) {
+    // Asked for and verified when presented; AuthorizeWorker requires one.
+    ASSIGN_OR_RETURN(ssl.pem_root_certs, ReadPem(worker_ca, "tls-worker-ca"));
+    ssl.client_certificate_request = GRPC_SSL_REQUEST_CLIENT_CERTIFICATE_AND_VERIFY;
   }
-  spdlog::info("TLS on{}", client_ca.empty() ? "" : ", client certificates required");
+  spdlog::info("TLS on{}", !client_ca.empty()   ? ", client certificates required"
+                           : !worker_ca.empty() ? ", client certificates required of workers"
+                                                : "");
   return grpc::SslServerCredentials(ssl);
 }
 
@@ -231,6 +250,8 @@ absl::Status Run(const CommandLine& cl) {
     ASSIGN_OR_RETURN(authenticator, Authenticator::FromFile(path));
     options.authenticator = authenticator.get();
   }
+  options.worker_certificate_required =
+      !Setting(cl, "tls-worker-ca", "PF_TLS_WORKER_CA", "").empty();
 
   if (absl::StartsWith(store_spec, "sqlite:")) {
     const std::string path = store_spec.substr(7);
@@ -344,7 +365,8 @@ int main(int argc, char** argv) {
                                                                      "auth-token-file",
                                                                      "tls-cert",
                                                                      "tls-key",
-                                                                     "tls-client-ca"});
+                                                                     "tls-client-ca",
+                                                                     "tls-worker-ca"});
   if (!cl.ok() || !cl->positional().empty()) {
     std::fprintf(stderr, "pf-server: %s\n%s",
                  cl.ok() ? "unexpected arguments" : std::string(cl.status().message()).c_str(),

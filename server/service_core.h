@@ -34,6 +34,9 @@ struct ServerOptions {
   int64_t max_lease_wait_ms = 10000;       // Longest LeaseTask long-poll.
   std::string scratch_dir;                 // Staging of clips being checked.
   Authenticator* authenticator = nullptr;  // --auth-token-file; null: authentication off.
+  // --tls-worker-ca: WorkerService calls must come over a connection whose
+  // client certificate the TLS handshake verified.
+  bool worker_certificate_required = false;
 };
 
 class ServiceCore {

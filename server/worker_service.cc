@@ -41,8 +41,18 @@ absl::Status CheckBlob(BlobStore& blobs, const v1::Digest& digest, const std::st
   return blobs.Verify(digest.sha256());
 }
 
-// Only tokens with the worker or admin role may act as a worker.
+// Only tokens with the worker or admin role may act as a worker, and with
+// --tls-worker-ca only over a connection that presented a client certificate
+// signed by that CA (the handshake verified it; here it must be there).
 absl::Status AuthorizeWorker(ServiceCore& core, const grpc::ServerContext& context) {
+  if (core.options().worker_certificate_required) {
+    const std::shared_ptr<const grpc::AuthContext> auth = context.auth_context();
+    if (auth == nullptr || !auth->IsPeerAuthenticated()) {
+      return absl::UnauthenticatedError(
+          "WorkerService needs a client certificate signed by the server's --tls-worker-ca "
+          "(pf-worker --tls-cert/--tls-key)");
+    }
+  }
   absl::StatusOr<Caller> caller = core.CallerOf(context);
   if (!caller.ok()) return caller.status();
   return CheckWorker(*caller);

@@ -622,5 +622,44 @@ TEST_F(AuthE2e, MutualTlsRequiresAClientCertificateSignedByTheCa) {
   EXPECT_TRUE(status.ok()) << status.error_message();
 }
 
+TEST_F(AuthE2e, WorkerOnlyMutualTlsAsksACertificateOfWorkersAlone) {
+  ServerProcess server(test_dir_);
+  server.set_health_channel(Tls());
+  ASSERT_TRUE(
+      server.Start({"--auth-token-file", tokens_, "--tls-cert", *dir_ + "/server.pem", "--tls-key",
+                    *dir_ + "/server.key", "--tls-worker-ca", *dir_ + "/ca.pem"}))
+      << server.Log();
+  const auto lease = [&](const ChannelOptions& channel) {
+    Client farm(server.address(), kWorkerToken, channel);
+    grpc::ClientContext context;
+    Client::Deadline(context);
+    v1::LeaseTaskRequest request;
+    request.set_worker_id("farm-1");
+    v1::LeaseTaskResponse response;
+    return farm.workers->LeaseTask(&context, request, &response);
+  };
+
+  // A user needs no certificate.
+  grpc::Status status;
+  Client alice(server.address(), kAliceToken, Tls());
+  alice.OperationNames(&status);
+  EXPECT_TRUE(status.ok()) << status.error_message();
+  // A worker token without one is refused, naming the flag; with one it leases.
+  const grpc::Status without = lease(Tls());
+  EXPECT_EQ(without.error_code(), grpc::StatusCode::UNAUTHENTICATED) << without.error_message();
+  EXPECT_NE(without.error_message().find("--tls-worker-ca"), std::string::npos);
+  const grpc::Status with = lease(Tls(/*client_certificate=*/true));
+  EXPECT_TRUE(with.ok()) << with.error_message();
+
+  // The two client-CA flags together are refused at start.
+  const CommandResult both = testing::RunCommand(
+      {testing::BinPath("pf-server"), "--listen", "127.0.0.1:0", "--store",
+       "sqlite:" + test_dir_ + "/both.db", "--blobs", test_dir_ + "/both-blobs", "--tls-cert",
+       *dir_ + "/server.pem", "--tls-key", *dir_ + "/server.key", "--tls-client-ca",
+       *dir_ + "/ca.pem", "--tls-worker-ca", *dir_ + "/ca.pem"});
+  EXPECT_NE(both.exit_code, 0);
+  EXPECT_NE(both.err.find("--tls-client-ca and --tls-worker-ca"), std::string::npos) << both.err;
+}
+
 }  // namespace
 }  // namespace pf
