@@ -67,7 +67,9 @@ commands:
         [--device cpu]
         build a Gaussian scene from the clip's CONTEXT frames
   eval CLIP.json --out DIR [--model ...] [same flags as reconstruct]
-        reconstruct, render the TARGET frames, write DIR/report.json and contact sheets
+       [--views VIEWS.json --truth DIR2] [--lane-shift D1,D2,... --lane-shift-time-us T]
+        reconstruct, render the TARGET frames (and extra or lane-shifted views), write
+        DIR/report.json and contact sheets; pf eval --help for the details
   help  this text
 
 remote mode: pf --server HOST:PORT <command> (or PF_SERVER=HOST:PORT, which sends

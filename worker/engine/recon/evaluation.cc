@@ -1,16 +1,19 @@
-// Reconstruct, render the held-out frames, measure.
+// Reconstruct, render the held-out frames and any extra views, measure.
 #include "worker/engine/recon/evaluation.h"
 
 // The generated protobuf header first (see image_io.h).
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <map>
 #include <nlohmann/json.hpp>
+#include <set>
 
 #include "absl/strings/str_cat.h"
 #include "common/file_util.h"
 #include "common/status_macros.h"
 #include "pointforward/v1/clip.pb.h"
+#include "pointforward/v1/views.pb.h"
 #include "worker/engine/recon/image_metrics.h"
 #include "worker/engine/recon/recon_flags.h"
 #include "worker/engine/recon/scene_graph.h"
@@ -26,6 +29,164 @@ double SecondsSince(std::chrono::steady_clock::time_point start) {
 nlohmann::json OptionalNumber(const std::optional<double>& value) {
   return value.has_value() && std::isfinite(*value) ? nlohmann::json(*value) : nlohmann::json();
 }
+
+nlohmann::ordered_json MeanJson(const MeanMetrics& mean) {
+  return {{"psnr", OptionalNumber(mean.psnr)},
+          {"ssim", OptionalNumber(mean.ssim)},
+          {"depthRmse", OptionalNumber(mean.depth_rmse)},
+          {"dynamicPsnr", OptionalNumber(mean.dynamic_psnr)},
+          {"holeFraction", OptionalNumber(mean.hole_fraction)}};
+}
+
+// Measures `buffers` against `truth_rgb` (and `truth_depth` when it has
+// pixels); `dynamic_mask` selects the pixels of dynamicPsnr (none: left out).
+FrameMetrics Measure(const ImageF& truth_rgb, const ImageF& truth_depth,
+                     const RenderBuffers& buffers, const std::vector<uint8_t>& dynamic_mask,
+                     ImageF* render) {
+  FrameMetrics m;
+  *render = ImageF(buffers.width, buffers.height, 3);
+  render->pixels = buffers.rgb;
+  m.psnr = Psnr(truth_rgb, *render).value_or(0.0);
+  m.ssim = Ssim(truth_rgb, *render).value_or(0.0);
+  if (truth_depth.width > 0) {
+    ImageF depth(buffers.width, buffers.height, 1);
+    depth.pixels = buffers.depth;
+    m.depth_rmse = DepthRmse(truth_depth, depth);
+  }
+  for (uint8_t v : dynamic_mask) m.dynamic_pixels += v != 0;
+  if (m.dynamic_pixels > 0) m.dynamic_psnr = Psnr(truth_rgb, *render, dynamic_mask);
+  int64_t holes = 0;
+  for (float a : buffers.alpha) holes += a < 0.5f;
+  m.hole_fraction = double(holes) / double(std::max<size_t>(1, buffers.alpha.size()));
+  return m;
+}
+
+// An extra view with the paths of its truth files, checked to exist (the
+// colour) and to have the view's size.
+struct ViewWithTruth {
+  RenderView view;
+  std::string rgb_path;
+  std::string depth_path;  // Empty when there is no depth truth.
+};
+
+struct CheckedViews {
+  std::vector<ViewWithTruth> views;
+  std::vector<ActorEdit> edits;
+};
+
+// Finds every view's truth files, before anything expensive runs.
+absl::StatusOr<CheckedViews> CheckExtraViews(const ExtraViews& extra) {
+  const RenderRequest& request = extra.request;
+  CheckedViews checked;
+  checked.edits = request.edits;
+  for (size_t i = 0; i < request.views.size(); ++i) {
+    ViewWithTruth v;
+    v.view = request.views[i];
+    const std::string what = absl::StrCat("views[", i, "] '", v.view.name, "'");
+    v.rgb_path = absl::StrCat(extra.truth_dir, "/", v.view.name, ".png");
+    absl::StatusOr<ImageInfo> info = ReadImageInfo(v.rgb_path);
+    if (absl::IsNotFound(info.status())) {
+      return absl::NotFoundError(absl::StrCat(
+          what, ": no truth image: ", v.rgb_path,
+          " does not exist (pf synth render --clip CLIP_DIR --cameras VIEWS.json --out TRUTH_DIR "
+          "writes <name>.png and <name>.exr per view)"));
+    }
+    if (!info.ok()) return StatusWithContext(info.status(), what);
+    const int width = v.view.camera.model.width(), height = v.view.camera.model.height();
+    if (info->width != width || info->height != height) {
+      return absl::InvalidArgumentError(absl::StrCat(what, ": truth image ", v.rgb_path, " is ",
+                                                     info->width, "x", info->height,
+                                                     " but the view renders ", width, "x", height));
+    }
+    const std::string depth_path = absl::StrCat(extra.truth_dir, "/", v.view.name, ".exr");
+    absl::StatusOr<ImageInfo> depth_info = ReadImageInfo(depth_path);
+    if (depth_info.ok()) {
+      if (depth_info->width != width || depth_info->height != height) {
+        return absl::InvalidArgumentError(
+            absl::StrCat(what, ": truth depth ", depth_path, " is ", depth_info->width, "x",
+                         depth_info->height, " but the view renders ", width, "x", height));
+      }
+      v.depth_path = depth_path;
+    } else if (!absl::IsNotFound(depth_info.status())) {
+      return StatusWithContext(depth_info.status(), what);
+    }
+    checked.views.push_back(std::move(v));
+  }
+  return checked;
+}
+
+// Renders and measures the extra views, writing their contact sheets into
+// `out_dir`/views/.
+absl::Status EvaluateExtraViews(const GaussianScene& scene, const CheckedViews& checked,
+                                const std::optional<LaneShiftSpec>& lane_shift,
+                                const ReconOptions& options, const std::string& out_dir,
+                                EvalReport* report) {
+  RETURN_IF_ERROR(MakeDirs(absl::StrCat(out_dir, "/views")));
+  RenderOptions render_options;
+  render_options.features = false;
+  render_options.instance = false;
+  for (size_t i = 0; i < checked.views.size(); ++i) {
+    const RenderView& view = checked.views[i].view;
+    const std::string what = absl::StrCat("views[", i, "] '", view.name, "'");
+    ASSIGN_OR_RETURN(const ImageF truth_rgb, ReadImage(checked.views[i].rgb_path, 3));
+    ImageF truth_depth;
+    if (!checked.views[i].depth_path.empty()) {
+      ASSIGN_OR_RETURN(truth_depth, ReadDepth(checked.views[i].depth_path));
+    }
+    const auto start = std::chrono::steady_clock::now();
+    absl::StatusOr<RenderBuffers> buffers =
+        Render(scene, view.camera, view.timestamp_us, checked.edits, render_options);
+    if (!buffers.ok()) return StatusWithContext(buffers.status(), what);
+    const double render_seconds = SecondsSince(start);
+    // With actor edits the tracked boxes are not where the movers are.
+    std::vector<uint8_t> mask;
+    if (checked.edits.empty()) {
+      mask = DynamicMask(view.camera.model, view.camera.world_from_camera, scene.instances,
+                         view.timestamp_us);
+    }
+    ImageF render;
+    FrameMetrics m = Measure(truth_rgb, truth_depth, *buffers, mask, &render);
+    m.name = view.name;
+    m.camera = view.camera_id;
+    m.timestamp_us = view.timestamp_us;
+    m.render_seconds = render_seconds;
+    report->render_seconds += render_seconds;
+    if (lane_shift.has_value()) {
+      const auto shift = lane_shift->shift_of_view.find(view.name);
+      if (shift != lane_shift->shift_of_view.end()) m.shift_m = shift->second;
+    }
+    m.contact_sheet = absl::StrCat("views/", view.name, ".png");
+    RETURN_IF_ERROR(
+        WritePng(absl::StrCat(out_dir, "/", m.contact_sheet), ContactSheet(truth_rgb, render)));
+    if (options.progress) {
+      options.progress(absl::StrCat("view ", i + 1, "/", checked.views.size(), " ", view.name,
+                                    ": PSNR ", m.psnr, " dB, SSIM ", m.ssim));
+    }
+    report->views.push_back(std::move(m));
+  }
+  report->views_mean = MeanOf(report->views);
+  report->lane_shift = lane_shift;
+  report->lane_shift_means = LaneShiftMeans(report->views);
+  return absl::OkStatus();
+}
+
+// The frames of one camera, by time, for interpolating its pose.
+struct TimedPose {
+  int64_t timestamp_us;
+  Rigid world_from_camera;
+};
+
+// Returns `a` moved towards `b` by `s` in [0, 1] (translation linear,
+// rotation slerped).
+Rigid InterpolatePose(const Rigid& a, const Rigid& b, double s) {
+  Rigid r;
+  r.rotation = ToMatrix(Slerp(FromMatrix(a.rotation), FromMatrix(b.rotation), s));
+  r.translation = a.translation + s * (b.translation - a.translation);
+  return r;
+}
+
+// Returns the shift as a name part: 1 -> "1", 1.5 -> "1.5", -2 -> "-2".
+std::string ShiftName(double shift_m) { return absl::StrCat(shift_m); }
 
 }  // namespace
 
@@ -47,7 +208,131 @@ MeanMetrics MeanOf(const std::vector<FrameMetrics>& frames) {
   mean.ssim = average([](const FrameMetrics& f) { return std::optional<double>(f.ssim); });
   mean.depth_rmse = average([](const FrameMetrics& f) { return f.depth_rmse; });
   mean.dynamic_psnr = average([](const FrameMetrics& f) { return f.dynamic_psnr; });
+  mean.hole_fraction =
+      average([](const FrameMetrics& f) { return std::optional<double>(f.hole_fraction); });
   return mean;
+}
+
+std::vector<LaneShiftMetrics> LaneShiftMeans(const std::vector<FrameMetrics>& views) {
+  std::map<double, std::vector<FrameMetrics>> by_shift;
+  for (const FrameMetrics& view : views) {
+    if (view.shift_m.has_value()) by_shift[*view.shift_m].push_back(view);
+  }
+  std::vector<LaneShiftMetrics> means;
+  for (const auto& [shift_m, group] : by_shift) {
+    means.push_back({shift_m, static_cast<int>(group.size()), MeanOf(group)});
+  }
+  return means;
+}
+
+absl::StatusOr<LaneShift> MakeLaneShift(const pointforward::v1::Clip& clip,
+                                        const std::vector<double>& shifts_m, int64_t time_us) {
+  constexpr double kMaxShiftM = 100.0;
+  std::vector<double> shifts = {0.0};
+  std::set<double> seen;
+  for (double shift : shifts_m) {
+    if (!std::isfinite(shift) || std::abs(shift) > kMaxShiftM) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("--lane-shift: ", shift, " is not a shift of at most ", kMaxShiftM, " m"));
+    }
+    if (!seen.insert(shift).second) {
+      return absl::InvalidArgumentError(absl::StrCat("--lane-shift: ", shift, " given twice"));
+    }
+    if (shift != 0.0) shifts.push_back(shift);
+  }
+
+  // Each camera's frames by time (the first of equal timestamps kept).
+  std::map<std::string, std::vector<TimedPose>> frames_of;
+  for (int i = 0; i < clip.frames_size(); ++i) {
+    const pointforward::v1::Frame& frame = clip.frames(i);
+    if (frame.world_from_camera_size() != 16) {
+      return absl::InvalidArgumentError(absl::StrCat("frames[", i,
+                                                     "].worldFromCamera: expected 16 numbers, got ",
+                                                     frame.world_from_camera_size()));
+    }
+    frames_of[frame.camera()].push_back(
+        {frame.timestamp_us(), Rigid::FromRowMajor(frame.world_from_camera().data())});
+  }
+  for (auto& [camera, frames] : frames_of) {
+    std::stable_sort(frames.begin(), frames.end(), [](const TimedPose& a, const TimedPose& b) {
+      return a.timestamp_us < b.timestamp_us;
+    });
+    frames.erase(std::unique(frames.begin(), frames.end(),
+                             [](const TimedPose& a, const TimedPose& b) {
+                               return a.timestamp_us == b.timestamp_us;
+                             }),
+                 frames.end());
+  }
+
+  // Pose at time_us and travel around it, per camera with frames.
+  struct CameraAtTime {
+    const pointforward::v1::Camera* camera;
+    Rigid pose;
+  };
+  std::vector<CameraAtTime> cameras;
+  Vec3 up, travel, viewing;
+  for (const pointforward::v1::Camera& camera : clip.cameras()) {
+    const auto found = frames_of.find(camera.id());
+    if (found == frames_of.end()) continue;
+    const std::vector<TimedPose>& frames = found->second;
+    if (time_us < frames.front().timestamp_us || time_us > frames.back().timestamp_us) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          "--lane-shift-time-us: ", time_us, " is outside the frames of camera '", camera.id(),
+          "' (", frames.front().timestamp_us, "..", frames.back().timestamp_us, " us)"));
+    }
+    // after: the first frame at or after time_us; prev / next: the nearest
+    // frames strictly before and after it (the frame itself at either end).
+    const auto after =
+        std::lower_bound(frames.begin(), frames.end(), time_us,
+                         [](const TimedPose& f, int64_t t) { return f.timestamp_us < t; });
+    Rigid pose = after->world_from_camera;
+    if (after->timestamp_us != time_us) {
+      const TimedPose& before = *(after - 1);
+      const double s =
+          double(time_us - before.timestamp_us) / double(after->timestamp_us - before.timestamp_us);
+      pose = InterpolatePose(before.world_from_camera, after->world_from_camera, s);
+    }
+    const auto prev = after == frames.begin() ? after : after - 1;
+    auto next = after;
+    if (after->timestamp_us == time_us && after + 1 != frames.end()) next = after + 1;
+    travel = travel + (next->world_from_camera.translation - prev->world_from_camera.translation);
+    up = up - pose.rotation.Col(1);
+    viewing = viewing + pose.rotation.Col(2);
+    cameras.push_back({&camera, pose});
+  }
+  if (cameras.empty()) {
+    return absl::InvalidArgumentError("--lane-shift: the clip has no camera with frames");
+  }
+
+  // Forward: the travel, else the viewing direction; flattened against up.
+  up = Normalized(up);
+  constexpr double kMinTravelM = 1e-3;
+  Vec3 forward = Norm(travel) > kMinTravelM * cameras.size() ? travel : viewing;
+  forward = forward - Dot(forward, up) * up;
+  const Vec3 left = Cross(up, forward);
+  if (Norm(up) < 0.5 || Norm(left) < 1e-6) {
+    return absl::InvalidArgumentError(
+        "--lane-shift: cannot tell the ego's left (the cameras neither move nor share a "
+        "forward direction)");
+  }
+
+  LaneShift result;
+  result.spec.time_us = time_us;
+  result.spec.left = Normalized(left);
+  for (const CameraAtTime& c : cameras) *result.views.add_cameras() = *c.camera;
+  for (const CameraAtTime& c : cameras) {
+    for (double shift : shifts) {
+      Rigid pose = c.pose;
+      pose.translation = pose.translation + shift * result.spec.left;
+      pointforward::v1::View* view = result.views.add_views();
+      view->set_camera(c.camera->id());
+      view->set_timestamp_us(time_us);
+      for (double v : pose.ToRowMajor()) view->add_world_from_camera(v);
+      view->set_name(absl::StrCat(c.camera->id(), "_shift", ShiftName(shift), "m"));
+      result.spec.shift_of_view[view->name()] = shift;
+    }
+  }
+  return result;
 }
 
 std::string EvalReportJson(const EvalReport& report) {
@@ -68,10 +353,7 @@ std::string EvalReportJson(const EvalReport& report) {
   nlohmann::ordered_json stages = nlohmann::ordered_json::object();
   for (const auto& [name, seconds] : report.stats.stage_seconds) stages[name] = seconds;
   j["stageSeconds"] = stages;
-  j["mean"] = {{"psnr", OptionalNumber(report.mean.psnr)},
-               {"ssim", OptionalNumber(report.mean.ssim)},
-               {"depthRmse", OptionalNumber(report.mean.depth_rmse)},
-               {"dynamicPsnr", OptionalNumber(report.mean.dynamic_psnr)}};
+  j["mean"] = MeanJson(report.mean);
   nlohmann::ordered_json frames = nlohmann::ordered_json::array();
   for (const FrameMetrics& f : report.frames) {
     nlohmann::ordered_json frame;
@@ -87,12 +369,56 @@ std::string EvalReportJson(const EvalReport& report) {
     frames.push_back(std::move(frame));
   }
   j["frames"] = frames;
+  if (!report.views.empty()) {
+    nlohmann::ordered_json views = nlohmann::ordered_json::array();
+    for (const FrameMetrics& v : report.views) {
+      nlohmann::ordered_json view;
+      view["name"] = v.name;
+      view["camera"] = v.camera;
+      view["timestampUs"] = v.timestamp_us;
+      if (v.shift_m.has_value()) view["shiftM"] = *v.shift_m;
+      view["psnr"] = v.psnr;
+      view["ssim"] = v.ssim;
+      view["depthRmse"] = OptionalNumber(v.depth_rmse);
+      view["dynamicPsnr"] = OptionalNumber(v.dynamic_psnr);
+      view["holeFraction"] = v.hole_fraction;
+      view["contactSheet"] = v.contact_sheet;
+      views.push_back(std::move(view));
+    }
+    j["views"] = views;
+    j["viewsMean"] = MeanJson(report.views_mean);
+  }
+  if (report.lane_shift.has_value() && !report.lane_shift_means.empty()) {
+    nlohmann::ordered_json shifts = nlohmann::ordered_json::array();
+    for (const LaneShiftMetrics& s : report.lane_shift_means) {
+      nlohmann::ordered_json entry = {{"shiftM", s.shift_m}, {"views", s.views}};
+      entry.update(MeanJson(s.mean));
+      shifts.push_back(std::move(entry));
+    }
+    j["laneShift"] = shifts;
+    const LaneShiftMetrics& first = report.lane_shift_means.front();
+    const LaneShiftMetrics* widest = &first;
+    for (const LaneShiftMetrics& s : report.lane_shift_means) {
+      if (std::abs(s.shift_m) > std::abs(widest->shift_m)) widest = &s;
+    }
+    auto drop = [](const std::optional<double>& from, const std::optional<double>& to) {
+      return from.has_value() && to.has_value() ? std::optional<double>(*from - *to) : std::nullopt;
+    };
+    j["laneShiftDrop"] = {{"fromM", first.shift_m},
+                          {"toM", widest->shift_m},
+                          {"psnr", OptionalNumber(drop(first.mean.psnr, widest->mean.psnr))},
+                          {"ssim", OptionalNumber(drop(first.mean.ssim, widest->mean.ssim))}};
+    j["laneShiftTimeUs"] = report.lane_shift->time_us;
+    const Vec3& left = report.lane_shift->left;
+    j["laneShiftLeft"] = {left.x, left.y, left.z};
+  }
   // Replace invalid UTF-8 (in camera ids) rather than throw.
   return j.dump(2, ' ', false, nlohmann::ordered_json::error_handler_t::replace) + "\n";
 }
 
 absl::StatusOr<EvalReport> EvaluateClip(const LoadedClip& loaded, const ReconOptions& options,
-                                        const std::string& out_dir) {
+                                        const std::string& out_dir,
+                                        const std::optional<ExtraViews>& extra) {
   EvalReport report;
   report.options = options;
   LoadViewsOptions view_options;
@@ -100,8 +426,12 @@ absl::StatusOr<EvalReport> EvaluateClip(const LoadedClip& loaded, const ReconOpt
   const auto load_start = std::chrono::steady_clock::now();
   ASSIGN_OR_RETURN(const std::vector<ContextView> targets,
                    LoadViews(loaded, FrameSelection::kTarget, view_options));
-  if (targets.empty()) {
+  if (targets.empty() && !extra.has_value()) {
     return absl::InvalidArgumentError("frames: the clip has no TARGET frame to evaluate on");
+  }
+  std::optional<CheckedViews> extra_views;
+  if (extra.has_value()) {
+    ASSIGN_OR_RETURN(extra_views, CheckExtraViews(*extra));
   }
   RETURN_IF_ERROR(MakeDirs(out_dir));
   if (options.progress) {
@@ -122,29 +452,16 @@ absl::StatusOr<EvalReport> EvaluateClip(const LoadedClip& loaded, const ReconOpt
     const auto start = std::chrono::steady_clock::now();
     ASSIGN_OR_RETURN(RenderBuffers buffers, Render(scene, {target.camera, target.world_from_camera},
                                                    target.timestamp_us, {}, render_options));
-    FrameMetrics m;
-    m.render_seconds = SecondsSince(start);
+    const double render_seconds = SecondsSince(start);
     const auto metrics_start = std::chrono::steady_clock::now();
+    const std::vector<uint8_t> mask =
+        DynamicMask(target.camera, target.world_from_camera, scene.instances, target.timestamp_us);
+    ImageF render;
+    FrameMetrics m = Measure(target.rgb, target.depth, buffers, mask, &render);
+    m.render_seconds = render_seconds;
     report.render_seconds += m.render_seconds;
     m.camera = target.camera_id;
     m.timestamp_us = target.timestamp_us;
-    ImageF render(buffers.width, buffers.height, 3);
-    render.pixels = buffers.rgb;
-    m.psnr = Psnr(target.rgb, render).value_or(0.0);
-    m.ssim = Ssim(target.rgb, render).value_or(0.0);
-    if (target.depth.width > 0) {
-      ImageF depth(buffers.width, buffers.height, 1);
-      depth.pixels = buffers.depth;
-      m.depth_rmse = DepthRmse(target.depth, depth);
-    }
-    const std::vector<uint8_t> mask =
-        DynamicMask(target.camera, target.world_from_camera, scene.instances, target.timestamp_us);
-    for (uint8_t v : mask) m.dynamic_pixels += v != 0;
-    m.dynamic_psnr = Psnr(target.rgb, render, mask);
-    int64_t holes = 0;
-    for (float a : buffers.alpha) holes += a < 0.5f;
-    m.hole_fraction = double(holes) / double(std::max<size_t>(1, buffers.alpha.size()));
-    if (m.dynamic_pixels == 0) m.dynamic_psnr.reset();
     m.contact_sheet = absl::StrCat(target.camera_id, "_", target.timestamp_us, ".png");
     RETURN_IF_ERROR(
         WritePng(absl::StrCat(out_dir, "/", m.contact_sheet), ContactSheet(target.rgb, render)));
@@ -157,6 +474,10 @@ absl::StatusOr<EvalReport> EvaluateClip(const LoadedClip& loaded, const ReconOpt
     report.frames.push_back(std::move(m));
   }
   report.mean = MeanOf(report.frames);
+  if (extra_views.has_value()) {
+    RETURN_IF_ERROR(
+        EvaluateExtraViews(scene, *extra_views, extra->lane_shift, options, out_dir, &report));
+  }
   RETURN_IF_ERROR(WriteFileAtomic(absl::StrCat(out_dir, "/report.json"), EvalReportJson(report)));
   return report;
 }

@@ -19,22 +19,51 @@
 // holeFraction is the share of pixels the render leaves (nearly) empty,
 // alpha < 0.5, which show black (regions no context view saw). Means
 // are over the frames that have the figure; a figure no frame has is null.
+//
+// Extra views (`pf eval --views VIEWS.json --truth DIR`, ExtraViews below):
+// after the TARGET frames, every view of a RenderViews file (what
+// `pf render --cameras` and `pf synth render --cameras` take; actor edits
+// applied) is rendered and compared with DIR/<name>.png (colour, required)
+// and DIR/<name>.exr (depth along z, first channel, optional), the files
+// `pf synth render` writes, <name> being the view's output name as
+// `pf render` spells it. report.json then also has
+//    "views": [{"name": "...", "camera": "...", "timestampUs": t, "psnr": x,
+//               "ssim": x, "depthRmse": x, "dynamicPsnr": x,
+//               "holeFraction": x, "contactSheet": "views/<name>.png"}, ...],
+//    "viewsMean": {"psnr": x, "ssim": x, "depthRmse": x, "dynamicPsnr": x,
+//                  "holeFraction": x}
+// with the contact sheets in DIR/views/ (dynamicPsnr is left out when the
+// file has actor edits: the boxes would be the unedited ones). With a lane
+// shift (`--lane-shift`, LaneShiftSpec below) each view also has "shiftM",
+// and report.json has
+//    "laneShift": [{"shiftM": 0, "views": n, "psnr": x, "ssim": x,
+//                   "depthRmse": x, "dynamicPsnr": x, "holeFraction": x}, ...],
+//    "laneShiftDrop": {"fromM": 0, "toM": d, "psnr": x, "ssim": x},
+//    "laneShiftTimeUs": t, "laneShiftLeft": [x, y, z]
+// laneShift is sorted by shift; the drop is the first entry's figure minus
+// the largest |shift|'s (positive: the shifted views are worse).
 #ifndef POINTFORWARD_WORKER_ENGINE_RECON_EVALUATION_H_
 #define POINTFORWARD_WORKER_ENGINE_RECON_EVALUATION_H_
 
 #include <cstdint>
 #include <functional>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "absl/status/statusor.h"
+#include "common/geometry.h"
+#include "pointforward/v1/views.pb.h"
 #include "worker/engine/clip/clip_io.h"
 #include "worker/engine/recon/reconstruction.h"
+#include "worker/engine/render/views.h"
 
 namespace pf {
 
+// The figures of one TARGET frame or one extra view.
 struct FrameMetrics {
+  std::string name;  // Extra views: the view's output name; empty for TARGET frames.
   std::string camera;
   int64_t timestamp_us = 0;
   double psnr = 0;
@@ -45,10 +74,35 @@ struct FrameMetrics {
   double hole_fraction = 0;   // Pixels the render covers with alpha < 0.5.
   std::string contact_sheet;  // File name inside the output directory.
   double render_seconds = 0;
+  std::optional<double> shift_m;  // Lane-shift views: the sideways shift in metres.
 };
 
 struct MeanMetrics {
-  std::optional<double> psnr, ssim, depth_rmse, dynamic_psnr;
+  std::optional<double> psnr, ssim, depth_rmse, dynamic_psnr, hole_fraction;
+};
+
+// The views a lane shift made: each camera's pose at `time_us` moved
+// sideways along `left` (unit, world) by each shift.
+struct LaneShiftSpec {
+  int64_t time_us = 0;
+  Vec3 left;
+  std::map<std::string, double> shift_of_view;  // View name -> shift in metres.
+};
+
+// Extra views to render and measure after the TARGET frames.
+struct ExtraViews {
+  // The views file, parsed (LoadRenderViews against a scene holding the
+  // clip's instance tracks, TracksFromClip).
+  RenderRequest request;
+  std::string truth_dir;  // <name>.png, optionally <name>.exr, per view.
+  std::optional<LaneShiftSpec> lane_shift;
+};
+
+// The means of the lane-shift views with one shift.
+struct LaneShiftMetrics {
+  double shift_m = 0;
+  int views = 0;
+  MeanMetrics mean;
 };
 
 struct EvalReport {
@@ -58,18 +112,54 @@ struct EvalReport {
   double render_seconds = 0;
   std::vector<FrameMetrics> frames;
   MeanMetrics mean;
+  std::vector<FrameMetrics> views;  // Extra views; empty without ExtraViews.
+  MeanMetrics views_mean;
+  std::optional<LaneShiftSpec> lane_shift;
+  std::vector<LaneShiftMetrics> lane_shift_means;  // Sorted by shift.
 };
 
 // Returns the means of `frames` as described above.
 MeanMetrics MeanOf(const std::vector<FrameMetrics>& frames);
 
+// Returns the means of the lane-shift views of `views` (those with a
+// shift_m), one entry per shift, sorted by shift.
+std::vector<LaneShiftMetrics> LaneShiftMeans(const std::vector<FrameMetrics>& views);
+
+// A lane shift's RenderViews message and what the report says of it.
+struct LaneShift {
+  pointforward::v1::RenderViews views;
+  LaneShiftSpec spec;
+};
+
+// Returns the views of a lane shift of the clip: for each camera of `clip`
+// (in order) and each of `shifts_m` (0 added first when missing), a view
+// "<camera>_shift<d>m" at `time_us` whose pose is the camera's pose at that
+// time (interpolated between its two nearest frames of any role; exact at a
+// frame) with `d` metres added along the ego's left. The ego's left is
+// up x forward: up is minus the mean of the cameras' image-down (y) axes,
+// forward the direction the cameras travel around `time_us` (the mean
+// displacement between the frames that bracket it), or the mean viewing
+// direction when they do not move. The clip's cameras are copied into the
+// message, so `pf render` and `pf synth render` both take it.
+// INVALID_ARGUMENT naming the flag (`--lane-shift`, `--lane-shift-time-us`)
+// for a non-finite, duplicate or over-100 m shift, or a time outside a
+// camera's frames; a camera with no frame is skipped.
+absl::StatusOr<LaneShift> MakeLaneShift(const pointforward::v1::Clip& clip,
+                                        const std::vector<double>& shifts_m, int64_t time_us);
+
 // Returns report.json's text for `report`.
 std::string EvalReportJson(const EvalReport& report);
 
-// Evaluates `loaded` as described above, writing into `out_dir` (created).
-// INVALID_ARGUMENT when the clip has no TARGET frame (or no CONTEXT frame).
+// Evaluates `loaded` as described above, writing into `out_dir` (created),
+// and the extra views when `extra` is given. INVALID_ARGUMENT when the clip
+// has no TARGET frame and no extra views (a clip without TARGET frames can
+// still be measured on extra views: "frames" is then empty and the figures
+// of "mean" null), no CONTEXT frame, or a truth image's size is not its view's;
+// NOT_FOUND naming the view and the path looked for when a view has no
+// truth image. The truth files are checked before the reconstruction starts.
 absl::StatusOr<EvalReport> EvaluateClip(const LoadedClip& loaded, const ReconOptions& options,
-                                        const std::string& out_dir);
+                                        const std::string& out_dir,
+                                        const std::optional<ExtraViews>& extra = std::nullopt);
 
 }  // namespace pf
 
