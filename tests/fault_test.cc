@@ -82,6 +82,22 @@ constexpr int kMaxAttempts = 10;
 constexpr int kMinWorkerKills = 10;
 constexpr int kClientThreads = 4;
 
+// Under AddressSanitizer (make test-asan) every process runs 2-3 times
+// slower: a worker killed every second or two would rarely finish a task. The
+// kill pauses and the deadline stretch by this factor, so the test still
+// kills as often relative to the work.
+#if defined(__SANITIZE_ADDRESS__)
+constexpr int kSlowdown = 3;
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+constexpr int kSlowdown = 3;
+#else
+constexpr int kSlowdown = 1;
+#endif
+#else
+constexpr int kSlowdown = 1;
+#endif
+
 // A call that failed only because the server is down or restarting.
 bool ServerDown(grpc::StatusCode code) {
   return code == grpc::StatusCode::UNAVAILABLE || code == grpc::StatusCode::DEADLINE_EXCEEDED;
@@ -217,7 +233,7 @@ TEST(Fault, HundredJobsSurviveRandomWorkerKillsAndAServerKill) {
   std::atomic<int> worker_kills{0};
   pid_t killed_server_pid = -1;
   std::vector<std::string> killer_errors;
-  std::uniform_int_distribution<int> pause_ms(1000, 2500);
+  std::uniform_int_distribution<int> pause_ms(1000 * kSlowdown, 2500 * kSlowdown);
   std::uniform_int_distribution<int> pick_worker(0, 1);
   const int server_kill_after = std::uniform_int_distribution<int>(2, 6)(random);
   std::vector<int> pauses;  // Drawn up front, so the seed alone fixes the schedule.
@@ -347,7 +363,7 @@ TEST(Fault, HundredJobsSurviveRandomWorkerKillsAndAServerKill) {
     }
     return done.size() == all_ops.size();
   };
-  const bool all_done = submitted && WaitFor(poll, std::chrono::seconds(240));
+  const bool all_done = submitted && WaitFor(poll, std::chrono::seconds(240 * kSlowdown));
   jobs_done = true;
   killer.join();
   figures.worker_kills = worker_kills;

@@ -73,9 +73,10 @@ TEST_F(ReconCli, EvalReportHasEveryTargetFrameWithFigures) {
   const nlohmann::json& mean = report["mean"];
   // Floors measured on this clip (docs/QUALITY.md), with a margin: a broken
   // pose, colour or canonical frame drops PSNR far below them.
-  EXPECT_GT(mean["psnr"].get<double>(), 18.0);
-  EXPECT_GT(mean["ssim"].get<double>(), 0.45);
-  EXPECT_GT(mean["dynamicPsnr"].get<double>(), 16.0);
+  // Measured 24.4 dB, 0.77, 23.2 dB (docs/QUALITY.md, small synth clip).
+  EXPECT_GT(mean["psnr"].get<double>(), 22.0);
+  EXPECT_GT(mean["ssim"].get<double>(), 0.65);
+  EXPECT_GT(mean["dynamicPsnr"].get<double>(), 20.0);
   EXPECT_LT(mean["depthRmse"].get<double>(), 12.0);
   EXPECT_GT(report["dynamicGaussians"].get<int64_t>(), 0);
   EXPECT_GT(report["farGaussians"].get<int64_t>(), 0);
@@ -90,7 +91,7 @@ TEST_F(ReconCli, AnalyticUsesAtMostAQuarterOfThePixelAlignedGaussians) {
   EXPECT_LE(p, 6 * 192 * 144);
   EXPECT_GT(p, 6 * 192 * 144 * 9 / 10);
   EXPECT_LE(4 * a, p);
-  EXPECT_GT(pixel["mean"]["psnr"].get<double>(), 18.0);
+  EXPECT_GT(pixel["mean"]["psnr"].get<double>(), 22.0);  // Measured 25.4 dB.
 }
 
 TEST_F(ReconCli, ReconstructWritesALoadableSceneAndASummary) {
@@ -110,8 +111,12 @@ TEST_F(ReconCli, ReconstructWritesALoadableSceneAndASummary) {
   size_t dynamic = 0;
   for (uint32_t owner : scene.owners) dynamic += owner != 0;
   EXPECT_GT(dynamic, 0u);
-  EXPECT_LE(dynamic, 4u * 300);                  // N_d per instance.
-  EXPECT_LE(scene.size() - dynamic, 6u * 2000);  // N_s per view.
+  EXPECT_LE(dynamic, 4u * 300);  // N_d per instance.
+  // V x N_s static queries in all (the paper's N = V N_s + O N_d): views
+  // are re-sampled on finer grids when redundancy removal left fewer, which
+  // lands within a few per cent of the budget (sparse_sampling.h).
+  EXPECT_LE(scene.size() - dynamic, 6u * 2000 * 105 / 100);
+  EXPECT_GT(scene.size() - dynamic, 6u * 2000 * 85 / 100);
 }
 
 TEST_F(ReconCli, AblationFlagsAreRecordedInTheReport) {

@@ -34,13 +34,15 @@ double SecondsSince(std::chrono::steady_clock::time_point start) {
 }
 
 // The stages of a reconstruction task in order, with their share of the
-// work; Begin() reports the stage starting and the fraction done before it.
+// work (roughly their share of the time on the default synth clip, where
+// the colour fit takes over half; docs/QUALITY.md); Begin() reports the
+// stage starting and the fraction done before it.
 class ReconProgress {
  public:
   ReconProgress(const StageProgressFn& report, bool refine) : report_(report) {
-    stages_ = {{"download", 0.10},    {"load", 0.10},   {"depth", 0.10}, {"lift", 0.05},
-               {"scene_graph", 0.10}, {"sample", 0.10}, {"fuse", 0.20},  {"decode", 0.10}};
-    if (refine) stages_.push_back({"refine", 0.10});
+    stages_ = {{"download", 0.05},    {"load", 0.05},   {"depth", 0.03}, {"lift", 0.05},
+               {"scene_graph", 0.07}, {"sample", 0.07}, {"fuse", 0.05},  {"decode", 0.03}};
+    if (refine) stages_.push_back({"refine", 0.55});
     stages_.push_back({"save", 0.05});
     for (const auto& stage : stages_) total_ += stage.second;
   }

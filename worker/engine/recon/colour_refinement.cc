@@ -1,66 +1,262 @@
-// Jacobi refinement of Gaussian colours against the context images.
+// Least-squares refinement of Gaussian colours against the context images:
+// preconditioned conjugate gradients over the recorded compositing weights.
 #include "worker/engine/recon/colour_refinement.h"
 
 #include <algorithm>
+#include <array>
+#include <cmath>
 
 #include "absl/strings/str_cat.h"
 #include "common/status_macros.h"
 #include "common/thread_pool.h"
-#include "worker/engine/render/rasterizer.h"
+#include "worker/engine/render/compositing_weights.h"
 
 namespace pf {
+namespace {
 
-absl::Status RefineColours(const std::vector<ContextView>& views, const QuerySet& queries,
-                           const RefinementOptions& options, GaussianScene* scene) {
-  const size_t n = scene->size();
-  if (queries.size() != n) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("RefineColours: ", queries.size(), " queries for ", n, " Gaussians"));
-  }
-  // Gaussians by source view, so each render is used once.
-  std::vector<std::vector<int64_t>> by_view(views.size());
-  for (size_t i = 0; i < n; ++i) by_view[queries.views[i]].push_back(static_cast<int64_t>(i));
-  RenderOptions render_options;
-  render_options.features = false;
-  render_options.depth = false;
-  render_options.instance = false;
-  const int channels = scene->num_channels;
-  std::vector<float> delta(n * 3, 0.f);
-  for (int iteration = 0; iteration < options.iterations; ++iteration) {
-    std::fill(delta.begin(), delta.end(), 0.f);
-    for (size_t v = 0; v < views.size(); ++v) {
-      if (by_view[v].empty()) continue;
-      const ContextView& view = views[v];
-      ASSIGN_OR_RETURN(const RenderBuffers render,
-                       Render(*scene, {view.camera, view.world_from_camera}, view.timestamp_us, {},
-                              render_options));
-      const std::vector<int64_t>& members = by_view[v];
-      DefaultThreadPool().ParallelFor(
-          0, static_cast<int64_t>(members.size()), 4096, [&](int64_t b, int64_t e) {
-            for (int64_t m = b; m < e; ++m) {
-              const int64_t i = members[m];
-              const size_t pixel = static_cast<size_t>(queries.pixels[i]);
-              const float alpha = render.alpha[pixel];
-              if (alpha < options.min_alpha) continue;
-              for (int c = 0; c < 3; ++c) {
-                const float rendered = render.rgb[3 * pixel + c] / alpha;
-                delta[3 * i + c] = view.rgb.pixels[3 * pixel + c] - rendered;
-              }
-            }
-          });
+using Channels = std::array<double, 3>;
+
+// Added to every Gaussian's data weight (its sum of squared compositing
+// weights) before the relative prior is taken, so that a Gaussian no fitted
+// pixel sees still has a positive prior and keeps its fused colour.
+constexpr float kPriorFloor = 1e-3f;
+
+// One context view in the fit: its compositing matrix and the image, with
+// pixels under min_alpha zeroed out of both sides (the mask M).
+struct FitView {
+  CompositingWeights a;
+  std::vector<uint8_t> fitted;  // [H * W] 1 where alpha >= min_alpha.
+  const ImageF* image = nullptr;
+};
+
+// Per-view scratch: colours gathered to local order, the view's image-sized
+// buffer and the view's share of A^T (...), local order.
+struct ViewScratch {
+  std::vector<float> local_in;
+  std::vector<float> pixels;
+  std::vector<float> local_out;
+};
+
+// Sum of squares of the masked residual image - A x of one view (x already
+// gathered into scratch->local_in), per channel; leaves the masked residual
+// in scratch->pixels.
+Channels Residual(const FitView& view, ViewScratch* scratch) {
+  const size_t num_pixels = view.fitted.size();
+  scratch->pixels.resize(3 * num_pixels);
+  Composite(view.a, scratch->local_in.data(), 3, scratch->pixels.data());
+  Channels sum{0, 0, 0};
+  for (size_t p = 0; p < num_pixels; ++p) {
+    for (int c = 0; c < 3; ++c) {
+      float& r = scratch->pixels[3 * p + c];
+      r = view.fitted[p] ? view.image->pixels[3 * p + c] - r : 0.f;
+      sum[c] += double(r) * r;
     }
-    const float step = static_cast<float>(options.step);
-    DefaultThreadPool().ParallelFor(0, static_cast<int64_t>(n), 8192, [&](int64_t b, int64_t e) {
-      for (int64_t i = b; i < e; ++i) {
-        float* feat = &scene->features[static_cast<size_t>(i) * channels];
-        for (int c = 0; c < 3; ++c) {
-          feat[c] =
-              std::clamp(feat[c] + step * delta[3 * i + c], options.min_colour, options.max_colour);
-        }
+  }
+  return sum;
+}
+
+// Copies the entries of `global` ([N, 3], scene order) that `view` sees into
+// scratch->local_in (local order).
+void Gather(const FitView& view, const std::vector<float>& global, ViewScratch* scratch) {
+  const size_t m = view.a.gaussians.size();
+  scratch->local_in.resize(3 * m);
+  for (size_t k = 0; k < m; ++k)
+    for (int c = 0; c < 3; ++c)
+      scratch->local_in[3 * k + c] = global[3 * size_t(view.a.gaussians[k]) + c];
+}
+
+// Adds every view's local_out into `global` (views in order, so the sums do
+// not depend on thread timing).
+void Scatter(const std::vector<FitView>& views, const std::vector<ViewScratch>& scratch,
+             std::vector<float>* global) {
+  for (size_t v = 0; v < views.size(); ++v) {
+    const std::vector<uint32_t>& ids = views[v].a.gaussians;
+    const std::vector<float>& local = scratch[v].local_out;
+    DefaultThreadPool().ParallelFor(0, static_cast<int64_t>(ids.size()), 16384,
+                                    [&](int64_t b, int64_t e) {
+                                      for (int64_t k = b; k < e; ++k)
+                                        for (int c = 0; c < 3; ++c)
+                                          (*global)[3 * size_t(ids[k]) + c] += local[3 * k + c];
+                                    });
+  }
+}
+
+// Per-channel dot product of two [N, 3] arrays.
+Channels Dot(const std::vector<float>& x, const std::vector<float>& y) {
+  Channels sum{0, 0, 0};
+  for (size_t i = 0; i < x.size(); i += 3)
+    for (int c = 0; c < 3; ++c) sum[c] += double(x[i + c]) * y[i + c];
+  return sum;
+}
+
+}  // namespace
+
+absl::StatusOr<RefinementStats> RefineColours(const std::vector<ContextView>& views,
+                                              const RefinementOptions& options,
+                                              GaussianScene* scene) {
+  if (scene->num_channels < 3 || scene->sh_degree >= 0) {
+    return absl::InvalidArgumentError(
+        "RefineColours: the scene's colour must be its first three feature channels (no SH)");
+  }
+  if (options.iterations < 0 || !(options.prior_weight > 0) || !(options.min_alpha >= 0)) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "RefineColours: iterations ", options.iterations, " must be >= 0, prior_weight ",
+        options.prior_weight, " > 0 and min_alpha ", options.min_alpha, " >= 0"));
+  }
+  RefinementStats stats;
+  if (options.iterations == 0 || views.empty()) return stats;
+  const size_t n = scene->size();
+  const int stride = scene->num_channels;
+  for (const ContextView& view : views) {
+    if (view.rgb.channels != 3 || view.rgb.width != view.width() ||
+        view.rgb.height != view.height()) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("RefineColours: view ", view.camera_id, " at ", view.timestamp_us, " has a ",
+                       view.rgb.width, "x", view.rgb.height, "x", view.rgb.channels,
+                       " image for a ", view.width(), "x", view.height(), " camera"));
+    }
+  }
+
+  // A_v of every view (one view per task) and the fitted pixels.
+  const int64_t num_views = static_cast<int64_t>(views.size());
+  std::vector<FitView> fit(views.size());
+  std::vector<absl::Status> errors(views.size());
+  DefaultThreadPool().ParallelFor(0, num_views, 1, [&](int64_t b, int64_t e) {
+    for (int64_t v = b; v < e; ++v) {
+      const ContextView& view = views[v];
+      WeightOptions weight_options;
+      weight_options.min_weight = options.min_weight;
+      absl::StatusOr<CompositingWeights> a = ComputeCompositingWeights(
+          *scene, {view.camera, view.world_from_camera}, view.timestamp_us, weight_options);
+      if (!a.ok()) {
+        errors[v] = a.status();
+        continue;
+      }
+      fit[v].a = *std::move(a);
+      fit[v].image = &view.rgb;
+      fit[v].fitted.resize(fit[v].a.alpha.size());
+      for (size_t p = 0; p < fit[v].fitted.size(); ++p)
+        fit[v].fitted[p] = fit[v].a.alpha[p] >= options.min_alpha;
+    }
+  });
+  for (const absl::Status& error : errors) RETURN_IF_ERROR(error);
+  for (const FitView& view : fit) {
+    stats.pairs += static_cast<int64_t>(view.a.entries());
+    for (uint8_t f : view.fitted) stats.pixels += f;
+  }
+  if (stats.pixels == 0) return stats;
+
+  // x: the colours, starting at the fused ones (c0, the prior's centre, so
+  // the prior enters only through Lambda below). for_views runs
+  // `body(view, scratch)` for every view in parallel, then adds the views'
+  // local_out into `out` (zeroed first) unless it is null.
+  std::vector<float> x(3 * n);
+  for (size_t i = 0; i < n; ++i)
+    for (int c = 0; c < 3; ++c) x[3 * i + c] = scene->features[i * stride + c];
+  std::vector<ViewScratch> scratch(views.size());
+  auto for_views = [&](const auto& body, std::vector<float>* out) {
+    DefaultThreadPool().ParallelFor(0, num_views, 1, [&](int64_t b, int64_t e) {
+      for (int64_t v = b; v < e; ++v) {
+        scratch[v].local_out.assign(3 * fit[v].a.gaussians.size(), 0.f);
+        body(fit[v], &scratch[v]);
       }
     });
+    if (out == nullptr) return;
+    out->assign(3 * n, 0.f);
+    Scatter(fit, scratch, out);
+  };
+  std::vector<Channels> view_sums(views.size());
+
+  // r = A^T M (I - A x), the negative gradient at x = c0 (where the prior
+  // term is 0), and diag(A^T M A), the Jacobi preconditioner.
+  std::vector<float> r, diag;
+  for_views(
+      [&](const FitView& view, ViewScratch* s) {
+        Gather(view, x, s);
+        view_sums[&view - fit.data()] = Residual(view, s);
+        AccumulateTransposed(view.a, s->pixels.data(), 3, s->local_out.data());
+      },
+      &r);
+  auto total_rmse = [&]() {
+    double sum = 0;
+    for (const Channels& s : view_sums) sum += s[0] + s[1] + s[2];
+    return std::sqrt(sum / (3.0 * double(stats.pixels)));
+  };
+  stats.rmse_before = total_rmse();
+  for_views(
+      [&](const FitView& view, ViewScratch* s) {
+        const CompositingWeights& a = view.a;
+        for (size_t p = 0; p < view.fitted.size(); ++p) {
+          if (!view.fitted[p]) continue;
+          for (uint64_t k = a.pixel_begin[p]; k < a.pixel_begin[p] + a.pixel_count[p]; ++k) {
+            const float w2 = a.weights[k] * a.weights[k];
+            for (int c = 0; c < 3; ++c) s->local_out[3 * size_t(a.local[k]) + c] += w2;
+          }
+        }
+      },
+      &diag);
+  // The prior of each Gaussian is relative to its own data weight (plus a
+  // floor for Gaussians no fitted pixel sees), so one prior_weight means the
+  // same for small pixel-aligned discs and large fused ones.
+  const float lambda = static_cast<float>(options.prior_weight);
+  std::vector<float> prior(3 * n);
+  for (size_t i = 0; i < 3 * n; ++i) {
+    prior[i] = lambda * (diag[i] + kPriorFloor);
+    diag[i] += prior[i];
   }
-  return absl::OkStatus();
+
+  // Preconditioned conjugate gradients, the three channels side by side.
+  std::vector<float> z(3 * n), p(3 * n), q;
+  for (size_t i = 0; i < 3 * n; ++i) z[i] = r[i] / diag[i];
+  p = z;
+  Channels rz = Dot(r, z);
+  for (int iteration = 0; iteration < options.iterations; ++iteration) {
+    // q = (A^T M A + Lambda) p.
+    for_views(
+        [&](const FitView& view, ViewScratch* s) {
+          Gather(view, p, s);
+          const size_t num_pixels = view.fitted.size();
+          s->pixels.resize(3 * num_pixels);
+          Composite(view.a, s->local_in.data(), 3, s->pixels.data());
+          for (size_t px = 0; px < num_pixels; ++px)
+            if (!view.fitted[px])
+              s->pixels[3 * px] = s->pixels[3 * px + 1] = s->pixels[3 * px + 2] = 0.f;
+          AccumulateTransposed(view.a, s->pixels.data(), 3, s->local_out.data());
+        },
+        &q);
+    for (size_t i = 0; i < 3 * n; ++i) q[i] += prior[i] * p[i];
+    const Channels pq = Dot(p, q);
+    float step[3];
+    for (int c = 0; c < 3; ++c) step[c] = pq[c] > 0 ? static_cast<float>(rz[c] / pq[c]) : 0.f;
+    for (size_t i = 0; i < 3 * n; i += 3) {
+      for (int c = 0; c < 3; ++c) {
+        x[i + c] += step[c] * p[i + c];
+        r[i + c] -= step[c] * q[i + c];
+        z[i + c] = r[i + c] / diag[i + c];
+      }
+    }
+    const Channels rz_next = Dot(r, z);
+    float beta[3];
+    for (int c = 0; c < 3; ++c) beta[c] = rz[c] > 0 ? static_cast<float>(rz_next[c] / rz[c]) : 0.f;
+    for (size_t i = 0; i < 3 * n; i += 3)
+      for (int c = 0; c < 3; ++c) p[i + c] = z[i + c] + beta[c] * p[i + c];
+    rz = rz_next;
+  }
+
+  for (size_t i = 0; i < n; ++i) {
+    for (int c = 0; c < 3; ++c) {
+      x[3 * i + c] = std::clamp(x[3 * i + c], options.min_colour, options.max_colour);
+      scene->features[i * stride + c] = x[3 * i + c];
+    }
+  }
+  for_views(
+      [&](const FitView& view, ViewScratch* s) {
+        Gather(view, x, s);
+        view_sums[&view - fit.data()] = Residual(view, s);
+      },
+      nullptr);
+  stats.rmse_after = total_rmse();
+  return stats;
 }
 
 }  // namespace pf

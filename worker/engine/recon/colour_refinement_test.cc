@@ -1,48 +1,171 @@
-// Tests of colour refinement against the context views.
+// Tests of the least-squares colour refinement: hand-solved one-pixel
+// problems, uncovered pixels left out, and recovery of known colours on a
+// scene whose context image was rendered from them.
 #include "worker/engine/recon/colour_refinement.h"
 
 #include <gtest/gtest.h>
 
-#include "worker/engine/recon/fusion.h"
+#include <cmath>
+#include <random>
+
 #include "worker/engine/recon/gaussian_decoder.h"
-#include "worker/engine/recon/sparse_sampling.h"
+#include "worker/engine/render/rasterizer.h"
 
 namespace pf {
 namespace {
 
-TEST(ColourRefinement, ColoursMoveTowardsTheContextImage) {
-  // One view of a plane at 10 m, one Gaussian per pixel, decoded with the
-  // wrong colour 0.4 where the image says 0.8.
+float Logit(double p) { return static_cast<float>(std::log(p / (1 - p))); }
+
+// Adds a round Gaussian of std-dev `scale` with colour `rgb` (grey if one
+// value) to a kReconChannels scene.
+void AddGaussian(GaussianScene* scene, const Vec3& mean, double scale, double opacity,
+                 const Vec3& rgb) {
+  const size_t i = scene->size();
+  scene->Resize(i + 1);
+  for (int c = 0; c < 3; ++c) {
+    scene->means[3 * i + c] = static_cast<float>(mean[c]);
+    scene->log_scales[3 * i + c] = static_cast<float>(std::log(scale));
+    scene->features[i * kReconChannels + c] = static_cast<float>(rgb[c]);
+  }
+  scene->features[i * kReconChannels + 6] = 0.25f;  // Not a colour: must stay.
+  scene->opacity_logits[i] = Logit(opacity);
+}
+
+GaussianScene EmptyScene() {
+  GaussianScene scene;
+  scene.num_channels = kReconChannels;
+  return scene;
+}
+
+ContextView UniformView(int width, int height, double f, float value) {
   ContextView view;
-  view.camera = CameraModel(48, 36, 48, 48, 24, 18);
-  view.rgb = ImageF(48, 36, 3);
-  for (float& v : view.rgb.pixels) v = 0.8f;
-  ViewDepth depth;
-  depth.width = 48;
-  depth.height = 36;
-  depth.depth.assign(48 * 36, 10.f);
-  depth.source.assign(48 * 36, 0);
-  const LiftedView lifted = LiftView(view, depth);
-  const std::vector<uint32_t> owners(48 * 36, 0);
-  SamplingOptions sampling;
-  sampling.dense = true;
-  const QuerySet queries = SampleQueries({{&view, &depth, &lifted, &owners}}, {}, sampling);
-  GaussianScene scene = DecodeGaussians(queries, UnfusedQueries(queries), {0}, 0, {});
+  view.camera = CameraModel(width, height, f, f, width / 2.0, height / 2.0);
+  view.rgb = ImageF(width, height, 3);
+  for (float& v : view.rgb.pixels) v = value;
+  return view;
+}
+
+TEST(ColourRefinement, OnePixelTwoGaussiansMatchesTheClosedForm) {
+  // A 1x1 view; two Gaussians on its centre ray, opacity 0.6 (front) and 0.5,
+  // so the pixel is a . c with a = (0.6, 0.5 x 0.4). One equation, two
+  // unknowns, the prior sum_k l_k (c_k - c0_k)^2 with l_k = 0.05 (a_k^2 +
+  // 0.001): the minimiser is
+  //   c = c0 + L^-1 a (I - a . c0) / (1 + a^T L^-1 a)
+  // (the normal equations' single-row form), which CG reaches in 2 steps.
+  GaussianScene scene = EmptyScene();
+  AddGaussian(&scene, {0, 0, 2}, 0.001, 0.6, {0.2, 0.5, 0.9});
+  AddGaussian(&scene, {0, 0, 3}, 0.001, 0.5, {0.4, 0.5, 0.1});
+  const ContextView view = UniformView(1, 1, 1, 0.7f);
+  RefinementOptions options;
+  options.iterations = 2;
+  options.prior_weight = 0.05;
+  options.min_colour = -10;
+  options.max_colour = 10;
+  absl::StatusOr<RefinementStats> stats = RefineColours({view}, options, &scene);
+  ASSERT_TRUE(stats.ok()) << stats.status();
+  const double a0 = 0.6, a1 = 0.5 * 0.4;
+  const double l0 = 0.05 * (a0 * a0 + 0.001), l1 = 0.05 * (a1 * a1 + 0.001);
+  const double gain = a0 * a0 / l0 + a1 * a1 / l1;  // a^T L^-1 a.
+  const double c0[2][3] = {{0.2, 0.5, 0.9}, {0.4, 0.5, 0.1}};
+  for (int c = 0; c < 3; ++c) {
+    const double rendered = a0 * c0[0][c] + a1 * c0[1][c];
+    const double k = (0.7 - rendered) / (1 + gain);
+    EXPECT_NEAR(scene.features[c], c0[0][c] + a0 / l0 * k, 1e-4) << "channel " << c;
+    EXPECT_NEAR(scene.features[kReconChannels + c], c0[1][c] + a1 / l1 * k, 1e-4)
+        << "channel " << c;
+  }
+  EXPECT_FLOAT_EQ(scene.features[6], 0.25f);
+  EXPECT_EQ(stats->pixels, 1);
+  EXPECT_EQ(stats->pairs, 2);
+  // Before: mean over channels of (0.7 - rendered)^2.
+  double before = 0;
+  for (int c = 0; c < 3; ++c) before += std::pow(0.7 - (a0 * c0[0][c] + a1 * c0[1][c]), 2) / 3;
+  EXPECT_NEAR(stats->rmse_before, std::sqrt(before), 1e-6);
+  // After: every channel's residual shrinks by 1 / (1 + a^T L^-1 a).
+  EXPECT_NEAR(stats->rmse_after, std::sqrt(before) / (1 + gain), 1e-5);
+}
+
+TEST(ColourRefinement, PixelsUnderMinAlphaAreLeftOut) {
+  // A faint Gaussian (opacity 0.3: alpha < 0.5 everywhere) far from a
+  // strong one: the faint one has no fitted pixel and keeps its colour; the
+  // strong one moves to the image.
+  GaussianScene scene = EmptyScene();
+  AddGaussian(&scene, {-0.4375, 0, 1}, 0.001, 0.3, {0.1, 0.1, 0.1});  // Pixel 4.
+  AddGaussian(&scene, {0.5625, 0, 1}, 0.001, 0.95, {0.1, 0.1, 0.1});  // Pixel 12.
+  const ContextView view = UniformView(16, 1, 8, 0.9f);
+  RefinementOptions options;
+  options.iterations = 4;
+  options.prior_weight = 1e-3;
+  absl::StatusOr<RefinementStats> stats = RefineColours({view}, options, &scene);
+  ASSERT_TRUE(stats.ok()) << stats.status();
+  EXPECT_FLOAT_EQ(scene.features[0], 0.1f);
+  // The strong one's single fitted pixel is its centre (weight 0.95): its
+  // colour becomes about 0.9 / 0.95.
+  EXPECT_NEAR(scene.features[kReconChannels], 0.9 / 0.95, 0.01);
+  EXPECT_EQ(stats->pixels, 1);
+}
+
+TEST(ColourRefinement, RecoversTheColoursAContextImageWasRenderedFrom) {
+  // A wall of overlapping discs 10 m away, random colours; the context image
+  // is their render. Starting from grey, the fit must find the colours the
+  // image came from (the render is blurry, so the per-pixel residual alone
+  // would not).
+  const int w = 40, h = 30;
+  const ContextView geometry = UniformView(w, h, 40, 0.f);
+  GaussianScene truth = EmptyScene();
+  std::mt19937 rng(2);
+  std::uniform_real_distribution<double> u(0.1, 0.9);
+  for (int y = 0; y < h; y += 2) {
+    for (int x = 0; x < w; x += 2) {
+      const Vec3 at{(x + 1 - w / 2.0) / 40 * 10, (y + 1 - h / 2.0) / 40 * 10, 10};
+      AddGaussian(&truth, at, 0.3, 0.9, {u(rng), u(rng), u(rng)});
+    }
+  }
+  RenderOptions render_options;
+  render_options.features = false;
+  absl::StatusOr<RenderBuffers> render =
+      Render(truth, {geometry.camera, geometry.world_from_camera}, 0, {}, render_options);
+  ASSERT_TRUE(render.ok()) << render.status();
+  ContextView view = geometry;
+  view.rgb.pixels = render->rgb;
+
+  GaussianScene scene = truth;
   for (size_t i = 0; i < scene.size(); ++i)
-    for (int c = 0; c < 3; ++c) scene.features[i * kReconChannels + c] = 0.4f;
+    for (int c = 0; c < 3; ++c) scene.features[i * kReconChannels + c] = 0.5f;
+  RefinementOptions options;
+  options.iterations = 40;
+  options.prior_weight = 1e-4;
+  options.min_alpha = 0;
+  absl::StatusOr<RefinementStats> stats = RefineColours({view}, options, &scene);
+  ASSERT_TRUE(stats.ok()) << stats.status();
+  double max_error = 0;
+  for (size_t i = 0; i < scene.size(); ++i) {
+    for (int c = 0; c < 3; ++c) {
+      const size_t k = i * kReconChannels + c;
+      max_error = std::max(max_error, double(std::abs(scene.features[k] - truth.features[k])));
+    }
+  }
+  EXPECT_LT(max_error, 0.02);
+  EXPECT_GT(stats->rmse_before, 0.1);
+  EXPECT_LT(stats->rmse_after, 0.002);
+}
 
-  RefinementOptions options;  // 2 iterations, step 0.5.
-  ASSERT_TRUE(RefineColours({view}, queries, options, &scene).ok());
-  // The render of a uniform field is that colour: 0.4 -> 0.6 -> 0.7.
-  const size_t centre = 18 * 48 + 24;
-  size_t index = 0;
-  while (queries.pixels[index] != int(centre)) ++index;
-  EXPECT_NEAR(scene.features[index * kReconChannels], 0.7f, 0.02f);
-  EXPECT_NEAR(scene.features[index * kReconChannels + 3], 0.0f, 1e-6);  // Normals untouched.
-
-  QuerySet fewer = queries;
-  fewer.depths.pop_back();
-  EXPECT_FALSE(RefineColours({view}, fewer, options, &scene).ok());
+TEST(ColourRefinement, RejectsBadOptionsAndScenes) {
+  GaussianScene scene = EmptyScene();
+  AddGaussian(&scene, {0, 0, 2}, 0.01, 0.6, {0.2, 0.5, 0.9});
+  const ContextView view = UniformView(4, 4, 4, 0.5f);
+  RefinementOptions options;
+  options.prior_weight = 0;
+  EXPECT_EQ(RefineColours({view}, options, &scene).status().code(),
+            absl::StatusCode::kInvalidArgument);
+  options = RefinementOptions();
+  ContextView wrong = view;
+  wrong.rgb = ImageF(3, 4, 3);
+  EXPECT_EQ(RefineColours({wrong}, options, &scene).status().code(),
+            absl::StatusCode::kInvalidArgument);
+  scene.sh_degree = 0;
+  EXPECT_EQ(RefineColours({view}, options, &scene).status().code(),
+            absl::StatusCode::kInvalidArgument);
 }
 
 }  // namespace

@@ -143,6 +143,7 @@ absl::StatusOr<ReconResult> ReconstructInputs(const ReconInputs& inputs,
   sampling.dynamic_per_instance = stats.dynamic_per_instance;
   sampling.far_stride = options.far_stride;
   sampling.skip_covered = options.skip_covered;
+  sampling.fill_static_budget = options.fill_static_budget;
   sampling.dense = options.model == ReconModel::kPixelAligned;
   std::vector<SamplingView> sampling_views(num_views);
   for (size_t v = 0; v < num_views; ++v)
@@ -179,8 +180,10 @@ absl::StatusOr<ReconResult> ReconstructInputs(const ReconInputs& inputs,
 
   // 7. Colour refinement against the context images.
   if (options.refinement.iterations > 0) {
-    RETURN_IF_ERROR(RefineColours(views, queries, options.refinement, &result.scene));
-    clock.Done("refine");
+    ASSIGN_OR_RETURN(const RefinementStats refined,
+                     RefineColours(views, options.refinement, &result.scene));
+    clock.Done("refine", absl::StrCat(" (", refined.pairs, " pixel-Gaussian pairs, context RMSE ",
+                                      refined.rmse_before, " -> ", refined.rmse_after, ")"));
   }
   stats.total_seconds = clock.Total();
   return result;

@@ -52,6 +52,7 @@ struct ReconOptions {
   CompletionOptions completion;
   int far_stride = 3;
   bool skip_covered = true;
+  bool fill_static_budget = true;  // SamplingOptions::fill_static_budget.
   bool allow_outside_paths = false;
   // Called with a line of progress after each stage ("fuse done in 0.2 s");
   // may be null.

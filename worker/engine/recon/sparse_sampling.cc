@@ -175,19 +175,19 @@ double StaticStride(const SamplingView& sv, const SamplingOptions& options) {
   return std::max(1.0, std::sqrt(pixels / double(std::max<int64_t>(1, options.static_per_view))));
 }
 
-}  // namespace
-
-QuerySet SampleQueries(const std::vector<SamplingView>& views,
-                       const std::vector<InstanceTrack>& tracks, const SamplingOptions& options) {
-  QuerySet out;
+// Appends the static queries of `views` to `out`, with every view's grid
+// cell side multiplied by `refine`; returns how many were added.
+size_t SampleStatic(const std::vector<SamplingView>& views, const SamplingOptions& options,
+                    double refine, QuerySet* out) {
+  const size_t before = out->size();
   const Rigid identity;
   std::vector<ViewResolution> resolution(views.size());
   for (size_t v = 0; v < views.size(); ++v) {
+    const double stride = StaticStride(views[v], options);
     resolution[v] = {views[v].view->world_from_camera.Inverse(), FocalLength(views[v].view->camera),
-                     StaticStride(views[v], options)};
+                     options.dense ? stride : std::max(1.0, stride * refine)};
   }
   const bool prefer_finer = !options.dense && options.finer_view_ratio > 0;
-  // Static queries, view by view.
   absl::flat_hash_set<uint64_t> covered;
   for (size_t v = 0; v < views.size(); ++v) {
     const SamplingView& sv = views[v];
@@ -224,11 +224,28 @@ QuerySet SampleQueries(const std::vector<SamplingView>& views,
           if (covered.contains(key)) continue;
           new_keys.push_back(key);
         }
-        Emit({static_cast<int>(v), static_cast<int>(i), p, float(footprint)}, sv, 0, identity,
-             &out);
+        Emit({static_cast<int>(v), static_cast<int>(i), p, float(footprint)}, sv, 0, identity, out);
       }
     }
     covered.insert(new_keys.begin(), new_keys.end());
+  }
+  return out->size() - before;
+}
+
+}  // namespace
+
+QuerySet SampleQueries(const std::vector<SamplingView>& views,
+                       const std::vector<InstanceTrack>& tracks, const SamplingOptions& options) {
+  QuerySet out;
+  // Static queries, view by view; then, if redundancy removal left fewer
+  // than V x N_s, once more on grids refined to make up the difference.
+  const size_t kept = SampleStatic(views, options, 1.0, &out);
+  const double budget =
+      double(views.size()) * double(std::max<int64_t>(1, options.static_per_view));
+  if (options.fill_static_budget && !options.dense && kept > 0 && kept < 0.95 * budget) {
+    const double refine = std::max(options.min_refine, std::sqrt(double(kept) / budget));
+    out = QuerySet();
+    SampleStatic(views, options, refine, &out);
   }
 
   // Dynamic queries, instance by instance, in canonical frames.

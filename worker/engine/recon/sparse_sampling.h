@@ -11,7 +11,11 @@
 // the view that sees it in most detail. A point whose voxel (side: its footprint
 // rounded up to a power of two) was already filled by an earlier view is
 // skipped, so surfaces seen by several views are not sampled again. Dynamic
-// pixels are left to the instances.
+// pixels are left to the instances. Those two rules remove redundant
+// queries, not budget: the paper's query count is N = V N_s + O N_d, so when
+// they leave fewer than V N_s static queries, all views are sampled again on
+// grids refined by sqrt(kept / (V N_s)) (fill_static_budget), which spends
+// the freed budget on detail instead of dropping it.
 //
 // Dynamic: every pixel of every view that lies in instance k's box, moved to
 // the canonical frame, thinned by a uniform voxel grid whose side is found by
@@ -42,7 +46,13 @@ struct SamplingOptions {
   int far_stride = 3;             // Far-layer cells taken: one in far_stride^2.
   bool skip_covered = true;       // Skip static points whose voxel an earlier view filled.
   double finer_view_ratio = 1.2;  // Leave points to views this much finer; <= 0: off.
-  bool dense = false;             // Every valid pixel, no thinning (pixel-aligned).
+  // Keep the paper's count of static queries, V x N_s: when the two rules
+  // above leave fewer than 95 % of it, every view's cell side is multiplied
+  // by sqrt(kept / (V x N_s)) (at least min_refine) and the views are
+  // sampled again, once.
+  bool fill_static_budget = true;
+  double min_refine = 0.5;
+  bool dense = false;  // Every valid pixel, no thinning (pixel-aligned).
 };
 
 // Returns the budget `at_768x576` scaled by the pixel count relative to

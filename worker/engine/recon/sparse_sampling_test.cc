@@ -65,11 +65,36 @@ TEST(SparseSampling, SecondViewOfTheSameSurfaceAddsLittle) {
   const PlaneView b(192, 144, Rigid{});  // Same view again.
   SamplingOptions options;
   options.static_per_view = 1728;
+  options.fill_static_budget = false;  // The rule alone (the budget is tested below).
   const QuerySet once = SampleQueries({a.sampling()}, {}, options);
   const QuerySet twice = SampleQueries({a.sampling(), b.sampling()}, {}, options);
   EXPECT_LT(twice.size(), once.size() * 5 / 4);
   options.skip_covered = false;
   EXPECT_EQ(SampleQueries({a.sampling(), b.sampling()}, {}, options).size(), 2 * once.size());
+}
+
+TEST(SparseSampling, RedundancyRemovalFreesBudgetForDetail) {
+  // The same view twice, N_s = 1728 each: the second view adds little, so
+  // the views are sampled again on grids refined by sqrt(kept / 3456) and
+  // the total comes back to about V x N_s = 3456 (the second view again
+  // adds less than a quarter, as in the test above), with cells (and
+  // footprints) smaller by that factor. One view alone keeps its 1728
+  // (nothing was removed).
+  const PlaneView a(192, 144, Rigid{});
+  const PlaneView b(192, 144, Rigid{});
+  SamplingOptions options;
+  options.static_per_view = 1728;
+  const QuerySet once = SampleQueries({a.sampling()}, {}, options);
+  EXPECT_EQ(once.size(), 1728u);
+  const QuerySet twice = SampleQueries({a.sampling(), b.sampling()}, {}, options);
+  EXPECT_GT(twice.size(), 3456u * 85 / 100);
+  EXPECT_LT(twice.size(), 3456u * 125 / 100);
+  // Cell side 4 px at 10 m and 192 px across 10 m: footprint 0.208 m before,
+  // about 0.208 x sqrt(0.5) after.
+  EXPECT_NEAR(once.footprints[0], 4 * 10.0 / 192, 1e-4);
+  EXPECT_LT(twice.footprints[0], 0.8 * once.footprints[0]);
+  options.fill_static_budget = false;
+  EXPECT_LT(SampleQueries({a.sampling(), b.sampling()}, {}, options).size(), 1728u * 5 / 4);
 }
 
 TEST(SparseSampling, DenseModeTakesEveryValidPixel) {
@@ -132,6 +157,7 @@ TEST(SparseSampling, SurfacesAreLeftToTheViewThatSeesThemClosest) {
   far_view.lifted = LiftView(far_view.view, far_view.depth);
   SamplingOptions options;
   options.static_per_view = 1728;
+  options.fill_static_budget = false;  // The rule alone.
   // The far view first: without the rule it would claim the shared area.
   const QuerySet q = SampleQueries({far_view.sampling(), near_view.sampling()}, {}, options);
   int far_inside = 0, far_outside = 0, near_count = 0;

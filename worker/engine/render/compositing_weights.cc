@@ -1,0 +1,428 @@
+// Recording the compositing weights of one render (the colour-linear map).
+//
+// The projection repeats rasterizer.cc's ProjectGaussian step by step (same
+// float operations, so the same centres, conics and extents); the compositing
+// repeats raster_tile_kernel.h's per-row spans and tests in scalar form.
+#include "worker/engine/render/compositing_weights.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+
+#include "absl/strings/str_cat.h"
+
+namespace pf {
+namespace {
+
+constexpr int kTile = 16;
+constexpr float kLowPass = 0.3f;
+constexpr float kExtentMargin = 1.001f;
+constexpr float kJacobianGuard = 0.15f;
+constexpr float kMinAlpha = 1.f / 255.f;
+constexpr float kMaxAlpha = 0.99f;
+constexpr float kMinTransmittance = 1e-4f;
+
+// A projected Gaussian: what the compositing reads.
+struct Splat {
+  float mx, my;      // Pixel-space centre.
+  float ca, cb, cc;  // Conic.
+  float opacity;     // Time-faded.
+  float span_d2;     // d^2 bound of the spans.
+  float ext_x, ext_y;
+  float depth;
+};
+
+// Camera and owner poses of one view, in float.
+struct ViewFrame {
+  int width = 0, height = 0;
+  const CameraModel* model = nullptr;
+  float fx = 0, fy = 0, cx = 0, cy = 0;
+  float x_lo = 0, x_hi = 0, y_lo = 0, y_hi = 0;
+  float near_plane = 0.01f;
+  float render_time_s = 0;
+  std::vector<float> camera_from_owner;  // [K+1, 12]: row-major r, then t.
+};
+
+bool ProjectSplat(const GaussianScene& scene, const ViewFrame& frame, size_t i, Splat* out) {
+  float opacity = 1.f / (1.f + std::exp(-scene.opacity_logits[i]));
+  const float sigma = scene.lifespans[i];
+  if (!std::isinf(sigma)) {
+    const float u = (frame.render_time_s - scene.times[i]) / (sigma + 1.f);
+    opacity *= std::exp(-0.5f * u * u);
+  }
+  if (!(opacity >= kMinAlpha)) return false;
+  const float* r = &frame.camera_from_owner[12 * scene.owners[i]];
+  const float* t = r + 9;
+  const float* m = &scene.means[3 * i];
+  const float px = r[0] * m[0] + r[1] * m[1] + r[2] * m[2] + t[0];
+  const float py = r[3] * m[0] + r[4] * m[1] + r[5] * m[2] + t[1];
+  const float pz = r[6] * m[0] + r[7] * m[1] + r[8] * m[2] + t[2];
+  if (!(pz >= frame.near_plane)) return false;
+
+  const float inv_z = 1.f / pz;
+  const float xn = px * inv_z, yn = py * inv_z;
+  const float tx = std::clamp(xn, frame.x_lo, frame.x_hi);
+  const float ty = std::clamp(yn, frame.y_lo, frame.y_hi);
+  float mx, my;
+  float d00 = frame.fx, d01 = 0, d10 = 0, d11 = frame.fy;
+  const CameraModel& model = *frame.model;
+  if (!model.has_distortion()) {
+    mx = frame.fx * xn + frame.cx;
+    my = frame.fy * yn + frame.cy;
+  } else {
+    double u, v;
+    if (!model.Project({px, py, pz}, &u, &v)) return false;
+    mx = static_cast<float>(u);
+    my = static_cast<float>(v);
+    constexpr double h = 1e-6;
+    double ax, ay, bx, by, cxp, cyp, dx, dy;
+    model.Distort(tx + h, ty, &ax, &ay);
+    model.Distort(tx - h, ty, &bx, &by);
+    model.Distort(tx, ty + h, &cxp, &cyp);
+    model.Distort(tx, ty - h, &dx, &dy);
+    d00 = static_cast<float>(model.fx() * (ax - bx) / (2 * h));
+    d10 = static_cast<float>(model.fy() * (ay - by) / (2 * h));
+    d01 = static_cast<float>(model.fx() * (cxp - dx) / (2 * h));
+    d11 = static_cast<float>(model.fy() * (cyp - dy) / (2 * h));
+  }
+  const float j00 = d00 * inv_z, j01 = d01 * inv_z, j02 = -(d00 * tx + d01 * ty) * inv_z;
+  const float j10 = d10 * inv_z, j11 = d11 * inv_z, j12 = -(d10 * tx + d11 * ty) * inv_z;
+  const float a00 = j00 * r[0] + j01 * r[3] + j02 * r[6];
+  const float a01 = j00 * r[1] + j01 * r[4] + j02 * r[7];
+  const float a02 = j00 * r[2] + j01 * r[5] + j02 * r[8];
+  const float a10 = j10 * r[0] + j11 * r[3] + j12 * r[6];
+  const float a11 = j10 * r[1] + j11 * r[4] + j12 * r[7];
+  const float a12 = j10 * r[2] + j11 * r[5] + j12 * r[8];
+  const float* q = &scene.rotations[4 * i];
+  const float qn = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3];
+  if (!(qn > 0)) return false;
+  const float s = 1.f / std::sqrt(qn);
+  const float w = q[0] * s, x = q[1] * s, y = q[2] * s, z = q[3] * s;
+  const float g00 = 1 - 2 * (y * y + z * z), g01 = 2 * (x * y - w * z), g02 = 2 * (x * z + w * y);
+  const float g10 = 2 * (x * y + w * z), g11 = 1 - 2 * (x * x + z * z), g12 = 2 * (y * z - w * x);
+  const float g20 = 2 * (x * z - w * y), g21 = 2 * (y * z + w * x), g22 = 1 - 2 * (x * x + y * y);
+  const float* ls = &scene.log_scales[3 * i];
+  const float s0 = std::exp(ls[0]), s1 = std::exp(ls[1]), s2 = std::exp(ls[2]);
+  const float b00 = (a00 * g00 + a01 * g10 + a02 * g20) * s0;
+  const float b01 = (a00 * g01 + a01 * g11 + a02 * g21) * s1;
+  const float b02 = (a00 * g02 + a01 * g12 + a02 * g22) * s2;
+  const float b10 = (a10 * g00 + a11 * g10 + a12 * g20) * s0;
+  const float b11 = (a10 * g01 + a11 * g11 + a12 * g21) * s1;
+  const float b12 = (a10 * g02 + a11 * g12 + a12 * g22) * s2;
+  const float cov_xx = b00 * b00 + b01 * b01 + b02 * b02 + kLowPass;
+  const float cov_xy = b00 * b10 + b01 * b11 + b02 * b12;
+  const float cov_yy = b10 * b10 + b11 * b11 + b12 * b12 + kLowPass;
+  const float det = cov_xx * cov_yy - cov_xy * cov_xy;
+  if (!(det > 0)) return false;
+  const float inv_det = 1.f / det;
+  const float d2_max = 2.f * std::log(opacity * 255.f) * kExtentMargin + 1e-4f;
+  const float ext_x = std::sqrt(d2_max * cov_xx), ext_y = std::sqrt(d2_max * cov_yy);
+  if (mx + ext_x < 0 || mx - ext_x > frame.width || my + ext_y < 0 || my - ext_y > frame.height ||
+      !std::isfinite(mx) || !std::isfinite(my)) {
+    return false;
+  }
+  *out = {mx,    my, cov_yy * inv_det, -cov_xy * inv_det, cov_xx * inv_det, opacity, d2_max, ext_x,
+          ext_y, pz};
+  return true;
+}
+
+// Returns the smallest d^2 of the conic over the rectangle of pixel centres
+// [x0, x1] x [y0, y1] (offsets from the Gaussian's centre), as the
+// rasterizer's binning does.
+float MinD2OverRect(float ca, float cb, float cc, float x0, float x1, float y0, float y1) {
+  if (x0 <= 0 && x1 >= 0 && y0 <= 0 && y1 >= 0) return 0;
+  auto edge_x = [&](float dx) {
+    const float dy = std::clamp(-cb * dx / cc, y0, y1);
+    return ca * dx * dx + 2 * cb * dx * dy + cc * dy * dy;
+  };
+  auto edge_y = [&](float dy) {
+    const float dx = std::clamp(-cb * dy / ca, x0, x1);
+    return ca * dx * dx + 2 * cb * dx * dy + cc * dy * dy;
+  };
+  return std::min(std::min(edge_x(x0), edge_x(x1)), std::min(edge_y(y0), edge_y(y1)));
+}
+
+absl::Status CheckScene(const GaussianScene& scene) {
+  const size_t n = scene.size();
+  if (n >= (size_t{1} << 32)) return absl::InvalidArgumentError("scene: more than 2^32 Gaussians");
+  if (scene.means.size() != 3 * n || scene.rotations.size() != 4 * n ||
+      scene.log_scales.size() != 3 * n || scene.times.size() != n || scene.lifespans.size() != n ||
+      scene.owners.size() != n) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("scene: per-Gaussian arrays disagree with ", n, " opacities"));
+  }
+  for (size_t i = 0; i < n; ++i) {
+    if (scene.owners[i] > scene.instances.size()) {
+      return absl::InvalidArgumentError(absl::StrCat("scene.owners[", i, "]: ", scene.owners[i],
+                                                     " but the scene has ", scene.instances.size(),
+                                                     " instances"));
+    }
+  }
+  return absl::OkStatus();
+}
+
+}  // namespace
+
+absl::StatusOr<CompositingWeights> ComputeCompositingWeights(const GaussianScene& scene,
+                                                             const RenderCamera& camera,
+                                                             int64_t timestamp_us,
+                                                             const WeightOptions& options) {
+  const CameraModel& model = camera.model;
+  if (model.width() <= 0 || model.height() <= 0) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("camera: image size ", model.width(), "x", model.height(), " has no pixels"));
+  }
+  if (absl::Status status = CheckScene(scene); !status.ok()) return status;
+
+  ViewFrame frame;
+  frame.width = model.width();
+  frame.height = model.height();
+  frame.model = &model;
+  frame.fx = static_cast<float>(model.fx());
+  frame.fy = static_cast<float>(model.fy());
+  frame.cx = static_cast<float>(model.cx());
+  frame.cy = static_cast<float>(model.cy());
+  if (!model.has_distortion()) {
+    frame.x_lo = static_cast<float>((-kJacobianGuard * frame.width - model.cx()) / model.fx());
+    frame.x_hi = static_cast<float>(((1 + kJacobianGuard) * frame.width - model.cx()) / model.fx());
+    frame.y_lo = static_cast<float>((-kJacobianGuard * frame.height - model.cy()) / model.fy());
+    frame.y_hi =
+        static_cast<float>(((1 + kJacobianGuard) * frame.height - model.cy()) / model.fy());
+  } else {
+    const float r = static_cast<float>(std::min(model.max_normalized_radius(), 1e3));
+    frame.x_lo = frame.y_lo = -r;
+    frame.x_hi = frame.y_hi = r;
+  }
+  frame.near_plane = options.near_plane;
+  frame.render_time_s =
+      static_cast<float>(static_cast<double>(timestamp_us - scene.time_origin_us) * 1e-6);
+  const size_t num_owners = scene.instances.size() + 1;
+  const Rigid camera_from_world = camera.world_from_camera.Inverse();
+  frame.camera_from_owner.resize(12 * num_owners);
+  for (size_t k = 0; k < num_owners; ++k) {
+    const Rigid world_from_owner =
+        k == 0 ? Rigid{} : InstancePoseAt(scene.instances[k - 1].boxes, timestamp_us);
+    const Rigid x = camera_from_world * world_from_owner;
+    float* f = &frame.camera_from_owner[12 * k];
+    for (int a = 0; a < 3; ++a) {
+      for (int b = 0; b < 3; ++b) f[3 * a + b] = static_cast<float>(x.rotation.m[a][b]);
+      f[9 + a] = static_cast<float>(x.translation[a]);
+    }
+  }
+
+  // Project; order the visible Gaussians by (depth, index) as the
+  // rasterizer's stable sort does, and keep them in that order (rank k).
+  const size_t n = scene.size();
+  std::vector<Splat> visible;
+  std::vector<uint32_t> visible_index;
+  std::vector<uint64_t> keys;
+  for (size_t i = 0; i < n; ++i) {
+    Splat splat;
+    if (!ProjectSplat(scene, frame, i, &splat)) continue;
+    uint32_t depth_bits;
+    std::memcpy(&depth_bits, &splat.depth, sizeof(depth_bits));
+    keys.push_back((static_cast<uint64_t>(depth_bits) << 32) | visible.size());
+    visible.push_back(splat);
+    visible_index.push_back(static_cast<uint32_t>(i));
+  }
+  std::sort(keys.begin(), keys.end());
+  std::vector<Splat> splats(keys.size());
+  std::vector<uint32_t> scene_index(keys.size());
+  for (size_t k = 0; k < keys.size(); ++k) {
+    splats[k] = visible[static_cast<uint32_t>(keys[k])];
+    scene_index[k] = visible_index[static_cast<uint32_t>(keys[k])];
+  }
+  visible = std::vector<Splat>();
+
+  // Bin into the tiles the ellipse touches (the rasterizer's test).
+  const int tiles_x = (frame.width + kTile - 1) / kTile;
+  const int tiles_y = (frame.height + kTile - 1) / kTile;
+  const size_t num_tiles = static_cast<size_t>(tiles_x) * tiles_y;
+  std::vector<uint64_t> tile_begin(num_tiles + 1, 0);
+  auto for_each_tile = [&](const Splat& g, auto&& body) {
+    const int px0 = std::max(0, static_cast<int>(std::ceil(g.mx - g.ext_x - 0.5f)));
+    const int px1 = std::min(frame.width - 1, static_cast<int>(std::floor(g.mx + g.ext_x - 0.5f)));
+    const int py0 = std::max(0, static_cast<int>(std::ceil(g.my - g.ext_y - 0.5f)));
+    const int py1 = std::min(frame.height - 1, static_cast<int>(std::floor(g.my + g.ext_y - 0.5f)));
+    if (px0 > px1 || py0 > py1) return;
+    const bool single = px0 / kTile == px1 / kTile && py0 / kTile == py1 / kTile;
+    for (int ty = py0 / kTile; ty <= py1 / kTile; ++ty) {
+      const float y0 = std::max(ty * kTile, py0) + 0.5f - g.my;
+      const float y1 = std::min(ty * kTile + kTile - 1, py1) + 0.5f - g.my;
+      for (int tx = px0 / kTile; tx <= px1 / kTile; ++tx) {
+        if (!single) {
+          const float x0 = std::max(tx * kTile, px0) + 0.5f - g.mx;
+          const float x1 = std::min(tx * kTile + kTile - 1, px1) + 0.5f - g.mx;
+          if (MinD2OverRect(g.ca, g.cb, g.cc, x0, x1, y0, y1) > g.span_d2) continue;
+        }
+        body(static_cast<size_t>(ty) * tiles_x + tx);
+      }
+    }
+  };
+  for (const Splat& splat : splats) for_each_tile(splat, [&](size_t t) { ++tile_begin[t + 1]; });
+  for (size_t t = 0; t < num_tiles; ++t) tile_begin[t + 1] += tile_begin[t];
+  std::vector<uint32_t> tile_lists(tile_begin[num_tiles]);
+  {
+    std::vector<uint64_t> cursor(tile_begin.begin(), tile_begin.end() - 1);
+    for (uint32_t k = 0; k < splats.size(); ++k)
+      for_each_tile(splats[k], [&](size_t t) { tile_lists[cursor[t]++] = k; });
+  }
+
+  // Composite tile by tile; each tile's entries are regrouped by pixel.
+  CompositingWeights out;
+  out.width = frame.width;
+  out.height = frame.height;
+  const size_t pixels = static_cast<size_t>(frame.width) * frame.height;
+  out.pixel_begin.assign(pixels, 0);
+  out.pixel_count.assign(pixels, 0);
+  out.alpha.assign(pixels, 0.f);
+  std::vector<uint32_t> ranked;  // Depth rank per entry, made local below.
+  struct Entry {
+    uint32_t gaussian;  // Depth rank.
+    float weight;
+    uint8_t pixel;
+  };
+  std::vector<Entry> tile_entries;
+  float trans[kTile * kTile];
+  uint32_t counts[kTile * kTile];
+  for (int ty = 0; ty < tiles_y; ++ty) {
+    for (int tx = 0; tx < tiles_x; ++tx) {
+      const size_t t = static_cast<size_t>(ty) * tiles_x + tx;
+      const int x_begin = tx * kTile, y_begin = ty * kTile;
+      const int x_end = std::min(x_begin + kTile, frame.width);
+      const int y_end = std::min(y_begin + kTile, frame.height);
+      std::fill(trans, trans + kTile * kTile, 1.f);
+      tile_entries.clear();
+      int active = (x_end - x_begin) * (y_end - y_begin);  // Pixels not done yet.
+      for (uint64_t k = tile_begin[t]; k < tile_begin[t + 1] && active > 0; ++k) {
+        const uint32_t i = tile_lists[k];
+        const Splat& g = splats[i];
+        const float det = g.ca * g.cc - g.cb * g.cb;
+        const float inv_ca = 1.f / g.ca;
+        const int row0 = std::max(y_begin, static_cast<int>(std::ceil(g.my - g.ext_y - 0.5f)));
+        const int row1 = std::min(y_end - 1, static_cast<int>(std::floor(g.my + g.ext_y - 0.5f)));
+        for (int row = row0; row <= row1; ++row) {
+          const float dy = row + 0.5f - g.my;
+          const float disc = g.ca * g.span_d2 - det * dy * dy;
+          if (!(disc >= 0.f)) continue;
+          const float half = std::sqrt(disc) * inv_ca;
+          const float mid = g.mx - 0.5f - g.cb * dy * inv_ca;
+          const int col0 =
+              std::max(x_begin, static_cast<int>(std::ceil(std::max(mid - half, -1e9f))));
+          const int col1 =
+              std::min(x_end - 1, static_cast<int>(std::floor(std::min(mid + half, 1e9f))));
+          const float row_term = g.cc * dy * dy;
+          const float cross = 2.f * g.cb * dy;
+          for (int col = col0; col <= col1; ++col) {
+            const int p = (row - y_begin) * kTile + (col - x_begin);
+            const float tp = trans[p];
+            if (!(tp >= kMinTransmittance)) continue;
+            const float dx = col + 0.5f - g.mx;
+            const float d2 = g.ca * dx * dx + cross * dx + row_term;
+            const float alpha = std::min(kMaxAlpha, g.opacity * std::exp(-0.5f * d2));
+            if (!(alpha >= kMinAlpha)) continue;
+            const float weight = alpha * tp;
+            if (weight >= options.min_weight) {
+              tile_entries.push_back({i, weight, static_cast<uint8_t>(p)});
+            }
+            trans[p] = tp * (1.f - alpha);
+            active -= trans[p] < kMinTransmittance;
+          }
+        }
+      }
+      // Regroup by pixel (stable: front to back within a pixel).
+      std::fill(counts, counts + kTile * kTile, 0u);
+      for (const Entry& e : tile_entries) ++counts[e.pixel];
+      uint64_t start = ranked.size();
+      uint64_t cursor[kTile * kTile];
+      for (int p = 0; p < kTile * kTile; ++p) {
+        cursor[p] = start;
+        start += counts[p];
+        const int x = x_begin + p % kTile, y = y_begin + p / kTile;
+        if (x < x_end && y < y_end) {
+          const size_t pixel = static_cast<size_t>(y) * frame.width + x;
+          out.pixel_begin[pixel] = cursor[p];
+          out.pixel_count[pixel] = counts[p];
+          out.alpha[pixel] = 1.f - trans[p];
+        }
+      }
+      ranked.resize(start);
+      out.weights.resize(start);
+      for (const Entry& e : tile_entries) {
+        const uint64_t slot = cursor[e.pixel]++;
+        ranked[slot] = e.gaussian;
+        out.weights[slot] = e.weight;
+      }
+    }
+  }
+
+  // Local indices: the contributing Gaussians in ascending scene order.
+  std::vector<uint32_t> to_local(n, UINT32_MAX);
+  for (uint32_t k : ranked) to_local[scene_index[k]] = 0;
+  for (size_t i = 0; i < n; ++i) {
+    if (to_local[i] == 0) {
+      to_local[i] = static_cast<uint32_t>(out.gaussians.size());
+      out.gaussians.push_back(static_cast<uint32_t>(i));
+    }
+  }
+  out.local.resize(ranked.size());
+  for (size_t e = 0; e < ranked.size(); ++e) out.local[e] = to_local[scene_index[ranked[e]]];
+  return out;
+}
+
+namespace {
+
+// The two products, with the channel count fixed at compile time when it is
+// the common 3 (kChannels = 0: `channels` at run time).
+template <int kChannels>
+void CompositeImpl(const CompositingWeights& a, const float* colours, int channels, float* image) {
+  if constexpr (kChannels > 0) channels = kChannels;
+  const size_t pixels = a.pixel_begin.size();
+  for (size_t p = 0; p < pixels; ++p) {
+    float* dst = image + p * channels;
+    for (int c = 0; c < channels; ++c) dst[c] = 0.f;
+    const uint64_t begin = a.pixel_begin[p], end = begin + a.pixel_count[p];
+    for (uint64_t e = begin; e < end; ++e) {
+      const float w = a.weights[e];
+      const float* src = colours + static_cast<size_t>(a.local[e]) * channels;
+      for (int c = 0; c < channels; ++c) dst[c] += w * src[c];
+    }
+  }
+}
+
+template <int kChannels>
+void AccumulateTransposedImpl(const CompositingWeights& a, const float* residual, int channels,
+                              float* out) {
+  if constexpr (kChannels > 0) channels = kChannels;
+  const size_t pixels = a.pixel_begin.size();
+  for (size_t p = 0; p < pixels; ++p) {
+    const float* r = residual + p * channels;
+    const uint64_t begin = a.pixel_begin[p], end = begin + a.pixel_count[p];
+    for (uint64_t e = begin; e < end; ++e) {
+      const float w = a.weights[e];
+      float* dst = out + static_cast<size_t>(a.local[e]) * channels;
+      for (int c = 0; c < channels; ++c) dst[c] += w * r[c];
+    }
+  }
+}
+
+}  // namespace
+
+void Composite(const CompositingWeights& a, const float* colours, int channels, float* image) {
+  if (channels == 3) {
+    CompositeImpl<3>(a, colours, 3, image);
+  } else {
+    CompositeImpl<0>(a, colours, channels, image);
+  }
+}
+
+void AccumulateTransposed(const CompositingWeights& a, const float* residual, int channels,
+                          float* out) {
+  if (channels == 3) {
+    AccumulateTransposedImpl<3>(a, residual, 3, out);
+  } else {
+    AccumulateTransposedImpl<0>(a, residual, channels, out);
+  }
+}
+
+}  // namespace pf
