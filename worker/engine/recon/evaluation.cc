@@ -30,6 +30,14 @@ nlohmann::json OptionalNumber(const std::optional<double>& value) {
   return value.has_value() && std::isfinite(*value) ? nlohmann::json(*value) : nlohmann::json();
 }
 
+// The figures a TARGET frame and an extra view share, in report order.
+void AddFigures(const FrameMetrics& f, nlohmann::ordered_json* out) {
+  (*out)["psnr"] = f.psnr;
+  (*out)["ssim"] = f.ssim;
+  (*out)["depthRmse"] = OptionalNumber(f.depth_rmse);
+  (*out)["dynamicPsnr"] = OptionalNumber(f.dynamic_psnr);
+}
+
 nlohmann::ordered_json MeanJson(const MeanMetrics& mean) {
   return {{"psnr", OptionalNumber(mean.psnr)},
           {"ssim", OptionalNumber(mean.ssim)},
@@ -359,10 +367,7 @@ std::string EvalReportJson(const EvalReport& report) {
     nlohmann::ordered_json frame;
     frame["camera"] = f.camera;
     frame["timestampUs"] = f.timestamp_us;
-    frame["psnr"] = f.psnr;
-    frame["ssim"] = f.ssim;
-    frame["depthRmse"] = OptionalNumber(f.depth_rmse);
-    frame["dynamicPsnr"] = OptionalNumber(f.dynamic_psnr);
+    AddFigures(f, &frame);
     frame["dynamicPixels"] = f.dynamic_pixels;
     frame["holeFraction"] = f.hole_fraction;
     frame["contactSheet"] = f.contact_sheet;
@@ -377,10 +382,7 @@ std::string EvalReportJson(const EvalReport& report) {
       view["camera"] = v.camera;
       view["timestampUs"] = v.timestamp_us;
       if (v.shift_m.has_value()) view["shiftM"] = *v.shift_m;
-      view["psnr"] = v.psnr;
-      view["ssim"] = v.ssim;
-      view["depthRmse"] = OptionalNumber(v.depth_rmse);
-      view["dynamicPsnr"] = OptionalNumber(v.dynamic_psnr);
+      AddFigures(v, &view);
       view["holeFraction"] = v.hole_fraction;
       view["contactSheet"] = v.contact_sheet;
       views.push_back(std::move(view));

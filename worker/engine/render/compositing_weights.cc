@@ -1,8 +1,8 @@
 // Recording the compositing weights of one render (the colour-linear map).
 //
-// The projection repeats rasterizer.cc's ProjectGaussian step by step (same
-// float operations, so the same centres, conics and extents); the compositing
-// repeats raster_tile_kernel.h's per-row spans and tests in scalar form.
+// The projection is the rasterizer's own (splat_projection.h: the same
+// centres, conics and extents); the compositing repeats
+// raster_tile_kernel.h's per-row spans and tests in scalar form.
 #include "worker/engine/render/compositing_weights.h"
 
 #include <algorithm>
@@ -10,136 +10,27 @@
 #include <cstring>
 
 #include "absl/strings/str_cat.h"
+#include "worker/engine/render/splat_projection.h"
 
 namespace pf {
 namespace {
 
-constexpr int kTile = 16;
-constexpr float kLowPass = 0.3f;
-constexpr float kExtentMargin = 1.001f;
-constexpr float kJacobianGuard = 0.15f;
-constexpr float kMinAlpha = 1.f / 255.f;
-constexpr float kMaxAlpha = 0.99f;
-constexpr float kMinTransmittance = 1e-4f;
+using raster::kMaxAlpha;
+using raster::kMinAlpha;
+using raster::kMinTransmittance;
+using raster::kTile;
 
-// A projected Gaussian: what the compositing reads.
-struct Splat {
-  float mx, my;      // Pixel-space centre.
-  float ca, cb, cc;  // Conic.
-  float opacity;     // Time-faded.
-  float span_d2;     // d^2 bound of the spans.
-  float ext_x, ext_y;
-  float depth;
-};
+using Splat = raster::SplatGeometry;
 
-// Camera and owner poses of one view, in float.
-struct ViewFrame {
-  int width = 0, height = 0;
-  const CameraModel* model = nullptr;
-  float fx = 0, fy = 0, cx = 0, cy = 0;
-  float x_lo = 0, x_hi = 0, y_lo = 0, y_hi = 0;
-  float near_plane = 0.01f;
-  float render_time_s = 0;
-  std::vector<float> camera_from_owner;  // [K+1, 12]: row-major r, then t.
+// The camera as the projection reads it, and per owner (0 background, k
+// instance k) the camera-from-owner transform: row-major r, then t.
+struct ViewFrame : raster::ProjectionCamera {
+  std::vector<float> camera_from_owner;  // [K+1, 12]
 };
 
 bool ProjectSplat(const GaussianScene& scene, const ViewFrame& frame, size_t i, Splat* out) {
-  float opacity = 1.f / (1.f + std::exp(-scene.opacity_logits[i]));
-  const float sigma = scene.lifespans[i];
-  if (!std::isinf(sigma)) {
-    const float u = (frame.render_time_s - scene.times[i]) / (sigma + 1.f);
-    opacity *= std::exp(-0.5f * u * u);
-  }
-  if (!(opacity >= kMinAlpha)) return false;
   const float* r = &frame.camera_from_owner[12 * scene.owners[i]];
-  const float* t = r + 9;
-  const float* m = &scene.means[3 * i];
-  const float px = r[0] * m[0] + r[1] * m[1] + r[2] * m[2] + t[0];
-  const float py = r[3] * m[0] + r[4] * m[1] + r[5] * m[2] + t[1];
-  const float pz = r[6] * m[0] + r[7] * m[1] + r[8] * m[2] + t[2];
-  if (!(pz >= frame.near_plane)) return false;
-
-  const float inv_z = 1.f / pz;
-  const float xn = px * inv_z, yn = py * inv_z;
-  const float tx = std::clamp(xn, frame.x_lo, frame.x_hi);
-  const float ty = std::clamp(yn, frame.y_lo, frame.y_hi);
-  float mx, my;
-  float d00 = frame.fx, d01 = 0, d10 = 0, d11 = frame.fy;
-  const CameraModel& model = *frame.model;
-  if (!model.has_distortion()) {
-    mx = frame.fx * xn + frame.cx;
-    my = frame.fy * yn + frame.cy;
-  } else {
-    double u, v;
-    if (!model.Project({px, py, pz}, &u, &v)) return false;
-    mx = static_cast<float>(u);
-    my = static_cast<float>(v);
-    constexpr double h = 1e-6;
-    double ax, ay, bx, by, cxp, cyp, dx, dy;
-    model.Distort(tx + h, ty, &ax, &ay);
-    model.Distort(tx - h, ty, &bx, &by);
-    model.Distort(tx, ty + h, &cxp, &cyp);
-    model.Distort(tx, ty - h, &dx, &dy);
-    d00 = static_cast<float>(model.fx() * (ax - bx) / (2 * h));
-    d10 = static_cast<float>(model.fy() * (ay - by) / (2 * h));
-    d01 = static_cast<float>(model.fx() * (cxp - dx) / (2 * h));
-    d11 = static_cast<float>(model.fy() * (cyp - dy) / (2 * h));
-  }
-  const float j00 = d00 * inv_z, j01 = d01 * inv_z, j02 = -(d00 * tx + d01 * ty) * inv_z;
-  const float j10 = d10 * inv_z, j11 = d11 * inv_z, j12 = -(d10 * tx + d11 * ty) * inv_z;
-  const float a00 = j00 * r[0] + j01 * r[3] + j02 * r[6];
-  const float a01 = j00 * r[1] + j01 * r[4] + j02 * r[7];
-  const float a02 = j00 * r[2] + j01 * r[5] + j02 * r[8];
-  const float a10 = j10 * r[0] + j11 * r[3] + j12 * r[6];
-  const float a11 = j10 * r[1] + j11 * r[4] + j12 * r[7];
-  const float a12 = j10 * r[2] + j11 * r[5] + j12 * r[8];
-  const float* q = &scene.rotations[4 * i];
-  const float qn = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3];
-  if (!(qn > 0)) return false;
-  const float s = 1.f / std::sqrt(qn);
-  const float w = q[0] * s, x = q[1] * s, y = q[2] * s, z = q[3] * s;
-  const float g00 = 1 - 2 * (y * y + z * z), g01 = 2 * (x * y - w * z), g02 = 2 * (x * z + w * y);
-  const float g10 = 2 * (x * y + w * z), g11 = 1 - 2 * (x * x + z * z), g12 = 2 * (y * z - w * x);
-  const float g20 = 2 * (x * z - w * y), g21 = 2 * (y * z + w * x), g22 = 1 - 2 * (x * x + y * y);
-  const float* ls = &scene.log_scales[3 * i];
-  const float s0 = std::exp(ls[0]), s1 = std::exp(ls[1]), s2 = std::exp(ls[2]);
-  const float b00 = (a00 * g00 + a01 * g10 + a02 * g20) * s0;
-  const float b01 = (a00 * g01 + a01 * g11 + a02 * g21) * s1;
-  const float b02 = (a00 * g02 + a01 * g12 + a02 * g22) * s2;
-  const float b10 = (a10 * g00 + a11 * g10 + a12 * g20) * s0;
-  const float b11 = (a10 * g01 + a11 * g11 + a12 * g21) * s1;
-  const float b12 = (a10 * g02 + a11 * g12 + a12 * g22) * s2;
-  const float cov_xx = b00 * b00 + b01 * b01 + b02 * b02 + kLowPass;
-  const float cov_xy = b00 * b10 + b01 * b11 + b02 * b12;
-  const float cov_yy = b10 * b10 + b11 * b11 + b12 * b12 + kLowPass;
-  const float det = cov_xx * cov_yy - cov_xy * cov_xy;
-  if (!(det > 0)) return false;
-  const float inv_det = 1.f / det;
-  const float d2_max = 2.f * std::log(opacity * 255.f) * kExtentMargin + 1e-4f;
-  const float ext_x = std::sqrt(d2_max * cov_xx), ext_y = std::sqrt(d2_max * cov_yy);
-  if (mx + ext_x < 0 || mx - ext_x > frame.width || my + ext_y < 0 || my - ext_y > frame.height ||
-      !std::isfinite(mx) || !std::isfinite(my)) {
-    return false;
-  }
-  *out = {mx,    my, cov_yy * inv_det, -cov_xy * inv_det, cov_xx * inv_det, opacity, d2_max, ext_x,
-          ext_y, pz};
-  return true;
-}
-
-// Returns the smallest d^2 of the conic over the rectangle of pixel centres
-// [x0, x1] x [y0, y1] (offsets from the Gaussian's centre), as the
-// rasterizer's binning does.
-float MinD2OverRect(float ca, float cb, float cc, float x0, float x1, float y0, float y1) {
-  if (x0 <= 0 && x1 >= 0 && y0 <= 0 && y1 >= 0) return 0;
-  auto edge_x = [&](float dx) {
-    const float dy = std::clamp(-cb * dx / cc, y0, y1);
-    return ca * dx * dx + 2 * cb * dx * dy + cc * dy * dy;
-  };
-  auto edge_y = [&](float dy) {
-    const float dx = std::clamp(-cb * dy / ca, x0, x1);
-    return ca * dx * dx + 2 * cb * dx * dy + cc * dy * dy;
-  };
-  return std::min(std::min(edge_x(x0), edge_x(x1)), std::min(edge_y(y0), edge_y(y1)));
+  return raster::ProjectSplatGeometry(scene, i, frame, r, r + 9, out);
 }
 
 absl::Status CheckScene(const GaussianScene& scene) {
@@ -175,27 +66,9 @@ absl::StatusOr<CompositingWeights> ComputeCompositingWeights(const GaussianScene
   if (absl::Status status = CheckScene(scene); !status.ok()) return status;
 
   ViewFrame frame;
-  frame.width = model.width();
-  frame.height = model.height();
-  frame.model = &model;
-  frame.fx = static_cast<float>(model.fx());
-  frame.fy = static_cast<float>(model.fy());
-  frame.cx = static_cast<float>(model.cx());
-  frame.cy = static_cast<float>(model.cy());
-  if (!model.has_distortion()) {
-    frame.x_lo = static_cast<float>((-kJacobianGuard * frame.width - model.cx()) / model.fx());
-    frame.x_hi = static_cast<float>(((1 + kJacobianGuard) * frame.width - model.cx()) / model.fx());
-    frame.y_lo = static_cast<float>((-kJacobianGuard * frame.height - model.cy()) / model.fy());
-    frame.y_hi =
-        static_cast<float>(((1 + kJacobianGuard) * frame.height - model.cy()) / model.fy());
-  } else {
-    const float r = static_cast<float>(std::min(model.max_normalized_radius(), 1e3));
-    frame.x_lo = frame.y_lo = -r;
-    frame.x_hi = frame.y_hi = r;
-  }
-  frame.near_plane = options.near_plane;
-  frame.render_time_s =
-      static_cast<float>(static_cast<double>(timestamp_us - scene.time_origin_us) * 1e-6);
+  raster::SetUpProjectionCamera(
+      model, options.near_plane,
+      static_cast<float>(static_cast<double>(timestamp_us - scene.time_origin_us) * 1e-6), &frame);
   const size_t num_owners = scene.instances.size() + 1;
   const Rigid camera_from_world = camera.world_from_camera.Inverse();
   frame.camera_from_owner.resize(12 * num_owners);
@@ -253,7 +126,7 @@ absl::StatusOr<CompositingWeights> ComputeCompositingWeights(const GaussianScene
         if (!single) {
           const float x0 = std::max(tx * kTile, px0) + 0.5f - g.mx;
           const float x1 = std::min(tx * kTile + kTile - 1, px1) + 0.5f - g.mx;
-          if (MinD2OverRect(g.ca, g.cb, g.cc, x0, x1, y0, y1) > g.span_d2) continue;
+          if (raster::MinD2OverRect(g.ca, g.cb, g.cc, x0, x1, y0, y1) > g.span_d2) continue;
         }
         body(static_cast<size_t>(ty) * tiles_x + tx);
       }

@@ -1,0 +1,208 @@
+// The projection of one Gaussian into a view, shared by Render()
+// (rasterizer.cc) and ComputeCompositingWeights() (compositing_weights.cc),
+// so the colour fit records exactly the weights the rasterizer composites:
+// time-faded opacity, camera-frame mean, pixel centre through the camera
+// model, the EWA covariance J W Sigma W^T J^T + 0.3 I (distortion
+// linearised at the mean), its conic and the opacity-aware extent (the
+// Mahalanobis radius where alpha drops to 1/255), and the ellipse-versus-
+// rectangle test of the binning. Header-only so the rasterizer's per-Gaussian
+// loop still inlines it.
+#ifndef POINTFORWARD_WORKER_ENGINE_RENDER_SPLAT_PROJECTION_H_
+#define POINTFORWARD_WORKER_ENGINE_RENDER_SPLAT_PROJECTION_H_
+
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+
+#include "worker/engine/camera/camera_model.h"
+#include "worker/engine/render/gaussian_scene.h"
+#include "worker/engine/render/raster_tile.h"
+
+namespace pf {
+namespace raster {
+
+// The screen-space low-pass added to every 2D covariance (pixels^2).
+inline constexpr float kLowPass = 0.3f;
+// The row spans and tile tests use a slightly larger radius than the exact
+// 1/255 level, so float rounding never drops a pixel that the alpha test
+// would keep; the alpha test decides.
+inline constexpr float kExtentMargin = 1.001f;
+// Pinhole Jacobians are evaluated no further than this fraction of the image
+// size outside the image (as 3DGS clamps at 1.3 tan(fov)), so Gaussians far
+// off screen do not blow up into huge splats.
+inline constexpr float kJacobianGuard = 0.15f;
+
+// A view's camera as the projection reads it, in float.
+struct ProjectionCamera {
+  int width = 0, height = 0;
+  const CameraModel* model = nullptr;
+  float fx = 0, fy = 0, cx = 0, cy = 0;
+  float x_lo = 0, x_hi = 0, y_lo = 0, y_hi = 0;  // Jacobian clamp, normalised.
+  float near_plane = 0.01f;
+  float render_time_s = 0;  // Seconds since the scene's time origin.
+};
+
+// Fills `camera` for `model` at scene time `time_s`.
+inline void SetUpProjectionCamera(const CameraModel& model, float near_plane, float time_s,
+                                  ProjectionCamera* camera) {
+  camera->width = model.width();
+  camera->height = model.height();
+  camera->model = &model;
+  camera->fx = static_cast<float>(model.fx());
+  camera->fy = static_cast<float>(model.fy());
+  camera->cx = static_cast<float>(model.cx());
+  camera->cy = static_cast<float>(model.cy());
+  if (!model.has_distortion()) {
+    camera->x_lo = static_cast<float>((-kJacobianGuard * camera->width - model.cx()) / model.fx());
+    camera->x_hi =
+        static_cast<float>(((1 + kJacobianGuard) * camera->width - model.cx()) / model.fx());
+    camera->y_lo = static_cast<float>((-kJacobianGuard * camera->height - model.cy()) / model.fy());
+    camera->y_hi =
+        static_cast<float>(((1 + kJacobianGuard) * camera->height - model.cy()) / model.fy());
+  } else {
+    // Distorted pixels are not linear in x/z: clamp at the model's valid
+    // radius (Project() culls means beyond it).
+    const float r = static_cast<float>(std::min(model.max_normalized_radius(), 1e3));
+    camera->x_lo = camera->y_lo = -r;
+    camera->x_hi = camera->y_hi = r;
+  }
+  camera->near_plane = near_plane;
+  camera->render_time_s = time_s;
+}
+
+// What compositing reads of a projected Gaussian.
+struct SplatGeometry {
+  float mx, my;      // Pixel-space centre.
+  float ca, cb, cc;  // Conic (inverse 2D covariance).
+  float opacity;     // Time-faded.
+  float span_d2;     // d^2 bound of the row spans and tile tests.
+  float ext_x, ext_y;
+  float depth;  // Camera-frame z.
+};
+
+// Projects Gaussian `i`, whose owner frame maps to the camera by `r`
+// (row-major 3x3) and `t`; false when it cannot be seen (faded out, behind
+// the near plane, outside the distortion model or the image).
+inline bool ProjectSplatGeometry(const GaussianScene& scene, size_t i,
+                                 const ProjectionCamera& camera, const float* r, const float* t,
+                                 SplatGeometry* out) {
+  // Opacity, faded by time.
+  float opacity = 1.f / (1.f + std::exp(-scene.opacity_logits[i]));
+  const float sigma = scene.lifespans[i];
+  if (!std::isinf(sigma)) {
+    const float u = (camera.render_time_s - scene.times[i]) / (sigma + 1.f);
+    opacity *= std::exp(-0.5f * u * u);
+  }
+  if (!(opacity >= kMinAlpha)) return false;
+
+  // Camera-frame mean.
+  const float* m = &scene.means[3 * i];
+  const float px = r[0] * m[0] + r[1] * m[1] + r[2] * m[2] + t[0];
+  const float py = r[3] * m[0] + r[4] * m[1] + r[5] * m[2] + t[1];
+  const float pz = r[6] * m[0] + r[7] * m[1] + r[8] * m[2] + t[2];
+  if (!(pz >= camera.near_plane)) return false;
+
+  // Pixel centre and the 2x2 Jacobian of pixel w.r.t. normalised coordinates.
+  const float inv_z = 1.f / pz;
+  const float xn = px * inv_z, yn = py * inv_z;
+  const float tx = std::clamp(xn, camera.x_lo, camera.x_hi);
+  const float ty = std::clamp(yn, camera.y_lo, camera.y_hi);
+  float mx, my;
+  float d00 = camera.fx, d01 = 0, d10 = 0, d11 = camera.fy;
+  const CameraModel& model = *camera.model;
+  if (!model.has_distortion()) {
+    mx = camera.fx * xn + camera.cx;
+    my = camera.fy * yn + camera.cy;
+  } else {
+    double u, v;
+    if (!model.Project({px, py, pz}, &u, &v)) return false;
+    mx = static_cast<float>(u);
+    my = static_cast<float>(v);
+    // Central differences of Distort at the (clamped) point.
+    constexpr double h = 1e-6;
+    double ax, ay, bx, by, cxp, cyp, dx, dy;
+    model.Distort(tx + h, ty, &ax, &ay);
+    model.Distort(tx - h, ty, &bx, &by);
+    model.Distort(tx, ty + h, &cxp, &cyp);
+    model.Distort(tx, ty - h, &dx, &dy);
+    d00 = static_cast<float>(model.fx() * (ax - bx) / (2 * h));
+    d10 = static_cast<float>(model.fy() * (ay - by) / (2 * h));
+    d01 = static_cast<float>(model.fx() * (cxp - dx) / (2 * h));
+    d11 = static_cast<float>(model.fy() * (cyp - dy) / (2 * h));
+  }
+  // J = D * [1/z 0 -tx/z; 0 1/z -ty/z], 2x3.
+  const float j00 = d00 * inv_z, j01 = d01 * inv_z, j02 = -(d00 * tx + d01 * ty) * inv_z;
+  const float j10 = d10 * inv_z, j11 = d11 * inv_z, j12 = -(d10 * tx + d11 * ty) * inv_z;
+  // A = J * R_cam (2x3).
+  const float a00 = j00 * r[0] + j01 * r[3] + j02 * r[6];
+  const float a01 = j00 * r[1] + j01 * r[4] + j02 * r[7];
+  const float a02 = j00 * r[2] + j01 * r[5] + j02 * r[8];
+  const float a10 = j10 * r[0] + j11 * r[3] + j12 * r[6];
+  const float a11 = j10 * r[1] + j11 * r[4] + j12 * r[7];
+  const float a12 = j10 * r[2] + j11 * r[5] + j12 * r[8];
+  // Gaussian rotation (normalised quaternion) and scales.
+  const float* q = &scene.rotations[4 * i];
+  const float qn = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3];
+  if (!(qn > 0)) return false;
+  const float s = 1.f / std::sqrt(qn);
+  const float w = q[0] * s, x = q[1] * s, y = q[2] * s, z = q[3] * s;
+  const float g00 = 1 - 2 * (y * y + z * z), g01 = 2 * (x * y - w * z), g02 = 2 * (x * z + w * y);
+  const float g10 = 2 * (x * y + w * z), g11 = 1 - 2 * (x * x + z * z), g12 = 2 * (y * z - w * x);
+  const float g20 = 2 * (x * z - w * y), g21 = 2 * (y * z + w * x), g22 = 1 - 2 * (x * x + y * y);
+  const float* ls = &scene.log_scales[3 * i];
+  const float s0 = std::exp(ls[0]), s1 = std::exp(ls[1]), s2 = std::exp(ls[2]);
+  // B = A * G * S (2x3); cov = B B^T + low-pass.
+  const float b00 = (a00 * g00 + a01 * g10 + a02 * g20) * s0;
+  const float b01 = (a00 * g01 + a01 * g11 + a02 * g21) * s1;
+  const float b02 = (a00 * g02 + a01 * g12 + a02 * g22) * s2;
+  const float b10 = (a10 * g00 + a11 * g10 + a12 * g20) * s0;
+  const float b11 = (a10 * g01 + a11 * g11 + a12 * g21) * s1;
+  const float b12 = (a10 * g02 + a11 * g12 + a12 * g22) * s2;
+  const float cov_xx = b00 * b00 + b01 * b01 + b02 * b02 + kLowPass;
+  const float cov_xy = b00 * b10 + b01 * b11 + b02 * b12;
+  const float cov_yy = b10 * b10 + b11 * b11 + b12 * b12 + kLowPass;
+  const float det = cov_xx * cov_yy - cov_xy * cov_xy;
+  if (!(det > 0)) return false;
+  const float inv_det = 1.f / det;
+
+  // Opacity-aware extent: alpha = o exp(-d^2 / 2) >= 1/255 <=> d^2 <= 2 ln(255 o).
+  const float d2_max = 2.f * std::log(opacity * 255.f) * kExtentMargin + 1e-4f;
+  const float ext_x = std::sqrt(d2_max * cov_xx), ext_y = std::sqrt(d2_max * cov_yy);
+  if (mx + ext_x < 0 || mx - ext_x > camera.width || my + ext_y < 0 || my - ext_y > camera.height ||
+      !std::isfinite(mx) || !std::isfinite(my)) {
+    return false;
+  }
+  out->mx = mx;
+  out->my = my;
+  out->ca = cov_yy * inv_det;
+  out->cb = -cov_xy * inv_det;
+  out->cc = cov_xx * inv_det;
+  out->opacity = opacity;
+  out->span_d2 = d2_max;
+  out->ext_x = ext_x;
+  out->ext_y = ext_y;
+  out->depth = pz;
+  return true;
+}
+
+// Returns the smallest d^2 of the conic over the rectangle of pixel centres
+// [x0, x1] x [y0, y1] (offsets from the Gaussian's centre): the binning's
+// exact ellipse-versus-rectangle test.
+inline float MinD2OverRect(float ca, float cb, float cc, float x0, float x1, float y0, float y1) {
+  if (x0 <= 0 && x1 >= 0 && y0 <= 0 && y1 >= 0) return 0;
+  auto edge_x = [&](float dx) {  // Fixed dx, best dy in [y0, y1].
+    const float dy = std::clamp(-cb * dx / cc, y0, y1);
+    return ca * dx * dx + 2 * cb * dx * dy + cc * dy * dy;
+  };
+  auto edge_y = [&](float dy) {  // Fixed dy, best dx in [x0, x1].
+    const float dx = std::clamp(-cb * dy / ca, x0, x1);
+    return ca * dx * dx + 2 * cb * dx * dy + cc * dy * dy;
+  };
+  return std::min(std::min(edge_x(x0), edge_x(x1)), std::min(edge_y(y0), edge_y(y1)));
+}
+
+}  // namespace raster
+}  // namespace pf
+
+#endif  // POINTFORWARD_WORKER_ENGINE_RENDER_SPLAT_PROJECTION_H_
