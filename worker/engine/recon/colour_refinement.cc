@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cmath>
 
 #include "absl/strings/str_cat.h"
@@ -98,10 +99,12 @@ absl::StatusOr<RefinementStats> RefineColours(const std::vector<ContextView>& vi
     return absl::InvalidArgumentError(
         "RefineColours: the scene's colour must be its first three feature channels (no SH)");
   }
-  if (options.iterations < 0 || !(options.prior_weight > 0) || !(options.min_alpha >= 0)) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        "RefineColours: iterations ", options.iterations, " must be >= 0, prior_weight ",
-        options.prior_weight, " > 0 and min_alpha ", options.min_alpha, " >= 0"));
+  if (options.iterations < 0 || !(options.prior_weight > 0) || !(options.min_alpha >= 0) ||
+      options.max_pairs <= 0) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("RefineColours: iterations ", options.iterations,
+                     " must be >= 0, prior_weight ", options.prior_weight, " > 0, min_alpha ",
+                     options.min_alpha, " >= 0 and max_pairs ", options.max_pairs, " > 0"));
   }
   RefinementStats stats;
   if (options.iterations == 0 || views.empty()) return stats;
@@ -117,12 +120,16 @@ absl::StatusOr<RefinementStats> RefineColours(const std::vector<ContextView>& vi
     }
   }
 
-  // A_v of every view (one view per task) and the fitted pixels.
+  // A_v of every view (one view per task) and the fitted pixels; recording
+  // stops once the views together pass max_pairs.
   const int64_t num_views = static_cast<int64_t>(views.size());
   std::vector<FitView> fit(views.size());
   std::vector<absl::Status> errors(views.size());
+  std::atomic<int64_t> recorded_pairs{0};
+  std::atomic<bool> over_budget{false};
   DefaultThreadPool().ParallelFor(0, num_views, 1, [&](int64_t b, int64_t e) {
     for (int64_t v = b; v < e; ++v) {
+      if (over_budget.load()) break;
       const ContextView& view = views[v];
       WeightOptions weight_options;
       weight_options.min_weight = options.min_weight;
@@ -132,6 +139,12 @@ absl::StatusOr<RefinementStats> RefineColours(const std::vector<ContextView>& vi
         errors[v] = a.status();
         continue;
       }
+      if (recorded_pairs.fetch_add(static_cast<int64_t>(a->entries())) +
+              static_cast<int64_t>(a->entries()) >
+          options.max_pairs) {
+        over_budget = true;
+        break;
+      }
       fit[v].a = *std::move(a);
       fit[v].image = &view.rgb;
       fit[v].fitted.resize(fit[v].a.alpha.size());
@@ -140,6 +153,11 @@ absl::StatusOr<RefinementStats> RefineColours(const std::vector<ContextView>& vi
     }
   });
   for (const absl::Status& error : errors) RETURN_IF_ERROR(error);
+  if (over_budget) {
+    stats.pairs = recorded_pairs.load();
+    stats.skipped_over_budget = true;
+    return stats;
+  }
   for (const FitView& view : fit) {
     stats.pairs += static_cast<int64_t>(view.a.entries());
     for (uint8_t f : view.fitted) stats.pixels += f;

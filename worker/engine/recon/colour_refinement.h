@@ -45,6 +45,14 @@ struct RefinementOptions {
   float min_weight = 1.f / 255.f;
   float min_colour = -0.5f;  // Colours are kept in [min_colour, max_colour].
   float max_colour = 1.5f;
+  // Memory bound: the fit holds every view's weights at once, 8 bytes per
+  // (pixel, Gaussian) pair. A clip whose context views need more pairs than
+  // this (1.6 GB; the default synth clip needs 75 M for analytic, 157 M for
+  // pixel-aligned; six 1936x1216 DGP cameras at two times pass it) keeps its
+  // decoded colours: the fit is skipped, never half-done, and RefinementStats
+  // says so, so that a worker inside its memory limit (8 GiB, half of it
+  // scene cache, in deploy/k8s) does not run out on large real clips.
+  int64_t max_pairs = 200'000'000;
 };
 
 // What a refinement did, over the fitted context pixels.
@@ -53,6 +61,9 @@ struct RefinementStats {
   int64_t pairs = 0;       // Contributing (pixel, Gaussian) pairs over all views.
   double rmse_before = 0;  // RGB root mean square error of the renders, [0, 1] units.
   double rmse_after = 0;
+  // True when the views needed more than max_pairs pairs and the colours
+  // were left as decoded (pairs is then the count when recording stopped).
+  bool skipped_over_budget = false;
 };
 
 // Refines the first three feature channels of `scene` in place against

@@ -150,6 +150,44 @@ TEST(ColourRefinement, RecoversTheColoursAContextImageWasRenderedFrom) {
   EXPECT_LT(stats->rmse_after, 0.002);
 }
 
+TEST(ColourRefinement, OverThePairBudgetTheColoursStayAsDecoded) {
+  // The wall of the test above, seen by two views: the fit needs every
+  // pair of both. One pair short of that, nothing is changed; at exactly
+  // that many, the fit runs.
+  const int w = 40, h = 30;
+  ContextView view = UniformView(w, h, 40, 0.8f);
+  GaussianScene scene = EmptyScene();
+  for (int y = 0; y < h; y += 2) {
+    for (int x = 0; x < w; x += 2) {
+      const Vec3 at{(x + 1 - w / 2.0) / 40 * 10, (y + 1 - h / 2.0) / 40 * 10, 10};
+      AddGaussian(&scene, at, 0.3, 0.9, {0.5, 0.5, 0.5});
+    }
+  }
+  const std::vector<ContextView> views = {view, view};
+  RefinementOptions options;
+  options.min_alpha = 0;
+  GaussianScene unbounded = scene;
+  absl::StatusOr<RefinementStats> full = RefineColours(views, options, &unbounded);
+  ASSERT_TRUE(full.ok()) << full.status();
+  ASSERT_FALSE(full->skipped_over_budget);
+  ASSERT_GT(full->pairs, 0);
+
+  GaussianScene over = scene;
+  options.max_pairs = full->pairs - 1;
+  absl::StatusOr<RefinementStats> skipped = RefineColours(views, options, &over);
+  ASSERT_TRUE(skipped.ok()) << skipped.status();
+  EXPECT_TRUE(skipped->skipped_over_budget);
+  EXPECT_EQ(over.features, scene.features);
+
+  GaussianScene at_budget = scene;
+  options.max_pairs = full->pairs;
+  absl::StatusOr<RefinementStats> fitted = RefineColours(views, options, &at_budget);
+  ASSERT_TRUE(fitted.ok()) << fitted.status();
+  EXPECT_FALSE(fitted->skipped_over_budget);
+  EXPECT_EQ(fitted->pairs, full->pairs);
+  EXPECT_NE(at_budget.features, scene.features);  // Pulled towards the 0.8 grey image.
+}
+
 TEST(ColourRefinement, RejectsBadOptionsAndScenes) {
   GaussianScene scene = EmptyScene();
   AddGaussian(&scene, {0, 0, 2}, 0.01, 0.6, {0.2, 0.5, 0.9});

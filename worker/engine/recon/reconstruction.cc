@@ -182,8 +182,15 @@ absl::StatusOr<ReconResult> ReconstructInputs(const ReconInputs& inputs,
   if (options.refinement.iterations > 0) {
     ASSIGN_OR_RETURN(const RefinementStats refined,
                      RefineColours(views, options.refinement, &result.scene));
-    clock.Done("refine", absl::StrCat(" (", refined.pairs, " pixel-Gaussian pairs, context RMSE ",
-                                      refined.rmse_before, " -> ", refined.rmse_after, ")"));
+    if (refined.skipped_over_budget) {
+      clock.Done("refine", absl::StrCat(" (skipped: the context views need more than ",
+                                        options.refinement.max_pairs,
+                                        " pixel-Gaussian pairs, the fit's memory bound; colours "
+                                        "kept as decoded)"));
+    } else {
+      clock.Done("refine", absl::StrCat(" (", refined.pairs, " pixel-Gaussian pairs, context RMSE ",
+                                        refined.rmse_before, " -> ", refined.rmse_after, ")"));
+    }
   }
   stats.total_seconds = clock.Total();
   return result;
