@@ -23,16 +23,10 @@ namespace {
 
 namespace fs = std::filesystem;
 using testing::CommandResult;
+using testing::ReadJsonFile;
 using testing::RunCommand;
 
 std::string Pf() { return testing::BinPath("pf"); }
-
-nlohmann::json ReadJson(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream text;
-  text << in.rdbuf();
-  return nlohmann::json::parse(text.str());
-}
 
 void WriteJson(const std::string& path, const nlohmann::json& json) {
   std::ofstream(path) << json.dump(1);
@@ -153,7 +147,7 @@ class EvalViews : public ::testing::Test {
     const CommandResult synth = RunCommand(
         {Pf(), "synth", "--out", ClipDir(), "--width", "192", "--height", "144", "--frames", "8"});
     ASSERT_EQ(synth.exit_code, 0) << synth.err;
-    clip_ = new nlohmann::json(ReadJson(ClipDir() + "/clip.json"));
+    clip_ = new nlohmann::json(ReadJsonFile(ClipDir() + "/clip.json"));
     camera_ = new std::string((*clip_)["cameras"][1]["id"].get<std::string>());
   }
   static void TearDownTestSuite() {
@@ -202,7 +196,7 @@ TEST_F(EvalViews, ViewsAreMeasuredAgainstTheirTruth) {
   ASSERT_EQ(eval.exit_code, 0) << eval.out << eval.err;
   EXPECT_NE(eval.out.find("views: mean PSNR"), std::string::npos) << eval.out;
 
-  const nlohmann::json report = ReadJson(out + "/report.json");
+  const nlohmann::json report = ReadJsonFile(out + "/report.json");
   ASSERT_EQ(report["views"].size(), 3u);
   double psnr_sum = 0;
   for (const nlohmann::json& view : report["views"]) {
@@ -286,7 +280,7 @@ TEST_F(EvalViews, LaneShiftReportsEveryShiftAndTheDrop) {
                                          "--lane-shift-time-us", std::to_string(kTargetUs)});
   ASSERT_EQ(eval.exit_code, 0) << eval.out << eval.err;
   EXPECT_NE(eval.out.find("lane shift 3 m (3 views)"), std::string::npos) << eval.out;
-  const nlohmann::json report = ReadJson(out + "/report.json");
+  const nlohmann::json report = ReadJsonFile(out + "/report.json");
 
   // 0 m is added: 3 shifts x 3 cameras.
   ASSERT_EQ(report["laneShift"].size(), 3u);
@@ -342,7 +336,7 @@ TEST_F(EvalViews, AClipWithoutTargetFramesIsMeasuredOnItsLaneShift) {
   const CommandResult eval = RunCommand({Pf(), "eval", clip, "--out", out, "--lane-shift", "2",
                                          "--lane-shift-time-us", std::to_string(kTargetUs)});
   ASSERT_EQ(eval.exit_code, 0) << eval.out << eval.err;
-  const nlohmann::json report = ReadJson(out + "/report.json");
+  const nlohmann::json report = ReadJsonFile(out + "/report.json");
   EXPECT_TRUE(report["frames"].empty());
   EXPECT_TRUE(report["mean"]["psnr"].is_null());
   ASSERT_EQ(report["laneShift"].size(), 2u);

@@ -18,16 +18,10 @@ namespace {
 
 namespace fs = std::filesystem;
 using testing::CommandResult;
+using testing::ReadJsonFile;
 using testing::RunCommand;
 
 std::string Pf() { return testing::BinPath("pf"); }
-
-nlohmann::json ReadJson(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream text;
-  text << in.rdbuf();
-  return nlohmann::json::parse(text.str());
-}
 
 // One small synth clip and the evals of both models, shared by the tests.
 class ReconCli : public ::testing::Test {
@@ -49,7 +43,7 @@ class ReconCli : public ::testing::Test {
   }
   static std::string Clip() { return *dir_ + "/clip/clip.json"; }
   static nlohmann::json Report(const std::string& model) {
-    return ReadJson(*dir_ + "/eval_" + model + "/report.json");
+    return ReadJsonFile(*dir_ + "/eval_" + model + "/report.json");
   }
   static std::string* dir_;
 };
@@ -124,7 +118,7 @@ TEST_F(ReconCli, AblationFlagsAreRecordedInTheReport) {
   const CommandResult result =
       RunCommand({Pf(), "eval", Clip(), "--out", out, "--fusion", "average", "--no-lifespan"});
   ASSERT_EQ(result.exit_code, 0) << result.err;
-  const nlohmann::json report = ReadJson(out + "/report.json");
+  const nlohmann::json report = ReadJsonFile(out + "/report.json");
   EXPECT_EQ(report["fusion"], "average");
   EXPECT_EQ(report["lifespan"], false);
 }

@@ -3,6 +3,7 @@
 #ifndef POINTFORWARD_TESTS_TEST_UTIL_H_
 #define POINTFORWARD_TESTS_TEST_UTIL_H_
 
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
 #include <vector>
@@ -32,6 +33,11 @@ struct CommandResult {
 
 // Runs `argv` (argv[0] a path) to completion and captures its output.
 CommandResult RunCommand(const std::vector<std::string>& argv);
+
+// The JSON document in the file at `path` (report.json, manifest.json, ...);
+// throws nlohmann::json::parse_error when it is missing or not JSON, which
+// fails the calling test.
+nlohmann::json ReadJsonFile(const std::string& path);
 
 }  // namespace pf::testing
 

@@ -33,25 +33,6 @@ bool ProjectSplat(const GaussianScene& scene, const ViewFrame& frame, size_t i, 
   return raster::ProjectSplatGeometry(scene, i, frame, r, r + 9, out);
 }
 
-absl::Status CheckScene(const GaussianScene& scene) {
-  const size_t n = scene.size();
-  if (n >= (size_t{1} << 32)) return absl::InvalidArgumentError("scene: more than 2^32 Gaussians");
-  if (scene.means.size() != 3 * n || scene.rotations.size() != 4 * n ||
-      scene.log_scales.size() != 3 * n || scene.times.size() != n || scene.lifespans.size() != n ||
-      scene.owners.size() != n) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("scene: per-Gaussian arrays disagree with ", n, " opacities"));
-  }
-  for (size_t i = 0; i < n; ++i) {
-    if (scene.owners[i] > scene.instances.size()) {
-      return absl::InvalidArgumentError(absl::StrCat("scene.owners[", i, "]: ", scene.owners[i],
-                                                     " but the scene has ", scene.instances.size(),
-                                                     " instances"));
-    }
-  }
-  return absl::OkStatus();
-}
-
 }  // namespace
 
 absl::StatusOr<CompositingWeights> ComputeCompositingWeights(const GaussianScene& scene,
@@ -63,7 +44,7 @@ absl::StatusOr<CompositingWeights> ComputeCompositingWeights(const GaussianScene
     return absl::InvalidArgumentError(
         absl::StrCat("camera: image size ", model.width(), "x", model.height(), " has no pixels"));
   }
-  if (absl::Status status = CheckScene(scene); !status.ok()) return status;
+  if (absl::Status status = CheckRenderable(scene); !status.ok()) return status;
 
   ViewFrame frame;
   raster::SetUpProjectionCamera(

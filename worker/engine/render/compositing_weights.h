@@ -57,7 +57,7 @@ struct WeightOptions {
 };
 
 // Records A for `scene` seen through `camera` at scene time `timestamp_us`
-// (no actor edits). INVALID_ARGUMENT if the camera has no pixels, the scene
+// (no actor edits). INVALID_ARGUMENT if the camera has no pixels or the scene
 // has more than 2^32 Gaussians or its arrays disagree in size.
 absl::StatusOr<CompositingWeights> ComputeCompositingWeights(const GaussianScene& scene,
                                                              const RenderCamera& camera,

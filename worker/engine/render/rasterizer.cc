@@ -220,7 +220,9 @@ void RadixSortByHighWord(std::vector<uint64_t>* keys, std::vector<uint64_t>* buf
   keys->swap(*buffer);
 }
 
-absl::Status ValidateScene(const GaussianScene& scene) {
+}  // namespace
+
+absl::Status CheckRenderable(const GaussianScene& scene) {
   const size_t n = scene.size();
   if (scene.num_channels < 3 || scene.num_channels > 256) {
     return absl::InvalidArgumentError(
@@ -258,6 +260,8 @@ absl::Status ValidateScene(const GaussianScene& scene) {
   }
   return absl::OkStatus();
 }
+
+namespace {
 
 // Returns the box pose (rotation, centre) as a rigid transform.
 Rigid BoxPose(const TrackBox& box) { return {ToMatrix(box.rotation), box.center}; }
@@ -318,7 +322,7 @@ absl::StatusOr<RenderBuffers> Render(const GaussianScene& scene, const RenderCam
     return absl::InvalidArgumentError(
         absl::StrCat("camera: image size ", model.width(), "x", model.height(), " has no pixels"));
   }
-  if (auto status = ValidateScene(scene); !status.ok()) return status;
+  if (auto status = CheckRenderable(scene); !status.ok()) return status;
 
   // Owner poses at this time, with the edits applied.
   const size_t num_instances = scene.instances.size();

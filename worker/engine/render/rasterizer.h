@@ -65,6 +65,12 @@ struct RenderBuffers {
   RasterStats stats;
 };
 
+// What Render() (and ComputeCompositingWeights()) require of a scene, checked
+// in O(n) without reading the values: num_channels in [3, 256], sh_degree in
+// [-1, 3], fewer than 2^32 Gaussians, every array of the size size() implies,
+// every owner an instance of the scene. INVALID_ARGUMENT naming the field.
+absl::Status CheckRenderable(const GaussianScene& scene);
+
 // Renders `scene` through `camera` at scene time `timestamp_us` with `edits`
 // applied. INVALID_ARGUMENT if an edit names an unknown instance or the
 // camera has no pixels. Deterministic for the same input and thread count;
