@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <atomic>
 #include <functional>
 #include <memory>
 #include <ostream>
@@ -800,6 +801,41 @@ TEST_P(JobStoreTest, ConcurrentCreatesOfOneSceneMakeOneReconstruction) {
   absl::StatusOr<Page<JobRecord>> jobs = store_->ListJobs(JobKind::kReconstruct, 100, "");
   ASSERT_TRUE(jobs.ok()) << jobs.status();
   EXPECT_EQ(jobs->items.size(), 1u);
+}
+
+// Replicas finish the last chunks of one job at the same moment: whichever
+// commits second must see the other's chunk done and end the job (on
+// PostgreSQL's READ COMMITTED each used to count the other's chunk as not
+// done, and the job stayed RUNNING with every task DONE).
+TEST_P(JobStoreTest, ConcurrentCompletionsOfTheLastTasksSucceedTheJob) {
+  constexpr int kThreads = 4;
+  constexpr int kRounds = 25;
+  std::vector<std::unique_ptr<JobStore>> stores;
+  for (int t = 0; t < kThreads; ++t) {
+    stores.push_back(Open());
+    ASSERT_NE(stores.back(), nullptr);
+  }
+  MakeReadyScene("s1");
+  for (int round = 0; round < kRounds; ++round) {
+    JobRecord job = CreateRender("s1", kThreads, 1);
+    std::vector<TaskLease> leases;
+    for (int t = 0; t < kThreads; ++t) leases.push_back(Lease("w" + std::to_string(t)));
+    std::atomic<int> ready = 0;
+    std::vector<absl::Status> results(kThreads);
+    std::vector<std::thread> threads;
+    for (int t = 0; t < kThreads; ++t) {
+      threads.emplace_back([&, t] {
+        ready.fetch_add(1);
+        while (ready.load() < kThreads) std::this_thread::yield();
+        results[t] = stores[t]->CompleteTask(leases[t].task.id, 1, "{}", "", kT0 + 1);
+      });
+    }
+    for (std::thread& thread : threads) thread.join();
+    for (const absl::Status& status : results) ASSERT_TRUE(status.ok()) << status;
+    const JobRecord done = Job(job.id);
+    ASSERT_EQ(done.state, JobState::kSucceeded)
+        << "round " << round << ": " << done.tasks_done << " of " << kThreads << " tasks done";
+  }
 }
 
 // -- Limits and integrity ----------------------------------------------------------

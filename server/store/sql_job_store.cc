@@ -997,6 +997,12 @@ absl::Status SqlJobStore::CompleteTask(const std::string& task_id, int attempt,
                                        const std::string& scene_description, int64_t now_ms) {
   return db_->Transaction([&](SqlExecutor& tx) -> absl::Status {
     ASSIGN_OR_RETURN(TaskRecord task, LoadLeasedTask(tx, task_id, attempt));
+    // Completions of one job's tasks take turns on the job's row. Under
+    // READ COMMITTED two of them running at once would each count the
+    // other's task as not yet done, and neither would end the job; the
+    // second now waits here and its count below sees the first's commit.
+    RETURN_IF_ERROR(
+        Run(tx, absl::StrCat("SELECT id FROM jobs WHERE id = $1", ForUpdate(tx)), {task.job_id}));
     RETURN_IF_ERROR(Run(tx,
                         R"sql(UPDATE tasks SET state = 'DONE', result = $2, fraction = 1,
                                                frames_done = view_count, lease_deadline_ms = 0
