@@ -43,11 +43,14 @@ FROM debian:bookworm-slim AS runtime
 #   libsqlite3.so.0                  -> libsqlite3-0   (embedded job store)
 #   libpq.so.5                       -> libpq5         (PostgreSQL job store)
 #   libz.so.1                        -> zlib1g
+#   libtorch_cpu.so.1.13, libc10.so.1.13 -> libtorch1.13 (fusion's tensor work;
+#                                       libopenblas0-pthread: its BLAS)
 #   libstdc++.so.6, libgcc_s.so.1    -> libstdc++6, libgcc-s1 (libc6: in the base)
 RUN apt-get update \
  && apt-get install -y --no-install-recommends \
       libabsl20220623 libprotobuf32 libgrpc++1.51 libgrpc29 libspdlog1.10 libfmt9 \
       libopenimageio2.4 libsqlite3-0 libpq5 zlib1g libstdc++6 libgcc-s1 \
+      libtorch1.13 libopenblas0-pthread \
  && rm -rf /var/lib/apt/lists/*
 COPY --from=build /src/build/bin/pf /src/build/bin/pf-server /src/build/bin/pf-worker /usr/local/bin/
 # A non-root user; /var/lib/pf (the SQLite file and blob directory of a

@@ -24,6 +24,10 @@ PACKAGES=(
   # server itself, which the tests run as a throwaway instance (initdb in a
   # temporary directory, as the `postgres` user).
   libpq-dev postgresql
+  # LibTorch (CPU) for fusion's tensor work (worker/engine/recon/
+  # tensor_fusion.h), and the threaded OpenBLAS it should load instead of
+  # the reference BLAS.
+  libtorch-dev libopenblas0-pthread
   # Python: the demo's views file, and the example client (grpc, protobuf
   # and OpenImageIO bindings).
   python3 python3-grpcio python3-protobuf python3-openimageio

@@ -244,13 +244,12 @@ pb::Scene SceneStatistics(const GaussianScene& scene, const ReconStats& stats,
   return out;
 }
 
-absl::StatusOr<ReconstructOutput> RunReconstruction(const pb::ReconstructWork& work,
-                                                    const FetchBlobFn& fetch,
-                                                    const std::string& work_dir,
-                                                    const StageProgressFn& progress,
-                                                    const CancelledFn& cancelled) {
+absl::StatusOr<ReconstructOutput> RunReconstruction(
+    const pb::ReconstructWork& work, const FetchBlobFn& fetch, const std::string& work_dir,
+    const StageProgressFn& progress, const CancelledFn& cancelled, const ComputeDevice& device) {
   const auto start = std::chrono::steady_clock::now();
   ASSIGN_OR_RETURN(ReconOptions options, ReconOptionsFromProto(work.options()));
+  options.device = device;
   ReconProgress stages(progress, options.refinement.iterations > 0);
   options.progress = [&stages](const std::string& line) { stages.EngineLine(line); };
 

@@ -52,13 +52,15 @@ absl::StatusOr<ReconOptions> ReconOptionsFromProto(
 
 // Fetches the clip of `work` into work_dir/clip (manifest as clip.json, each
 // entry of clip.files at its path, which must stay under work_dir/clip),
-// reconstructs it and writes work_dir/scene.pfs. Progress goes through
-// "download", "load", the engine's stages and "save".
+// reconstructs it on `device` (the worker's --device) and writes
+// work_dir/scene.pfs. Progress goes through "download", "load", the
+// engine's stages and "save".
 absl::StatusOr<ReconstructOutput> RunReconstruction(const pointforward::v1::ReconstructWork& work,
                                                     const FetchBlobFn& fetch,
                                                     const std::string& work_dir,
                                                     const StageProgressFn& progress,
-                                                    const CancelledFn& cancelled);
+                                                    const CancelledFn& cancelled,
+                                                    const ComputeDevice& device = {});
 
 // Fills the statistics of `scene` into a Scene message: counts, instance
 // ids, the clip's time range, the bounds of the static Gaussians' means

@@ -397,7 +397,9 @@ absl::Status Worker::Reconstruct(const pb::Task& task, const std::string& dir, s
     SetProgress(state, stage, fraction, 0);
   };
   const CancelledFn cancelled = [state] { return state->cancel.load(); };
-  ASSIGN_OR_RETURN(ReconstructOutput out, RunReconstruction(work, fetch, dir, progress, cancelled));
+  ASSIGN_OR_RETURN(const ComputeDevice device, ParseComputeDevice(options_.device, "--device"));
+  ASSIGN_OR_RETURN(ReconstructOutput out,
+                   RunReconstruction(work, fetch, dir, progress, cancelled, device));
   SetProgress(state, "upload", 1.0, 0);
   ASSIGN_OR_RETURN(*out.scene.mutable_scene_file(), blobs_.UploadFile(out.scene_path));
   log.info("reconstructed {}: {} gaussians in {:.2f} s", work.scene(), out.scene.gaussians(),

@@ -19,6 +19,7 @@
 #include "common/logging.h"
 #include "common/metrics_http.h"
 #include "common/status_macros.h"
+#include "worker/engine/recon/compute_device.h"
 #include "worker/worker_loop.h"
 
 namespace {
@@ -30,7 +31,8 @@ uploads the results. Logs to stderr; SIGTERM or SIGINT stops it after the
 running task.
 
   --server HOST:PORT   pf-server to pull from (default: $PF_SERVER)
-  --device D           where the engine runs; only "cpu" in this build (default cpu)
+  --device D           where reconstruction's tensor work (fusion) runs: cpu, cuda or
+                       cuda:N; a GPU needs a CUDA LibTorch in the build (default cpu)
   --cache-bytes N      memory budget of the scene cache in bytes (default 2147483648)
   --work-dir DIR       scratch directory, emptied at start; each attempt works in
                        DIR/<task>-<attempt>/ (default /tmp/pf-worker-<id>)
@@ -108,12 +110,10 @@ absl::StatusOr<pf::WorkerOptions> ParseFlags(const pf::CommandLine& cl) {
     return absl::InvalidArgumentError(
         "--server: required (or set PF_SERVER), e.g. localhost:50051");
   }
-  options.device = cl.Get("device", "cpu");
-  if (options.device != "cpu") {
-    return absl::InvalidArgumentError(
-        absl::StrCat("--device: '", options.device,
-                     "' is not available: this build runs the engine on the CPU only"));
-  }
+  ASSIGN_OR_RETURN(const pf::ComputeDevice device,
+                   pf::ParseComputeDevice(cl.Get("device", "cpu"), "--device"));
+  RETURN_IF_ERROR(pf::CheckComputeDevice(device, "--device"));
+  options.device = device.ToString();
   ASSIGN_OR_RETURN(options.cache_bytes,
                    IntFlag(cl, "cache-bytes", options.cache_bytes, 0, int64_t{1} << 50));
   options.work_dir = cl.Get("work-dir");

@@ -41,6 +41,14 @@ class CameraModel {
   double cx() const { return cx_; }
   double cy() const { return cy_; }
   bool has_distortion() const { return kind_ != Kind::kPinhole; }
+  // Distortion coefficients as set (0 when unset): k1..k3, p1, p2 of the
+  // OpenCV model; k1..k4 of the fisheye model.
+  double k1() const { return k1_; }
+  double k2() const { return k2_; }
+  double k3() const { return k3_; }
+  double k4() const { return k4_; }
+  double p1() const { return p1_; }
+  double p2() const { return p2_; }
 
   // Maps undistorted normalised coordinates (x/z, y/z) to distorted ones.
   // For the fisheye model the input is also (x/z, y/z) with z > 0.

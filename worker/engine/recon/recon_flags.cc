@@ -72,13 +72,8 @@ absl::StatusOr<ReconOptions> ReconOptionsFromFlags(const CommandLine& cl) {
         absl::StrCat("--refine: must be in [0, 20] iterations, got ", cl.Get("refine")));
   }
   options.refinement.iterations = static_cast<int>(refine);
-  const std::string device = cl.Get("device", "cpu");
-  if (device != "cpu") {
-    return absl::FailedPreconditionError(absl::StrCat(
-        "--device: '", device,
-        "' is not available: this build runs the analytic models on the CPU only (the LibTorch "
-        "path is not built yet)"));
-  }
+  ASSIGN_OR_RETURN(options.device, ParseComputeDevice(cl.Get("device", "cpu"), "--device"));
+  RETURN_IF_ERROR(CheckComputeDevice(options.device, "--device"));
   return options;
 }
 

@@ -8,7 +8,7 @@
 //   --no-lifespan                    every Gaussian lives forever (ablation)
 //   --refine N                       colour refinement iterations (default 2; 0 off)
 //   --splat-sigma S                  Gaussian std-dev per query spacing (default 0.6)
-//   --device cpu                     where batched work runs; only cpu for now
+//   --device cpu|cuda:N              where fusion's tensor work runs (compute_device.h)
 #ifndef POINTFORWARD_WORKER_ENGINE_RECON_RECON_FLAGS_H_
 #define POINTFORWARD_WORKER_ENGINE_RECON_RECON_FLAGS_H_
 
@@ -32,8 +32,8 @@ absl::StatusOr<CommandLine> ParseReconCommandLine(const std::vector<std::string>
 
 // Returns the options the flags of `cl` ask for. INVALID_ARGUMENT naming the
 // flag for an unknown model or fusion, a budget that is not a positive
-// integer; FAILED_PRECONDITION for a --device other than cpu (the LibTorch
-// path is not built yet).
+// integer or an unknown --device; FAILED_PRECONDITION for a device this
+// process cannot use (a GPU without CUDA LibTorch, or no LibTorch at all).
 absl::StatusOr<ReconOptions> ReconOptionsFromFlags(const CommandLine& cl);
 
 // Returns the name of a fusion weighting as --fusion spells it.

@@ -10,6 +10,9 @@
 #include "pointforward/v1/clip.pb.h"
 #include "worker/engine/recon/query_lifting.h"
 #include "worker/engine/recon/scene_graph.h"
+#if PF_HAVE_TORCH
+#include "worker/engine/recon/tensor_fusion.h"
+#endif
 
 namespace pf {
 namespace {
@@ -79,6 +82,7 @@ absl::StatusOr<ReconInputs> LoadReconInputs(const LoadedClip& loaded, bool allow
 absl::StatusOr<ReconResult> ReconstructInputs(const ReconInputs& inputs,
                                               const ReconOptions& options) {
   if (inputs.views.empty()) return absl::InvalidArgumentError("no context views");
+  RETURN_IF_ERROR(CheckComputeDevice(options.device, "device"));
   ReconResult result;
   ReconStats& stats = result.stats;
   StageClock clock(&stats, options.progress);
@@ -157,11 +161,18 @@ absl::StatusOr<ReconResult> ReconstructInputs(const ReconInputs& inputs,
   if (options.model == ReconModel::kAnalytic) {
     std::vector<FusionView> fusion_views(num_views);
     for (size_t v = 0; v < num_views; ++v) fusion_views[v] = {&views[v], &depths[v], &masks[v]};
+#if PF_HAVE_TORCH
+    ASSIGN_OR_RETURN(
+        fused, FuseQueriesOnDevice(queries, fusion_views, tracks, options.fusion, options.device));
+    clock.Done("fuse", absl::StrCat(" (LibTorch on ", options.device.ToString(), ")"));
+#else
     fused = FuseQueries(queries, fusion_views, tracks, options.fusion);
+    clock.Done("fuse", " (C++ on cpu)");
+#endif
   } else {
     fused = UnfusedQueries(queries);
+    clock.Done("fuse", " (none: one Gaussian per pixel)");
   }
-  clock.Done("fuse");
 
   // 6. Decoding.
   std::vector<int64_t> times(num_views);

@@ -25,6 +25,7 @@
 #include "absl/status/statusor.h"
 #include "worker/engine/clip/clip_io.h"
 #include "worker/engine/recon/colour_refinement.h"
+#include "worker/engine/recon/compute_device.h"
 #include "worker/engine/recon/context_views.h"
 #include "worker/engine/recon/fusion.h"
 #include "worker/engine/recon/gaussian_decoder.h"
@@ -54,6 +55,9 @@ struct ReconOptions {
   bool skip_covered = true;
   bool fill_static_budget = true;  // SamplingOptions::fill_static_budget.
   bool allow_outside_paths = false;
+  // Where fusion's tensor work runs (compute_device.h); without LibTorch in
+  // the build only the CPU, with the C++ kernel.
+  ComputeDevice device;
   // Called with a line of progress after each stage ("fuse done in 0.2 s");
   // may be null.
   std::function<void(const std::string&)> progress;
@@ -92,7 +96,8 @@ struct ReconInputs {
 absl::StatusOr<ReconInputs> LoadReconInputs(const LoadedClip& loaded, bool allow_outside_paths);
 
 // Reconstructs decoded inputs. INVALID_ARGUMENT for no views or non-positive
-// budgets given explicitly.
+// budgets given explicitly; FAILED_PRECONDITION for a device this process
+// cannot use.
 absl::StatusOr<ReconResult> ReconstructInputs(const ReconInputs& inputs,
                                               const ReconOptions& options);
 

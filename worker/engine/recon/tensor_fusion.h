@@ -1,0 +1,42 @@
+// Spatial-temporal fusion (fusion.h) as batched LibTorch tensor work on a
+// chosen device, so that the same code runs on CPU and GPU workers.
+//
+// The rules are fusion.h's, step for step: every query is moved by its
+// frame's camera-from-frame transform of each view (instances re-posed to the
+// view's time), projected through the view's camera model (pinhole, OpenCV or
+// fisheye), tested against the view's depth (observation, occlusion, or seen
+// past across the 3x3 neighbourhood, which here is a 3x3 min-pool of the
+// depth map), weighed, and its colour sampled bilinearly. Geometry runs in
+// float64 as the C++ kernel does, so both give the same observations and
+// colours equal to float rounding (tensor_fusion_test.cc compares them).
+//
+// Queries go through in batches of `kFusionBatch` so memory stays bounded
+// (about 1 KB per query in flight).
+#ifndef POINTFORWARD_WORKER_ENGINE_RECON_TENSOR_FUSION_H_
+#define POINTFORWARD_WORKER_ENGINE_RECON_TENSOR_FUSION_H_
+
+#include <cstdint>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "worker/engine/recon/compute_device.h"
+#include "worker/engine/recon/fusion.h"
+
+namespace pf {
+
+// Queries per batch.
+inline constexpr int64_t kFusionBatch = 1 << 18;
+
+// Fuses `queries` over `views` on `device` as FuseQueries does.
+// FAILED_PRECONDITION when the device is not available; INTERNAL, with
+// LibTorch's message, if LibTorch throws.
+absl::StatusOr<FusedQueries> FuseQueriesOnDevice(const QuerySet& queries,
+                                                 const std::vector<FusionView>& views,
+                                                 const std::vector<InstanceTrack>& tracks,
+                                                 const FusionOptions& options,
+                                                 const ComputeDevice& device,
+                                                 int64_t batch = kFusionBatch);
+
+}  // namespace pf
+
+#endif  // POINTFORWARD_WORKER_ENGINE_RECON_TENSOR_FUSION_H_

@@ -1,0 +1,261 @@
+// Tests of fusion as LibTorch tensor work: the hand-computed weights of
+// fusion_test.cc, and equality with the C++ kernel (FuseQueries) on a
+// random scene with every camera model, masks, far pixels, instances and
+// every weighting, in batches smaller than the query count.
+#include "worker/engine/recon/tensor_fusion.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+#include <string>
+
+#include "worker/engine/recon/compute_device.h"
+
+namespace pf {
+namespace {
+
+constexpr int kW = 64, kH = 48;
+
+struct TestView {
+  ContextView view;
+  ViewDepth depth;
+  std::vector<uint8_t> mask;
+  FusionView fusion() const { return {&view, &depth, &mask}; }
+};
+
+Rigid YawAt(double yaw, const Vec3& position) {
+  Rigid pose;
+  pose.rotation.m = {
+      {{std::cos(yaw), 0, std::sin(yaw)}, {0, 1, 0}, {-std::sin(yaw), 0, std::cos(yaw)}}};
+  pose.translation = position;
+  return pose;
+}
+
+// Five views along x looking at a slanted wall about 10 m ahead, with an
+// OpenCV and a fisheye camera among them, 8 % far pixels, a masked
+// rectangle per view and a colour gradient; views 100 ms apart.
+std::vector<TestView> RandomViews(std::mt19937& random) {
+  std::uniform_real_distribution<float> unit(0.f, 1.f);
+  std::vector<TestView> views(5);
+  for (int v = 0; v < 5; ++v) {
+    TestView& t = views[v];
+    t.view.camera = CameraModel(kW, kH, 40, 40, kW / 2.0, kH / 2.0);
+    if (v == 3) t.view.camera.SetOpenCv(-0.12, 0.02, 0.001, -0.002, 0.001);
+    if (v == 4) t.view.camera.SetFisheye(0.05, -0.01, 0.002, -0.0005);
+    t.view.world_from_camera = YawAt(0.04 * (v - 2), {0.6 * (v - 2), 0.05 * v, 0});
+    t.view.timestamp_us = 100000 * v;
+    t.view.rgb = ImageF(kW, kH, 3);
+    t.depth.width = kW;
+    t.depth.height = kH;
+    t.depth.depth.resize(kW * kH);
+    t.depth.source.assign(kW * kH, uint8_t(DepthSource::kDepthMap));
+    t.mask.assign(kW * kH, 0);
+    const int mx = static_cast<int>(unit(random) * (kW - 12)),
+              my = static_cast<int>(unit(random) * (kH - 10));
+    for (int y = 0; y < kH; ++y) {
+      for (int x = 0; x < kW; ++x) {
+        const size_t j = static_cast<size_t>(y) * kW + x;
+        for (int c = 0; c < 3; ++c) {
+          t.view.rgb.at(x, y, c) = 0.5f + 0.4f * std::sin(0.2f * x + 0.3f * y + 2.f * c + v);
+        }
+        // The wall, seen with a little noise, and sometimes something in front.
+        t.depth.depth[j] =
+            10.f + 0.05f * x + 0.2f * unit(random) - (unit(random) < 0.05f ? 4.f : 0.f);
+        if (unit(random) < 0.08f) {
+          t.depth.source[j] = uint8_t(DepthSource::kFar);
+          t.depth.depth[j] = 500.f;
+        }
+        if (x >= mx && x < mx + 12 && y >= my && y < my + 10) t.mask[j] = 1;
+      }
+    }
+  }
+  return views;
+}
+
+// Queries lifted from random pixels of every view (some pushed off the
+// surface, a tenth on an instance, a tenth on the far layer).
+QuerySet RandomQueries(const std::vector<TestView>& views, int per_view, std::mt19937& random) {
+  std::uniform_real_distribution<float> unit(0.f, 1.f);
+  QuerySet q;
+  for (size_t v = 0; v < views.size(); ++v) {
+    const TestView& t = views[v];
+    for (int i = 0; i < per_view; ++i) {
+      const int x = static_cast<int>(unit(random) * kW), y = static_cast<int>(unit(random) * kH);
+      const size_t j = static_cast<size_t>(y) * kW + x;
+      Vec3 ray;
+      if (!t.view.camera.Unproject(x + 0.5, y + 0.5, &ray)) continue;
+      const bool far = unit(random) < 0.1f;
+      const float z = far ? 500.f : t.depth.depth[j] * (unit(random) < 0.2f ? 0.8f : 1.f);
+      const Vec3 world = t.view.world_from_camera * Vec3{ray.x * z, ray.y * z, z};
+      const uint32_t owner = !far && unit(random) < 0.1f ? 1 : 0;
+      q.positions.insert(q.positions.end(), {float(world.x), float(world.y), float(world.z)});
+      q.rgb.insert(q.rgb.end(), {unit(random), unit(random), unit(random)});
+      q.plucker.insert(q.plucker.end(), 6, 0.f);
+      q.normals.insert(q.normals.end(), {0, 0, -1});
+      q.rays.insert(q.rays.end(), {0, 0, 1});
+      q.depths.push_back(z);
+      q.footprints.push_back(0.1f);
+      q.views.push_back(static_cast<int32_t>(v));
+      q.pixels.push_back(static_cast<int32_t>(j));
+      q.owners.push_back(owner);
+      q.far.push_back(far ? 1 : 0);
+    }
+  }
+  return q;
+}
+
+// An instance whose box slides 1 m along x over the clip.
+std::vector<InstanceTrack> SlidingTrack() {
+  InstanceTrack track;
+  track.id = "car";
+  TrackBox first;
+  first.center = {0, 0, 10};
+  first.size = {4, 2, 1.5};
+  TrackBox last = first;
+  last.timestamp_us = 400000;
+  last.center = {1, 0, 10};
+  last.rotation = QuatNormalized({1, 0, 0.05, 0});
+  track.boxes = {first, last};
+  return {track};
+}
+
+void ExpectSameFusion(const FusedQueries& expected, const FusedQueries& actual,
+                      const std::string& label) {
+  ASSERT_EQ(expected.observations.size(), actual.observations.size()) << label;
+  int differing = 0;
+  for (size_t i = 0; i < expected.observations.size(); ++i) {
+    const bool same = expected.observations[i] == actual.observations[i] &&
+                      expected.agreement[i] == actual.agreement[i] &&
+                      (expected.lifespans[i] == actual.lifespans[i]) &&
+                      std::abs(expected.rgb[3 * i] - actual.rgb[3 * i]) < 1e-5f &&
+                      std::abs(expected.rgb[3 * i + 1] - actual.rgb[3 * i + 1]) < 1e-5f &&
+                      std::abs(expected.rgb[3 * i + 2] - actual.rgb[3 * i + 2]) < 1e-5f;
+    if (!same && ++differing <= 5) {
+      ADD_FAILURE() << label << " query " << i << ": observations " << expected.observations[i]
+                    << " vs " << actual.observations[i] << ", agreement " << expected.agreement[i]
+                    << " vs " << actual.agreement[i] << ", lifespan " << expected.lifespans[i]
+                    << " vs " << actual.lifespans[i] << ", red " << expected.rgb[3 * i] << " vs "
+                    << actual.rgb[3 * i];
+    }
+  }
+  EXPECT_EQ(differing, 0) << label;
+}
+
+TEST(TensorFusion, MatchesTheCxxKernelOnARandomSceneForEveryWeighting) {
+  std::mt19937 random(7);
+  const std::vector<TestView> views = RandomViews(random);
+  std::vector<FusionView> fusion_views;
+  for (const TestView& view : views) fusion_views.push_back(view.fusion());
+  const QuerySet queries = RandomQueries(views, 900, random);
+  const std::vector<InstanceTrack> tracks = SlidingTrack();
+  ASSERT_GT(queries.size(), 4000u);
+
+  for (FusionWeights weights :
+       {FusionWeights::kDepthSoftmax, FusionWeights::kPlainAverage, FusionWeights::kNoDepth}) {
+    for (bool lifespan : {true, false}) {
+      for (bool resolution : {true, false}) {
+        FusionOptions options;
+        options.weights = weights;
+        options.lifespan = lifespan;
+        options.resolution_weighting = resolution;
+        const std::string label = std::string("weights ") + std::to_string(int(weights)) +
+                                  (lifespan ? " lifespan" : "") + (resolution ? " resolution" : "");
+        const FusedQueries expected = FuseQueries(queries, fusion_views, tracks, options);
+        absl::StatusOr<FusedQueries> actual =
+            FuseQueriesOnDevice(queries, fusion_views, tracks, options, ComputeDevice{},
+                                /*batch=*/1000);
+        ASSERT_TRUE(actual.ok()) << actual.status();
+        ExpectSameFusion(expected, *actual, label);
+
+        if (weights == FusionWeights::kDepthSoftmax && lifespan && resolution) {
+          // The scene exercises every rule: multi-view observations,
+          // contradictions and finite lifespans, queries nobody else sees.
+          int multi = 0, contradicted = 0, fading = 0, alone = 0;
+          for (size_t i = 0; i < queries.size(); ++i) {
+            multi += expected.observations[i] >= 3;
+            contradicted += expected.agreement[i] < 1;
+            fading += std::isfinite(expected.lifespans[i]);
+            alone += expected.observations[i] == 1;
+          }
+          EXPECT_GT(multi, 1000) << label;
+          EXPECT_GT(contradicted, 100) << label;
+          EXPECT_GT(fading, 50) << label;
+          EXPECT_GT(alone, 100) << label;
+        }
+      }
+    }
+  }
+}
+
+TEST(TensorFusion, WeightsPreferTheConsistentViewAsComputedByHand) {
+  // One query at (0, 0, 10), seen by four views from the origin: the source,
+  // two within the tolerance (d = 0.005 and 0.025) and one occluded.
+  const float depths[4] = {10.f, 10.05f, 10.25f, 5.f};
+  const float colours[4][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {1, 1, 1}};
+  std::vector<TestView> views(4);
+  std::vector<FusionView> fusion_views;
+  for (int v = 0; v < 4; ++v) {
+    views[v].view.camera = CameraModel(16, 12, 10, 10, 8, 6);
+    views[v].view.rgb = ImageF(16, 12, 3);
+    for (int y = 0; y < 12; ++y)
+      for (int x = 0; x < 16; ++x)
+        for (int c = 0; c < 3; ++c) views[v].view.rgb.at(x, y, c) = colours[v][c];
+    views[v].depth = {16, 12, std::vector<float>(16 * 12, depths[v]),
+                      std::vector<uint8_t>(16 * 12, 0)};
+  }
+  for (const TestView& view : views) fusion_views.push_back(view.fusion());
+  QuerySet q;
+  q.positions = {0, 0, 10};
+  q.rgb = {1, 0, 0};
+  q.plucker = {0, 0, 1, 0, 0, 0};
+  q.normals = {0, 0, -1};
+  q.rays = {0, 0, 1};
+  q.depths = {10};
+  q.footprints = {1};
+  q.views = {0};
+  q.pixels = {6 * 16 + 8};
+  q.owners = {0};
+  q.far = {0};
+  absl::StatusOr<FusedQueries> f =
+      FuseQueriesOnDevice(q, fusion_views, {}, FusionOptions{}, ComputeDevice{});
+  ASSERT_TRUE(f.ok()) << f.status();
+  const double w1 = std::exp(-0.005 / 0.01), w2 = std::exp(-0.025 / 0.01);
+  const double sum = 1 + w1 + w2;
+  EXPECT_NEAR(f->rgb[0], 1 / sum, 1e-5);
+  EXPECT_NEAR(f->rgb[1], w1 / sum, 1e-5);
+  EXPECT_NEAR(f->rgb[2], w2 / sum, 1e-5);
+  EXPECT_EQ(f->observations[0], 3);
+  EXPECT_FLOAT_EQ(f->agreement[0], 1.f);
+  EXPECT_TRUE(std::isinf(f->lifespans[0]));
+}
+
+TEST(TensorFusion, ARefusedDeviceIsAnErrorNotACrash) {
+  const ComputeDevice gpu{ComputeDevice::Kind::kCuda, 64};
+  absl::StatusOr<FusedQueries> f = FuseQueriesOnDevice(QuerySet{}, {}, {}, FusionOptions{}, gpu);
+  EXPECT_EQ(f.status().code(), absl::StatusCode::kFailedPrecondition) << f.status();
+}
+
+// Where a GPU exists (a GPU worker), the same fusion on it matches the CPU.
+TEST(TensorFusion, CudaMatchesTheCpu) {
+  const ComputeDevice gpu{ComputeDevice::Kind::kCuda, 0};
+  if (!CheckComputeDevice(gpu, "--device").ok()) {
+    GTEST_SKIP() << "no CUDA GPU in this LibTorch: " << TensorBackendDescription();
+  }
+  std::mt19937 random(11);
+  const std::vector<TestView> views = RandomViews(random);
+  std::vector<FusionView> fusion_views;
+  for (const TestView& view : views) fusion_views.push_back(view.fusion());
+  const QuerySet queries = RandomQueries(views, 900, random);
+  const std::vector<InstanceTrack> tracks = SlidingTrack();
+  absl::StatusOr<FusedQueries> cpu =
+      FuseQueriesOnDevice(queries, fusion_views, tracks, FusionOptions{}, ComputeDevice{});
+  absl::StatusOr<FusedQueries> cuda =
+      FuseQueriesOnDevice(queries, fusion_views, tracks, FusionOptions{}, gpu);
+  ASSERT_TRUE(cpu.ok()) << cpu.status();
+  ASSERT_TRUE(cuda.ok()) << cuda.status();
+  ExpectSameFusion(*cpu, *cuda, "cuda");
+}
+
+}  // namespace
+}  // namespace pf
