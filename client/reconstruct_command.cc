@@ -1,6 +1,6 @@
 // pf reconstruct CLIP.json --out SCENE [--model analytic|pixel-aligned]
 //                [--ns N --nd N] [--fusion softmax|average|no-depth]
-//                [--no-lifespan] [--refine N] [--splat-sigma S] [--device cpu]
+//                [--no-lifespan] [--refine N] [--splat-sigma S] [--device cpu|cuda:N]
 // Builds a Gaussian scene from the clip's CONTEXT frames (worker/engine/
 // recon/reconstruction.h) and writes it with SaveScene. Progress per stage
 // goes to stderr, a summary to stdout.
@@ -24,7 +24,7 @@ namespace {
 
 constexpr char kUsage[] =
     "usage: pf reconstruct CLIP.json --out SCENE [--model analytic|pixel-aligned] "
-    "[--ns N --nd N] [--fusion softmax|average|no-depth] [--no-lifespan] [--device cpu]";
+    "[--ns N --nd N] [--fusion softmax|average|no-depth] [--no-lifespan] [--device cpu|cuda:N]";
 
 absl::Status Run(const CommandLine& cl) {
   if (cl.positional().size() != 1 || !cl.Has("out")) return absl::InvalidArgumentError(kUsage);

@@ -135,7 +135,13 @@ TEST_F(ReconCli, BadFlagsAreBadInputNamingTheFlag) {
   const CommandResult device =
       RunCommand({Pf(), "eval", Clip(), "--out", *dir_ + "/x", "--device", "cuda:0"});
   EXPECT_EQ(device.exit_code, 2);
-  EXPECT_NE(device.err.find("--device"), std::string::npos) << device.err;
+  EXPECT_NE(device.err.find("--device: 'cuda:0' is not available"), std::string::npos)
+      << device.err;
+  const CommandResult unknown_device =
+      RunCommand({Pf(), "reconstruct", Clip(), "--out", *dir_ + "/x", "--device", "gpu"});
+  EXPECT_EQ(unknown_device.exit_code, 2);
+  EXPECT_NE(unknown_device.err.find("--device: unknown device 'gpu'"), std::string::npos)
+      << unknown_device.err;
   const CommandResult missing =
       RunCommand({Pf(), "reconstruct", *dir_ + "/nope.json", "--out", *dir_ + "/x"});
   EXPECT_EQ(missing.exit_code, 2);

@@ -11,6 +11,8 @@
 #include <exception>
 #include <limits>
 #include <mutex>
+#include <stdexcept>
+#include <string>
 
 #include "absl/strings/str_cat.h"
 #include "common/status_macros.h"
@@ -186,10 +188,9 @@ void FuseBatch(const QuerySet& queries, int64_t begin, int64_t end,
                dz = pz.index_select(0, dynamic);
 
   const at::TensorOptions on_device = at::TensorOptions().device(device);
-  Tensor sum_w = at::zeros({count}, on_device.dtype(at::kDouble));
-  Tensor rgb = at::zeros({count, 3}, on_device.dtype(at::kDouble));
-  Tensor observed = at::zeros({count}, on_device.dtype(at::kInt));
-  Tensor contradicted = at::zeros({count}, on_device.dtype(at::kInt));
+  // Per query: weighted colour sum (3), weight sum, observations,
+  // contradictions; one scatter per view adds a view's six at once.
+  Tensor sums = at::zeros({count, 6}, on_device.dtype(at::kDouble));
   Tensor max_gap_us = at::zeros({count}, on_device.dtype(at::kLong));
   const float tol = static_cast<float>(options.visibility_tolerance);
   const float inf = std::numeric_limits<float>::infinity();
@@ -288,11 +289,9 @@ void FuseBatch(const QuerySet& queries, int64_t begin, int64_t end,
                                    .logical_not()
                                    .logical_and(d.lt(-tol))
                                    .logical_and(view.nearest.take(pixel).gt(z * (1 + tol)));
-    contradicted.index_add_(0, index, contradicts.to(at::kInt));
     // Observation: the source view; a far query where the view sees far; any
     // other query within the tolerance.
     const Tensor observes = at::where(far, pixel_far, d.abs().le(tol)).logical_or(is_source);
-    observed.index_add_(0, index, observes.to(at::kInt));
     const Tensor gap = (view_times[static_cast<int64_t>(v)] - query_time.index_select(0, index))
                            .abs()
                            .masked_fill(observes.logical_not(), 0);
@@ -320,9 +319,16 @@ void FuseBatch(const QuerySet& queries, int64_t begin, int64_t end,
     }
     w = w.masked_fill(included.logical_not(), 0.0);
     const Tensor colour = SampleRgb(view, u, w_pixel);
-    rgb.index_add_(0, index, w.unsqueeze(1) * colour.to(at::kDouble));
-    sum_w.index_add_(0, index, w);
+    sums.index_add_(
+        0, index,
+        at::cat({w.unsqueeze(1) * colour.to(at::kDouble), w.unsqueeze(1),
+                 observes.to(at::kDouble).unsqueeze(1), contradicts.to(at::kDouble).unsqueeze(1)},
+                1));
   }
+  const Tensor rgb = sums.narrow(1, 0, 3);
+  const Tensor sum_w = sums.select(1, 3);
+  Tensor observed = sums.select(1, 4).to(at::kInt);
+  const Tensor contradicted = sums.select(1, 5).to(at::kInt);
 
   const Tensor has_weight = sum_w.gt(0);
   const Tensor fused_rgb = at::where(
@@ -352,10 +358,12 @@ void FuseBatch(const QuerySet& queries, int64_t begin, int64_t end,
   }
 }
 
-// LibTorch's CPU threads follow the engine's pool (it defaults to 1 here).
-void MatchTorchThreads() {
+// ATen ops run single-threaded (its OpenMP threads spin at every op's
+// barrier and crawl on a loaded machine or under a container's CPU quota);
+// on the CPU the batches run in parallel on the engine's pool instead.
+void SingleThreadedTorch() {
   static std::once_flag once;
-  std::call_once(once, [] { at::set_num_threads(DefaultThreadPool().num_threads()); });
+  std::call_once(once, [] { at::set_num_threads(1); });
 }
 
 }  // namespace
@@ -366,7 +374,9 @@ absl::StatusOr<FusedQueries> FuseQueriesOnDevice(const QuerySet& queries,
                                                  const FusionOptions& options,
                                                  const ComputeDevice& device, int64_t batch) {
   RETURN_IF_ERROR(CheckComputeDevice(device, "device"));
-  if (batch <= 0) return absl::InvalidArgumentError("batch: must be positive");
+  if (batch < 0) return absl::InvalidArgumentError("batch: must not be negative");
+  const bool on_cpu = device.kind == ComputeDevice::Kind::kCpu;
+  if (batch == 0) batch = on_cpu ? kCpuFusionBatch : kGpuFusionBatch;
   const size_t n = queries.size();
   FusedQueries out;
   out.rgb.assign(n * 3, 0.f);
@@ -374,27 +384,44 @@ absl::StatusOr<FusedQueries> FuseQueriesOnDevice(const QuerySet& queries,
   out.lifespans.assign(n, std::numeric_limits<float>::infinity());
   out.observations.assign(n, 0);
   if (n == 0) return out;
-  MatchTorchThreads();
+  SingleThreadedTorch();
   try {
-    const at::Device on = device.kind == ComputeDevice::Kind::kCpu
-                              ? at::Device(at::kCPU)
-                              : at::Device(at::kCUDA, static_cast<int8_t>(device.index));
+    const at::Device on =
+        on_cpu ? at::Device(at::kCPU) : at::Device(at::kCUDA, static_cast<int8_t>(device.index));
     std::vector<DeviceView> device_views;
+    std::vector<Rigid> camera_from_world;
     std::vector<int64_t> times;
     for (const FusionView& view : views) {
       device_views.push_back(UploadView(view, on));
-      times.push_back(view.view->timestamp_us);
-    }
-    std::vector<Rigid> camera_from_world;
-    for (const FusionView& view : views) {
       camera_from_world.push_back(view.view->world_from_camera.Inverse());
+      times.push_back(view.view->timestamp_us);
     }
     const Tensor camera_from_frame = CameraFromFrames(views, tracks, on);
     const Tensor view_times = ToDevice(times, at::kLong, at::kLong, on);
-    for (int64_t begin = 0; begin < static_cast<int64_t>(n); begin += batch) {
+    const int64_t batches = (static_cast<int64_t>(n) + batch - 1) / batch;
+    auto run = [&](int64_t b) {
+      const int64_t begin = b * batch;
       const int64_t end = std::min<int64_t>(begin + batch, static_cast<int64_t>(n));
       FuseBatch(queries, begin, end, device_views, camera_from_world, camera_from_frame, view_times,
                 options, on, &out);
+    };
+    if (!on_cpu) {
+      for (int64_t b = 0; b < batches; ++b) run(b);
+    } else {
+      // Batches write disjoint ranges of `out`; the first error is kept.
+      std::mutex mutex;
+      std::string error;
+      DefaultThreadPool().ParallelFor(0, batches, 1, [&](int64_t first, int64_t last) {
+        for (int64_t b = first; b < last; ++b) {
+          try {
+            run(b);
+          } catch (const std::exception& e) {
+            std::lock_guard<std::mutex> lock(mutex);
+            if (error.empty()) error = e.what();
+          }
+        }
+      });
+      if (!error.empty()) throw std::runtime_error(error);
     }
   } catch (const std::exception& e) {
     return absl::InternalError(

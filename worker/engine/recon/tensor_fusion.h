@@ -10,8 +10,9 @@
 // float64 as the C++ kernel does, so both give the same observations and
 // colours equal to float rounding (tensor_fusion_test.cc compares them).
 //
-// Queries go through in batches of `kFusionBatch` so memory stays bounded
-// (about 1 KB per query in flight).
+// Queries go through in batches so memory stays bounded (about 1 KB per
+// query in flight). On the CPU, ATen runs single-threaded and the batches run
+// in parallel on DefaultThreadPool(); on a GPU they run one after another.
 #ifndef POINTFORWARD_WORKER_ENGINE_RECON_TENSOR_FUSION_H_
 #define POINTFORWARD_WORKER_ENGINE_RECON_TENSOR_FUSION_H_
 
@@ -24,18 +25,19 @@
 
 namespace pf {
 
-// Queries per batch.
-inline constexpr int64_t kFusionBatch = 1 << 18;
+// Queries per batch, by default.
+inline constexpr int64_t kCpuFusionBatch = 1 << 17;
+inline constexpr int64_t kGpuFusionBatch = 1 << 20;
 
-// Fuses `queries` over `views` on `device` as FuseQueries does.
-// FAILED_PRECONDITION when the device is not available; INTERNAL, with
-// LibTorch's message, if LibTorch throws.
+// Fuses `queries` over `views` on `device` as FuseQueries does, `batch`
+// queries at a time (0: the device's default above). FAILED_PRECONDITION
+// when the device is not available; INTERNAL, with LibTorch's message, if
+// LibTorch throws.
 absl::StatusOr<FusedQueries> FuseQueriesOnDevice(const QuerySet& queries,
                                                  const std::vector<FusionView>& views,
                                                  const std::vector<InstanceTrack>& tracks,
                                                  const FusionOptions& options,
-                                                 const ComputeDevice& device,
-                                                 int64_t batch = kFusionBatch);
+                                                 const ComputeDevice& device, int64_t batch = 0);
 
 }  // namespace pf
 
