@@ -24,7 +24,8 @@ namespace {
 
 constexpr char kUsage[] =
     "usage: pf reconstruct CLIP.json --out SCENE [--model analytic|pixel-aligned] "
-    "[--ns N --nd N] [--fusion softmax|average|no-depth] [--no-lifespan] [--device cpu|cuda:N]";
+    "[--ns N --nd N] [--fusion softmax|average|no-depth] [--no-lifespan] [--refine N] "
+    "[--splat-sigma S] [--hidden-band PX] [--device cpu|cuda:N]";
 
 absl::Status Run(const CommandLine& cl) {
   if (cl.positional().size() != 1 || !cl.Has("out")) return absl::InvalidArgumentError(kUsage);

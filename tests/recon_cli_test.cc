@@ -11,6 +11,7 @@
 
 #include "gtest/gtest.h"
 #include "tests/test_util.h"
+#include "worker/engine/recon/gaussian_decoder.h"
 #include "worker/engine/render/scene_file.h"
 
 namespace pf {
@@ -111,6 +112,32 @@ TEST_F(ReconCli, ReconstructWritesALoadableSceneAndASummary) {
   // lands within a few per cent of the budget (sparse_sampling.h).
   EXPECT_LE(scene.size() - dynamic, 6u * 2000 * 105 / 100);
   EXPECT_GT(scene.size() - dynamic, 6u * 2000 * 85 / 100);
+}
+
+// --hidden-band adds queries behind depth edges (agreement channel 0, at
+// full opacity); without it there are none.
+TEST_F(ReconCli, HiddenBandAddsHiddenGaussiansOnlyWhenAsked) {
+  auto hidden_count = [&](const std::vector<std::string>& extra) -> int64_t {
+    const std::string path = *dir_ + "/hidden.pfscene";
+    std::vector<std::string> argv = {Pf(), "reconstruct", Clip(), "--out", path, "--ns", "2000"};
+    argv.insert(argv.end(), extra.begin(), extra.end());
+    const CommandResult result = RunCommand(argv);
+    EXPECT_EQ(result.exit_code, 0) << result.err;
+    absl::StatusOr<SceneFile> file = ReadSceneFile(path);
+    if (!file.ok()) return -1;
+    const GaussianScene& scene = file->scene;
+    int64_t hidden = 0;
+    for (size_t i = 0; i < scene.size(); ++i) {
+      hidden += scene.features[i * scene.num_channels + kAgreementChannel] == 0.f;
+    }
+    return hidden;
+  };
+  EXPECT_EQ(hidden_count({}), 0);
+  EXPECT_GT(hidden_count({"--hidden-band", "64"}), 100);
+  const CommandResult bad =
+      RunCommand({Pf(), "reconstruct", Clip(), "--out", *dir_ + "/x", "--hidden-band", "-1"});
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_NE(bad.err.find("--hidden-band: must be in [0, 256]"), std::string::npos) << bad.err;
 }
 
 TEST_F(ReconCli, AblationFlagsAreRecordedInTheReport) {

@@ -10,6 +10,7 @@
 #include "absl/strings/str_cat.h"
 #include "common/status_macros.h"
 #include "common/thread_pool.h"
+#include "worker/engine/recon/gaussian_decoder.h"
 #include "worker/engine/render/compositing_weights.h"
 
 namespace pf {
@@ -21,6 +22,10 @@ using Channels = std::array<double, 3>;
 // weights) before the relative prior is taken, so that a Gaussian no fitted
 // pixel sees still has a positive prior and keeps its fused colour.
 constexpr float kPriorFloor = 1e-3f;
+
+// The prior weight of hidden Gaussians, relative like prior_weight: large
+// enough that the fit leaves their colour as it is.
+constexpr float kHiddenPrior = 1e4f;
 
 // One context view in the fit: its compositing matrix and the image, with
 // pixels under min_alpha zeroed out of both sides (the mask M).
@@ -216,10 +221,16 @@ absl::StatusOr<RefinementStats> RefineColours(const std::vector<ContextView>& vi
   // The prior of each Gaussian is relative to its own data weight (plus a
   // floor for Gaussians no fitted pixel sees), so one prior_weight means the
   // same for small pixel-aligned discs and large fused ones.
+  // Hidden Gaussians (agreement channel 0: no context view observes them)
+  // keep their colour: the little weight they get where the surface in front
+  // is not quite opaque would only let them absorb its residuals.
   const float lambda = static_cast<float>(options.prior_weight);
+  const bool has_agreement = options.keep_hidden && stride > kAgreementChannel;
   std::vector<float> prior(3 * n);
   for (size_t i = 0; i < 3 * n; ++i) {
-    prior[i] = lambda * (diag[i] + kPriorFloor);
+    const bool hidden =
+        has_agreement && scene->features[(i / 3) * stride + kAgreementChannel] <= 0.f;
+    prior[i] = (hidden ? kHiddenPrior : lambda) * (diag[i] + kPriorFloor);
     diag[i] += prior[i];
   }
 

@@ -21,7 +21,9 @@
 // [min_colour, max_colour]. Only CONTEXT images are used; geometry,
 // opacity, time and the other feature channels are not touched. Pixels the
 // render barely covers (alpha < min_alpha: holes, their rims) are left out,
-// so Gaussians at the rim of a hole are not brightened to fill it.
+// so Gaussians at the rim of a hole are not brightened to fill it. Hidden
+// Gaussians (agreement 0: the background continued behind an occluding
+// edge, sparse_sampling.h) keep their colour.
 #ifndef POINTFORWARD_WORKER_ENGINE_RECON_COLOUR_REFINEMENT_H_
 #define POINTFORWARD_WORKER_ENGINE_RECON_COLOUR_REFINEMENT_H_
 
@@ -38,6 +40,10 @@ struct RefinementOptions {
   int iterations = 8;          // Conjugate-gradient iterations; 0: no refinement.
   double prior_weight = 0.05;  // Pull towards the decoded colours, relative to the data.
   double min_alpha = 0.5;
+  // Leave the colour of hidden Gaussians (feature kAgreementChannel 0, see
+  // gaussian_decoder.h: behind the surface every context view sees) as
+  // decoded; needs a scene with that channel.
+  bool keep_hidden = true;
   // Compositing weights under this are left out of the fit: a contribution
   // below one 8-bit level (1/255, the rasterizer's own alpha cut-off) of a
   // colour in [0, 1]. About 40 % of the pairs and 0.5 % of the weight on the

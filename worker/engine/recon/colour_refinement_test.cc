@@ -45,6 +45,37 @@ ContextView UniformView(int width, int height, double f, float value) {
   return view;
 }
 
+TEST(ColourRefinement, HiddenGaussiansKeepTheirColour) {
+  // The one-pixel problem below, with the back Gaussian marked hidden
+  // (agreement 0): it keeps its decoded colour and the front one alone is
+  // fitted, c0 + a0 (I - a . c0) / (a0^2 + l0) per channel. Without
+  // keep_hidden it moves like any other.
+  for (const bool keep : {true, false}) {
+    GaussianScene scene = EmptyScene();
+    AddGaussian(&scene, {0, 0, 2}, 0.001, 0.6, {0.2, 0.5, 0.9});
+    AddGaussian(&scene, {0, 0, 3}, 0.001, 0.5, {0.4, 0.5, 0.1});
+    scene.features[kReconChannels + kAgreementChannel] = 0.f;
+    RefinementOptions options;
+    options.iterations = 4;
+    options.min_colour = -10;
+    options.max_colour = 10;
+    options.keep_hidden = keep;
+    ASSERT_TRUE(RefineColours({UniformView(1, 1, 1, 0.7f)}, options, &scene).ok());
+    const double a0 = 0.6, a1 = 0.5 * 0.4, l0 = 0.05 * (a0 * a0 + 0.001);
+    const double back[3] = {0.4, 0.5, 0.1}, front[3] = {0.2, 0.5, 0.9};
+    for (int c = 0; c < 3; ++c) {
+      const double residual = 0.7 - a0 * front[c] - a1 * back[c];
+      if (keep) {
+        EXPECT_NEAR(scene.features[kReconChannels + c], back[c], 1e-3) << "channel " << c;
+        EXPECT_NEAR(scene.features[c], front[c] + a0 * residual / (a0 * a0 + l0), 1e-3)
+            << "channel " << c;
+      } else {
+        EXPECT_GT(std::abs(scene.features[kReconChannels + c] - back[c]), 0.05) << "channel " << c;
+      }
+    }
+  }
+}
+
 TEST(ColourRefinement, OnePixelTwoGaussiansMatchesTheClosedForm) {
   // A 1x1 view; two Gaussians on its centre ray, opacity 0.6 (front) and 0.5,
   // so the pixel is a . c with a = (0.6, 0.5 x 0.4). One equation, two

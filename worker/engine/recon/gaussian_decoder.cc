@@ -7,6 +7,12 @@
 #include "common/thread_pool.h"
 
 namespace pf {
+namespace {
+
+// The agreement channel of a visible query is at least this.
+constexpr float kMinAgreement = 1e-6f;
+
+}  // namespace
 
 Quat DiscFrame(const Vec3& normal_in, const Vec3& ray_in, double max_stretch, double* stretch) {
   const Vec3 n = Normalized(normal_in);
@@ -47,13 +53,20 @@ GaussianScene DecodeGaussians(const QuerySet& queries, const FusedQueries& fused
       scene.log_scales[3 * i] = float(std::log(options.tangent_sigma * f * stretch));
       scene.log_scales[3 * i + 1] = float(std::log(options.tangent_sigma * f));
       scene.log_scales[3 * i + 2] = float(std::log(options.normal_sigma * f));
+      const bool hidden = queries.is_hidden(i);
       const double a = std::clamp(double(fused.agreement[i]), 0.0, 1.0);
-      const double opacity = options.min_opacity + (options.max_opacity - options.min_opacity) * a;
+      const double opacity =
+          hidden ? options.max_opacity
+                 : options.min_opacity + (options.max_opacity - options.min_opacity) * a;
       scene.opacity_logits[i] = float(std::log(opacity / (1 - opacity)));
       float* feat = &scene.features[static_cast<size_t>(i) * kReconChannels];
-      for (int c = 0; c < 3; ++c) feat[c] = std::clamp(fused.rgb[3 * i + c], 0.f, 1.f);
+      // A hidden query has no observation of its own (its source view sees
+      // the foreground there): it keeps the background colour it was given.
+      const float* rgb = hidden ? &queries.rgb[3 * i] : &fused.rgb[3 * i];
+      for (int c = 0; c < 3; ++c) feat[c] = std::clamp(rgb[c], 0.f, 1.f);
       for (int c = 0; c < 3; ++c) feat[3 + c] = queries.normals[3 * i + c];
-      feat[6] = float(a);
+      // 0 marks hidden queries only.
+      feat[kAgreementChannel] = hidden ? 0.f : std::max(float(a), kMinAgreement);
       scene.times[i] = float((view_times_us[queries.views[i]] - time_origin_us) * 1e-6);
       scene.lifespans[i] = fused.lifespans[i];
       scene.owners[i] = queries.owners[i];

@@ -2,8 +2,11 @@
 // query becomes one 3D Gaussian of the scene.
 //
 // - Mean: the query's position (world, or the instance's canonical frame).
-// - Features (kReconChannels = 7): [0..2] fused RGB, [3..5] the unit surface
-//   normal (same frame as the mean), [6] multi-view agreement in [0, 1].
+// - Features (kReconChannels = 7): [0..2] fused RGB (a hidden query's own
+//   colour: fusion sees the foreground in front of it), [3..5] the unit surface
+//   normal (same frame as the mean), [6] multi-view agreement in (0, 1], 0
+//   for a hidden query (no view observes it; colour_refinement.h keeps its
+//   colour).
 //   The renderer's RGB is the first three channels (identity decoder).
 // - Rotation and scale: a flat disc on the local surface. Its axes are t1
 //   (the source ray projected on the tangent plane), t2 = n x t1 and the
@@ -12,7 +15,8 @@
 //   seen at a slant, so the spacing there is f / |cos theta| (theta between
 //   ray and normal, the stretch capped at max_stretch). Standard deviations
 //   are tangent_sigma times those spacings, and normal_sigma x f across.
-// - Opacity: min_opacity + (max_opacity - min_opacity) x agreement.
+// - Opacity: min_opacity + (max_opacity - min_opacity) x agreement (a
+//   hidden query takes max_opacity: it stands for an opaque surface).
 // - Time: the source view's time (seconds since time_origin_us); lifespan
 //   from fusion.
 #ifndef POINTFORWARD_WORKER_ENGINE_RECON_GAUSSIAN_DECODER_H_
@@ -30,6 +34,8 @@ namespace pf {
 
 // Feature channels of reconstructed scenes.
 inline constexpr int kReconChannels = 7;
+// The channel of multi-view agreement; 0 marks a hidden Gaussian.
+inline constexpr int kAgreementChannel = 6;
 
 struct DecoderOptions {
   double tangent_sigma = 0.6;  // Std-dev along the surface per query spacing.

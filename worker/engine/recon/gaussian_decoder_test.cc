@@ -71,5 +71,40 @@ TEST(GaussianDecoder, DecodesScaleOpacityFeaturesAndTime) {
   EXPECT_EQ(scene.instances[0].id, "car");
 }
 
+TEST(GaussianDecoder, HiddenQueriesKeepTheirColourAndAreMarked) {
+  // Query 1 is hidden: fusion saw the foreground in front of it (fused
+  // colour green), its own colour is the background's (red). It keeps red,
+  // is opaque like a fully agreeing surface and has agreement 0; query 0 is
+  // decoded as usual (a fused agreement of 0 is not written as 0).
+  QuerySet q;
+  q.positions = {0, 0, 5, 0, 0, 10};
+  q.rgb = {0, 0, 1, 1, 0, 0};
+  q.normals = {0, 0, -1, 0, 0, -1};
+  q.rays = {0, 0, 1, 0, 0, 1};
+  q.depths = {5, 10};
+  q.footprints = {0.1f, 0.2f};
+  q.views = {0, 0};
+  q.pixels = {0, 0};
+  q.owners = {0, 0};
+  q.far = {0, 0};
+  q.hidden = {0, 1};
+  FusedQueries f;
+  f.rgb = {0, 1, 0, 0, 1, 0};
+  f.agreement = {0.f, 0.5f};
+  f.lifespans.assign(2, std::numeric_limits<float>::infinity());
+  f.observations = {1, 1};
+  const GaussianScene scene = DecodeGaussians(q, f, {0}, 0, {}, DecoderOptions{});
+  ASSERT_EQ(scene.size(), 2u);
+  EXPECT_FLOAT_EQ(scene.features[0], 0.f);  // Query 0: fused green.
+  EXPECT_FLOAT_EQ(scene.features[1], 1.f);
+  EXPECT_GT(scene.features[kAgreementChannel], 0.f);
+  EXPECT_NEAR(1 / (1 + std::exp(-scene.opacity_logits[0])), 0.5, 1e-5);
+  const float* hidden = &scene.features[kReconChannels];
+  EXPECT_FLOAT_EQ(hidden[0], 1.f);  // Its own red, not the fused green.
+  EXPECT_FLOAT_EQ(hidden[1], 0.f);
+  EXPECT_FLOAT_EQ(hidden[kAgreementChannel], 0.f);
+  EXPECT_NEAR(1 / (1 + std::exp(-scene.opacity_logits[1])), 0.98, 1e-5);
+}
+
 }  // namespace
 }  // namespace pf

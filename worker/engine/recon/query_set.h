@@ -24,6 +24,10 @@ struct QuerySet {
   std::vector<int32_t> pixels;    // [N] source pixel y * W + x
   std::vector<uint32_t> owners;   // [N] 0 static, k: instance k - 1
   std::vector<uint8_t> far;       // [N] 1 on the far layer
+  // [N] 1 for a hidden query (sparse_sampling.h): behind the surface its
+  // source pixel sees, coloured like the background next to it; may be
+  // empty (none hidden).
+  std::vector<uint8_t> hidden;
 
   size_t size() const { return depths.size(); }
   Vec3 position(size_t i) const {
@@ -31,6 +35,7 @@ struct QuerySet {
   }
   Vec3 normal(size_t i) const { return {normals[3 * i], normals[3 * i + 1], normals[3 * i + 2]}; }
   Vec3 ray(size_t i) const { return {rays[3 * i], rays[3 * i + 1], rays[3 * i + 2]}; }
+  bool is_hidden(size_t i) const { return i < hidden.size() && hidden[i] != 0; }
 };
 
 }  // namespace pf

@@ -7,8 +7,8 @@
 namespace pf {
 
 const std::set<std::string>& ReconValueFlags() {
-  static const std::set<std::string> flags = {"model",  "ns",          "nd",    "fusion",
-                                              "device", "splat-sigma", "refine"};
+  static const std::set<std::string> flags = {"model",  "ns",          "nd",     "fusion",
+                                              "device", "splat-sigma", "refine", "hidden-band"};
   return flags;
 }
 
@@ -72,6 +72,12 @@ absl::StatusOr<ReconOptions> ReconOptionsFromFlags(const CommandLine& cl) {
         absl::StrCat("--refine: must be in [0, 20] iterations, got ", cl.Get("refine")));
   }
   options.refinement.iterations = static_cast<int>(refine);
+  ASSIGN_OR_RETURN(const int64_t band, cl.GetInt("hidden-band", options.hidden_band_px));
+  if (band < 0 || band > 256) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("--hidden-band: must be in [0, 256] pixels, got ", cl.Get("hidden-band")));
+  }
+  options.hidden_band_px = static_cast<int>(band);
   ASSIGN_OR_RETURN(options.device, ParseComputeDevice(cl.Get("device", "cpu"), "--device"));
   RETURN_IF_ERROR(CheckComputeDevice(options.device, "--device"));
   return options;

@@ -148,6 +148,7 @@ absl::StatusOr<ReconResult> ReconstructInputs(const ReconInputs& inputs,
   sampling.far_stride = options.far_stride;
   sampling.skip_covered = options.skip_covered;
   sampling.fill_static_budget = options.fill_static_budget;
+  sampling.behind_band_px = options.hidden_band_px;
   sampling.dense = options.model == ReconModel::kPixelAligned;
   std::vector<SamplingView> sampling_views(num_views);
   for (size_t v = 0; v < num_views; ++v)

@@ -18,6 +18,10 @@ struct Candidate {
   int pixel;
   Vec3 position;  // World or canonical.
   float footprint;
+  // A hidden query (behind the surface `pixel` sees): the pixel whose colour
+  // and normal it takes, and its z depth in the view; -1 for ordinary ones.
+  int source_pixel = -1;
+  float depth = -1.f;
 };
 
 // Returns a hash of three integers mapped to [0, 1).
@@ -57,13 +61,16 @@ void Emit(const Candidate& c, const SamplingView& sv, uint32_t owner, const Rigi
           QuerySet* out) {
   const ContextView& view = *sv.view;
   const size_t i = static_cast<size_t>(c.pixel);
-  const int x = c.pixel % view.width(), y = c.pixel / view.width();
+  const bool hidden = c.source_pixel >= 0;
+  // Colour, normal and layer come from the pixel the query shows.
+  const size_t shown = hidden ? static_cast<size_t>(c.source_pixel) : i;
+  const int x = static_cast<int>(shown % view.width()), y = static_cast<int>(shown / view.width());
   const Vec3 world{sv.lifted->points[3 * i], sv.lifted->points[3 * i + 1],
                    sv.lifted->points[3 * i + 2]};
   const Vec3 origin = view.world_from_camera.translation;
   const Vec3 ray_world = Normalized(world - origin);
-  const Vec3 normal_world{sv.lifted->normals[3 * i], sv.lifted->normals[3 * i + 1],
-                          sv.lifted->normals[3 * i + 2]};
+  const Vec3 normal_world{sv.lifted->normals[3 * shown], sv.lifted->normals[3 * shown + 1],
+                          sv.lifted->normals[3 * shown + 2]};
   const Vec3 normal = to_frame.rotation * normal_world;
   const Vec3 ray = to_frame.rotation * ray_world;
   const std::array<float, 6> plucker = PluckerRay(origin, ray_world);
@@ -74,12 +81,13 @@ void Emit(const Candidate& c, const SamplingView& sv, uint32_t owner, const Rigi
   out->plucker.insert(out->plucker.end(), plucker.begin(), plucker.end());
   out->normals.insert(out->normals.end(), {float(normal.x), float(normal.y), float(normal.z)});
   out->rays.insert(out->rays.end(), {float(ray.x), float(ray.y), float(ray.z)});
-  out->depths.push_back(sv.depth->depth[i]);
+  out->depths.push_back(hidden ? c.depth : sv.depth->depth[i]);
   out->footprints.push_back(c.footprint);
   out->views.push_back(c.view);
   out->pixels.push_back(c.pixel);
   out->owners.push_back(owner);
-  out->far.push_back(sv.depth->is_far(i) ? 1 : 0);
+  out->far.push_back(sv.depth->is_far(shown) ? 1 : 0);
+  out->hidden.push_back(hidden ? 1 : 0);
 }
 
 // Keeps, per voxel of side `side`, the candidate nearest the voxel centre;
@@ -169,6 +177,130 @@ bool FinerViewSees(const Vec3& p, double footprint, size_t self, double ratio,
   return false;
 }
 
+// Returns true if a view other than `self` sees world point `p` (on the far
+// layer when `far`) or sees past it: the pixel it projects to is static and
+// shows the far layer, or a surface within 3 % of the point's depth (the view
+// samples that surface itself), or (for a point not on the far layer) one
+// deeper than that (the point is in free space).
+bool OtherViewSeesOrPasses(const Vec3& p, bool far, size_t self,
+                           const std::vector<SamplingView>& views,
+                           const std::vector<ViewResolution>& resolution) {
+  for (size_t u = 0; u < views.size(); ++u) {
+    if (u == self) continue;
+    const Vec3 pc = resolution[u].camera_from_world * p;
+    double x, y;
+    if (pc.z <= 0 || !views[u].view->camera.Project(pc, &x, &y)) continue;
+    const int px = static_cast<int>(std::floor(x)), py = static_cast<int>(std::floor(y));
+    if (px < 0 || py < 0 || px >= views[u].depth->width || py >= views[u].depth->height) continue;
+    const size_t j = static_cast<size_t>(py) * views[u].depth->width + px;
+    if ((*views[u].owners)[j] != 0) continue;
+    if (views[u].depth->is_far(j) || (!far && views[u].depth->depth[j] >= 0.97 * pc.z)) {
+      return true;
+    }
+  }
+  return false;
+}
+
+// |cos| between a pixel's ray and its surface normal under which the
+// surface is grazing and hides nothing (HiddenCandidate).
+constexpr double kMinHiddenFacing = 0.3;
+
+// How much deeper than pixel `from` the near side of the edge may be, and
+// how far its normal may turn (cosine), for `from` to count as the occluder
+// (OccludesBackground): a slanted car side spans some depth, the ground from
+// a metre ahead to the horizon far more.
+constexpr double kMaxOccluderSpread = 1.5;
+constexpr double kMinOccluderCos = 0.7;
+
+// Returns true if pixel `from` is part of a surface that hides pixel `to`:
+// walking the image segment from `from` to `to`, the first pair of
+// neighbouring pixels whose depth jumps by more than `min_jump` (relative)
+// is reached on `from`'s own surface (depth within kMaxOccluderSpread of
+// `from`'s, normals within kMinOccluderCos of its normal all the way). A
+// surface that only recedes (the ground up to a wall, or to the horizon) or
+// meets the occluder without a jump (the ground under a car) hides nothing
+// of what lies beyond.
+bool OccludesBackground(const ViewDepth& depth, const LiftedView& lifted, size_t from, size_t to,
+                        double min_jump) {
+  const int w = depth.width;
+  const int x0 = static_cast<int>(from % w), y0 = static_cast<int>(from / w);
+  const int x1 = static_cast<int>(to % w), y1 = static_cast<int>(to / w);
+  const int steps = std::max(std::abs(x1 - x0), std::abs(y1 - y0));
+  const Vec3 n0{lifted.normals[3 * from], lifted.normals[3 * from + 1],
+                lifted.normals[3 * from + 2]};
+  size_t previous = from;
+  for (int k = 1; k <= steps; ++k) {
+    const int x = x0 + static_cast<int>(std::lround(double(x1 - x0) * k / steps));
+    const int y = y0 + static_cast<int>(std::lround(double(y1 - y0) * k / steps));
+    const size_t pixel = static_cast<size_t>(y) * w + x;
+    if (depth.depth[pixel] > (1 + min_jump) * depth.depth[previous]) {
+      return depth.depth[previous] <= kMaxOccluderSpread * depth.depth[from];
+    }
+    const Vec3 n{lifted.normals[3 * pixel], lifted.normals[3 * pixel + 1],
+                 lifted.normals[3 * pixel + 2]};
+    if (depth.depth[pixel] > kMaxOccluderSpread * depth.depth[from] ||
+        Dot(n, n0) < kMinOccluderCos) {
+      return false;
+    }
+    previous = pixel;
+  }
+  return false;
+}
+
+// Returns the hidden query behind pixel `i` of view `v` with background
+// pixel `source` (FindBehindSources, -1: none): on the ray through `i`,
+// where the plane of the background pixel's surface (its point and normal)
+// meets it, or at the background's range when that plane does not give a
+// point behind `i`; at the far layer's range for a far background. False
+// when there is none: no background, a background that is not static, one
+// whose plane continues through `i` itself (a slanted surface, not an
+// occlusion), a pixel `i` whose own surface the ray meets at a grazing
+// angle or that is not the occluder (OccludesBackground): such a surface
+// (the road toward the horizon, or up to a wall) recedes into what lies
+// beyond it rather than hiding it, and a query behind it would sit below the
+// ground; and sky behind a ray that points below the camera's horizontal
+// plane.
+bool HiddenCandidate(const SamplingView& sv, int v, size_t i, int32_t source, double min_jump,
+                     double focal, double stride, Candidate* out) {
+  if (source < 0 || !sv.lifted->valid[i]) return false;
+  const size_t j = static_cast<size_t>(source);
+  if (!sv.lifted->valid[j] || (*sv.owners)[j] != 0) return false;
+  const Vec3 origin = sv.view->world_from_camera.translation;
+  const Vec3 p_i{sv.lifted->points[3 * i], sv.lifted->points[3 * i + 1],
+                 sv.lifted->points[3 * i + 2]};
+  const Vec3 p_j{sv.lifted->points[3 * j], sv.lifted->points[3 * j + 1],
+                 sv.lifted->points[3 * j + 2]};
+  const double range_i = Norm(p_i - origin), range_j = Norm(p_j - origin);
+  if (!(range_i > 0)) return false;
+  const Vec3 ray = (p_i - origin) / range_i;
+  const Vec3 n_i{sv.lifted->normals[3 * i], sv.lifted->normals[3 * i + 1],
+                 sv.lifted->normals[3 * i + 2]};
+  if (std::abs(Dot(ray, n_i)) < kMinHiddenFacing) return false;
+  if (!OccludesBackground(*sv.depth, *sv.lifted, i, j, std::max(min_jump, 0.5))) return false;
+  double range = range_j;
+  if (sv.depth->is_far(j)) {
+    // The sky lies above the camera's horizontal plane (vehicle cameras are
+    // mounted level): below it, what a near surface hides is ground, and a
+    // query on the far layer would sit deep underground.
+    const Vec3 ray_camera = sv.view->world_from_camera.Inverse().rotation * ray;
+    if (ray_camera.y >= 0) return false;
+  } else {
+    const Vec3 n{sv.lifted->normals[3 * j], sv.lifted->normals[3 * j + 1],
+                 sv.lifted->normals[3 * j + 2]};
+    const double along = Dot(ray, n);
+    if (std::abs(along) > 1e-3) {
+      const double s = Dot(p_j - origin, n) / along;
+      if (s > 0 && s <= 2 * range_j) range = s;
+    }
+    if (range <= (1 + min_jump) * range_i) return false;
+  }
+  const float z = static_cast<float>(sv.depth->depth[i] * range / range_i);
+  *out = {
+      v, static_cast<int>(i), origin + range * ray, float(z / focal * stride), static_cast<int>(j),
+      z};
+  return true;
+}
+
 double StaticStride(const SamplingView& sv, const SamplingOptions& options) {
   if (options.dense) return 1.0;
   const double pixels = double(sv.view->width()) * sv.view->height();
@@ -176,10 +308,11 @@ double StaticStride(const SamplingView& sv, const SamplingOptions& options) {
 }
 
 // Appends the static queries of `views` to `out`, with every view's grid
-// cell side multiplied by `refine`; returns how many were added.
+// cell side multiplied by `refine`; returns how many visible (not hidden)
+// queries were added.
 size_t SampleStatic(const std::vector<SamplingView>& views, const SamplingOptions& options,
                     double refine, QuerySet* out) {
-  const size_t before = out->size();
+  size_t visible = 0;
   const Rigid identity;
   std::vector<ViewResolution> resolution(views.size());
   for (size_t v = 0; v < views.size(); ++v) {
@@ -198,6 +331,13 @@ size_t SampleStatic(const std::vector<SamplingView>& views, const SamplingOption
     const double focal = FocalLength(sv.view->camera);
     const int far_stride = options.dense ? 1 : std::max(1, options.far_stride);
     std::vector<uint64_t> new_keys;
+    const BehindSources behind =
+        FindBehindSources(*sv.depth, options.behind_band_px, options.behind_min_jump);
+    // Hidden queries are taken on a grid of behind_stride cells, and behind
+    // far-layer backgrounds on the far layer's (a multiple of it).
+    const int behind_stride = std::max(1, options.behind_stride);
+    const int far_hidden_stride =
+        behind_stride * std::max(1, (far_stride + behind_stride - 1) / behind_stride);
     for (int cy = 0; cy < cells_y; ++cy) {
       for (int cx = 0; cx < cells_x; ++cx) {
         int x = cx, y = cy;
@@ -206,6 +346,32 @@ size_t SampleStatic(const std::vector<SamplingView>& views, const SamplingOption
           y = std::min(h - 1, static_cast<int>((cy + Hash01(cx, cy, 2 * v + 1)) * stride));
         }
         const size_t i = static_cast<size_t>(y) * w + x;
+        // The nearest background hidden behind this pixel, if no view sees it.
+        Candidate hidden;
+        bool has_hidden = false;
+        const bool on_hidden_grid = cx % behind_stride == 0 && cy % behind_stride == 0;
+        for (const std::vector<int32_t>& sources : behind.sources) {
+          if (!on_hidden_grid) break;
+          has_hidden = HiddenCandidate(sv, static_cast<int>(v), i, sources[i],
+                                       options.behind_min_jump, focal, stride, &hidden);
+          if (has_hidden) break;
+        }
+        if (has_hidden) {
+          // Coarser than visible surfaces: a hidden query copies one
+          // background colour, there is no detail to sample.
+          const bool far = sv.depth->is_far(static_cast<size_t>(hidden.source_pixel));
+          const int hidden_stride = far ? far_hidden_stride : behind_stride;
+          bool keep = cx % hidden_stride == 0 && cy % hidden_stride == 0;
+          hidden.footprint *= hidden_stride;
+          keep = keep && !OtherViewSeesOrPasses(hidden.position, far, v, views, resolution);
+          if (keep && options.skip_covered && !options.dense) {
+            const uint32_t level = FootprintLevel(hidden.footprint);
+            const uint64_t key = VoxelKey(hidden.position, LevelSide(level), level);
+            keep = !covered.contains(key);
+            if (keep) new_keys.push_back(key);
+          }
+          if (keep) Emit(hidden, sv, 0, identity, out);
+        }
         if (!sv.lifted->valid[i] || (*sv.owners)[i] != 0) continue;
         double footprint = sv.depth->depth[i] / focal * stride;
         if (sv.depth->is_far(i)) {
@@ -225,11 +391,12 @@ size_t SampleStatic(const std::vector<SamplingView>& views, const SamplingOption
           new_keys.push_back(key);
         }
         Emit({static_cast<int>(v), static_cast<int>(i), p, float(footprint)}, sv, 0, identity, out);
+        ++visible;
       }
     }
     covered.insert(new_keys.begin(), new_keys.end());
   }
-  return out->size() - before;
+  return visible;
 }
 
 }  // namespace

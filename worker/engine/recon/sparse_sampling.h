@@ -21,7 +21,19 @@
 // the canonical frame, thinned by a uniform voxel grid whose side is found by
 // bisection so that at most N_d points remain (one per voxel).
 //
-// Dense mode (the pixel-aligned model): every valid pixel is a query.
+// Hidden queries: where the camera moves, the strip of background that a
+// foreground edge hid from every context view comes into view, and with
+// nothing there the render has a hole (a third of the TARGET-frame error on
+// the synth clip). So a sampled pixel near the near side of a depth edge
+// also gets a query where the background's surface (its plane) continues
+// behind it, or on the far layer when the background is the sky, coloured
+// like the background pixel next to the edge; it is marked `hidden`, taken
+// on a coarser grid (it copies one colour: no detail to sample), and dropped
+// when another view sees the point (that view samples it) or sees past it
+// (the point would float in free space).
+//
+// Dense mode (the pixel-aligned model): every valid pixel is a query (and
+// one pixel of the band in behind_stride^2 gets its hidden query).
 #ifndef POINTFORWARD_WORKER_ENGINE_RECON_SPARSE_SAMPLING_H_
 #define POINTFORWARD_WORKER_ENGINE_RECON_SPARSE_SAMPLING_H_
 
@@ -53,6 +65,21 @@ struct SamplingOptions {
   bool fill_static_budget = true;
   double min_refine = 0.5;
   bool dense = false;  // Every valid pixel, no thinning (pixel-aligned).
+  // Hidden queries (FindBehindSources, view_depth.h): a sampled pixel within
+  // this many pixels of a deeper background also gets a query on its ray
+  // where the nearest such background's surface continues behind it, with
+  // the background's colour, unless another view sees that point or past
+  // it. < 1: none, the default: on the small synth clips of the tests the
+  // rules that tell an occluder from a receding surface (sparse_sampling.cc,
+  // OccludesBackground) still let some queries through far below the ground
+  // (invisible from above it, but they stretch the scene's bounds). Opt in
+  // with `--hidden-band 64` (docs/QUALITY.md has its figures).
+  int behind_band_px = 0;
+  double behind_min_jump = 0.1;  // Relative depth jump that makes an occlusion edge.
+  // Hidden queries take one cell in behind_stride^2 (behind far-layer
+  // backgrounds: in k^2, k the smallest multiple of behind_stride >=
+  // far_stride), with footprints as much larger.
+  int behind_stride = 2;
 };
 
 // Returns the budget `at_768x576` scaled by the pixel count relative to

@@ -252,4 +252,44 @@ ViewDepth WithFarLayer(const ImageF& measured, bool from_lidar, const ContextVie
   return out;
 }
 
+BehindSources FindBehindSources(const ViewDepth& depth, int band_px, double min_jump) {
+  BehindSources out;
+  const int w = depth.width, h = depth.height;
+  const size_t n = static_cast<size_t>(w) * h;
+  if (band_px < 1 || n == 0) return out;
+  // deepest[i]: the deepest pixel of the window of the current radius.
+  std::vector<int32_t> deepest(n), next(n);
+  for (size_t i = 0; i < n; ++i) deepest[i] = static_cast<int32_t>(i);
+  int previous = 0;  // Radius of `deepest` (0: the pixel itself).
+  for (int radius = 1; radius <= band_px; radius *= 2) {
+    // The window of `radius` is the union of the windows of `previous` at
+    // offsets -step, 0, +step per axis (step = radius - previous).
+    const int step = radius - previous;
+    DefaultThreadPool().ParallelFor(0, h, 16, [&](int64_t y0, int64_t y1) {
+      for (int64_t y = y0; y < y1; ++y) {
+        for (int x = 0; x < w; ++x) {
+          int32_t best = deepest[static_cast<size_t>(y) * w + x];
+          for (int dy = -step; dy <= step; dy += step) {
+            const int64_t yy = std::clamp<int64_t>(y + dy, 0, h - 1);
+            for (int dx = -step; dx <= step; dx += step) {
+              const int xx = std::clamp(x + dx, 0, w - 1);
+              const int32_t candidate = deepest[static_cast<size_t>(yy) * w + xx];
+              if (depth.depth[candidate] > depth.depth[best]) best = candidate;
+            }
+          }
+          next[static_cast<size_t>(y) * w + x] = best;
+        }
+      }
+    });
+    deepest.swap(next);
+    std::vector<int32_t> sources(n, -1);
+    for (size_t i = 0; i < n; ++i)
+      if (depth.depth[deepest[i]] > (1.0 + min_jump) * depth.depth[i]) sources[i] = deepest[i];
+    out.radii.push_back(radius);
+    out.sources.push_back(std::move(sources));
+    previous = radius;
+  }
+  return out;
+}
+
 }  // namespace pf

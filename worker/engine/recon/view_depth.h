@@ -111,6 +111,25 @@ ImageF MeasuredDepth(const ContextView& view, const std::vector<LidarSweepData>&
 ViewDepth WithFarLayer(const ImageF& measured, bool from_lidar, const ContextView& view,
                        const FarLayer& far);
 
+// What lies behind the near side of depth edges. A view sees one surface per
+// pixel; the background next to a foreground edge continues behind it, and
+// when the camera moves that hidden strip comes into view (disocclusion).
+// `sources[k][i]` is the deepest pixel within `radii[k]` pixels (Chebyshev
+// distance) of pixel i when it is deeper by more than `min_jump` (relative),
+// else -1; radii are 1, 2, 4, ... up to the band, so a caller can take the
+// nearest background that suits it. Far-layer pixels count with their far
+// depth, so the sky beside a building's edge is found too.
+struct BehindSources {
+  std::vector<int> radii;
+  std::vector<std::vector<int32_t>> sources;  // [scales][H * W]
+};
+
+// Returns the BehindSources of `depth` for radii 1, 2, 4, ... <= band_px
+// (none when band_px < 1). Each scale's window maximum is the maximum of
+// the previous scale's at 9 offsets, so the work is 9 look-ups per pixel and
+// scale.
+BehindSources FindBehindSources(const ViewDepth& depth, int band_px, double min_jump = 0.1);
+
 }  // namespace pf
 
 #endif  // POINTFORWARD_WORKER_ENGINE_RECON_VIEW_DEPTH_H_

@@ -91,6 +91,46 @@ TEST(ViewDepth, FarLayerPixelsLieOnTheSphere) {
   EXPECT_NEAR(depth.depth[0], 100.0 / std::sqrt(1 + rx * rx + ry * ry), 1e-3);
 }
 
+TEST(ViewDepth, BehindSourcesFindTheNearestDeeperBackground) {
+  // 40 x 30: columns < 20 at 5 m (foreground), the rest at 20 m, except
+  // column 39, far layer at 500 m; row 0 is a slant rising 1 % per pixel
+  // (no occlusion: under the 10 % jump within every radius used here).
+  ViewDepth depth;
+  depth.width = 40;
+  depth.height = 30;
+  depth.depth.assign(40 * 30, 5.f);
+  depth.source.assign(40 * 30, uint8_t(DepthSource::kDepthMap));
+  for (int y = 0; y < 30; ++y) {
+    for (int x = 20; x < 40; ++x) depth.depth[y * 40 + x] = 20.f;
+    depth.depth[y * 40 + 39] = 500.f;
+    depth.source[y * 40 + 39] = uint8_t(DepthSource::kFar);
+  }
+  for (int x = 0; x < 8; ++x) depth.depth[x] = 5.f * (1 + 0.01f * x);
+  const BehindSources behind = FindBehindSources(depth, 8);
+  ASSERT_EQ(behind.radii, (std::vector<int>{1, 2, 4, 8}));
+  ASSERT_EQ(behind.sources.size(), 4u);
+  const int left_of_edge = 15 * 40 + 17;  // 3 px from the 20 m background.
+  EXPECT_EQ(behind.sources[0][left_of_edge], -1);
+  EXPECT_EQ(behind.sources[1][left_of_edge], -1);
+  const int32_t found = behind.sources[2][left_of_edge];
+  ASSERT_GE(found, 0);
+  EXPECT_FLOAT_EQ(depth.depth[found], 20.f);
+  EXPECT_LE(std::abs(found % 40 - 17), 4);
+  EXPECT_LE(std::abs(found / 40 - 15), 4);
+  // At radius 8 the far layer is not reached yet from column 17 (22 px).
+  EXPECT_FLOAT_EQ(depth.depth[behind.sources[3][left_of_edge]], 20.f);
+  // Next to the far column, the background is the far layer.
+  EXPECT_FLOAT_EQ(depth.depth[behind.sources[0][15 * 40 + 38]], 500.f);
+  // Far pixels have nothing behind them; nor has the slant, nor the
+  // foreground 10 px from the edge at radius 8.
+  for (const std::vector<int32_t>& sources : behind.sources) {
+    EXPECT_EQ(sources[15 * 40 + 39], -1);
+    EXPECT_EQ(sources[3], -1);
+  }
+  EXPECT_EQ(behind.sources[3][15 * 40 + 10], -1);
+  EXPECT_TRUE(FindBehindSources(depth, 0).sources.empty());
+}
+
 TEST(ViewDepth, FarLayerEnclosesCamerasAndMeasurements) {
   std::vector<ContextView> views(2);
   views[0].world_from_camera.translation = {0, 0, 0};
