@@ -41,6 +41,15 @@ bool SeesPast(const ViewDepth& depth, int x, int y, float limit) {
 
 }  // namespace
 
+FusedQueries NewFusedQueries(size_t n) {
+  FusedQueries out;
+  out.rgb.assign(n * 3, 0.f);
+  out.agreement.assign(n, 1.f);
+  out.lifespans.assign(n, std::numeric_limits<float>::infinity());
+  out.observations.assign(n, 0);
+  return out;
+}
+
 FusedQueries UnfusedQueries(const QuerySet& queries) {
   FusedQueries out;
   out.rgb = queries.rgb;
@@ -54,11 +63,7 @@ FusedQueries FuseQueries(const QuerySet& queries, const std::vector<FusionView>&
                          const std::vector<InstanceTrack>& tracks, const FusionOptions& options) {
   const size_t n = queries.size();
   const size_t num_views = views.size();
-  FusedQueries out;
-  out.rgb.assign(n * 3, 0.f);
-  out.agreement.assign(n, 1.f);
-  out.lifespans.assign(n, std::numeric_limits<float>::infinity());
-  out.observations.assign(n, 0);
+  FusedQueries out = NewFusedQueries(n);
 
   // camera_from_frame[k][v]: frame k = 0 world, k > 0 instance k's canonical.
   std::vector<std::vector<Rigid>> camera_from_frame(tracks.size() + 1,

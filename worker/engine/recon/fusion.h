@@ -68,6 +68,10 @@ struct FusionView {
   const std::vector<uint8_t>* mask = nullptr;  // [H, W] DynamicMask at the view's time
 };
 
+// Returns fused queries for `n` queries before any view is seen: colour 0,
+// agreement 1, lifespan +inf, no observation.
+FusedQueries NewFusedQueries(size_t n);
+
 // Fuses every query of `queries` over `views`. `tracks` place instance
 // queries at each view's time.
 FusedQueries FuseQueries(const QuerySet& queries, const std::vector<FusionView>& views,

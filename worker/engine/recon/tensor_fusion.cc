@@ -378,11 +378,7 @@ absl::StatusOr<FusedQueries> FuseQueriesOnDevice(const QuerySet& queries,
   const bool on_cpu = device.kind == ComputeDevice::Kind::kCpu;
   if (batch == 0) batch = on_cpu ? kCpuFusionBatch : kGpuFusionBatch;
   const size_t n = queries.size();
-  FusedQueries out;
-  out.rgb.assign(n * 3, 0.f);
-  out.agreement.assign(n, 1.f);
-  out.lifespans.assign(n, std::numeric_limits<float>::infinity());
-  out.observations.assign(n, 0);
+  FusedQueries out = NewFusedQueries(n);
   if (n == 0) return out;
   SingleThreadedTorch();
   try {
