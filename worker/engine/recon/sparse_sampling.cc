@@ -211,6 +211,10 @@ constexpr double kMinHiddenFacing = 0.3;
 // a metre ahead to the horizon far more.
 constexpr double kMaxOccluderSpread = 1.5;
 constexpr double kMinOccluderCos = 0.7;
+// The least relative jump between neighbouring pixels that OccludesBackground
+// takes for an occlusion edge: on a low-resolution view the road near the
+// horizon recedes by over 10 % a row.
+constexpr double kMinOccluderJump = 0.5;
 
 // Returns true if pixel `from` is part of a surface that hides pixel `to`:
 // walking the image segment from `from` to `to`, the first pair of
@@ -276,7 +280,8 @@ bool HiddenCandidate(const SamplingView& sv, int v, size_t i, int32_t source, do
   const Vec3 n_i{sv.lifted->normals[3 * i], sv.lifted->normals[3 * i + 1],
                  sv.lifted->normals[3 * i + 2]};
   if (std::abs(Dot(ray, n_i)) < kMinHiddenFacing) return false;
-  if (!OccludesBackground(*sv.depth, *sv.lifted, i, j, std::max(min_jump, 0.5))) return false;
+  if (!OccludesBackground(*sv.depth, *sv.lifted, i, j, std::max(min_jump, kMinOccluderJump)))
+    return false;
   double range = range_j;
   if (sv.depth->is_far(j)) {
     // The sky lies above the camera's horizontal plane (vehicle cameras are

@@ -142,6 +142,44 @@ TEST(SparseSampling, HiddenQueriesContinueTheBackgroundBehindAnEdge) {
   EXPECT_EQ(SampleQueries({front.sampling()}, {}, options).size(), 1728u);
 }
 
+// A level camera 1.5 m above flat ground under the sky: the road recedes to
+// the horizon, where the sky (far layer) begins. Nothing there occludes
+// anything, so no hidden query: neither sky on the road's rays (it would sit
+// deep underground) nor ground continued behind nearer ground.
+TEST(SparseSampling, RecedingGroundUnderTheSkyHidesNothing) {
+  PlaneView road(192, 144, Rigid{});
+  for (int y = 0; y < 144; ++y)
+    for (int x = 0; x < 192; ++x) {
+      const size_t i = static_cast<size_t>(y) * 192 + x;
+      const double below = y + 0.5 - 72;  // Rows under the horizon (cy = 72).
+      if (below > 0) {
+        road.depth.depth[i] = static_cast<float>(1.5 * 192 / below);  // y = 1.5 m.
+      } else {
+        road.depth.depth[i] = 500.f;
+        road.depth.source[i] = uint8_t(DepthSource::kFar);
+      }
+    }
+  road.lifted = LiftView(road.view, road.depth);
+  SamplingOptions options;
+  options.static_per_view = 1728;
+  options.behind_band_px = 64;
+  options.fill_static_budget = false;
+  const QuerySet q = SampleQueries({road.sampling()}, {}, options);
+  int hidden = 0;
+  for (size_t i = 0; i < q.size(); ++i) {
+    if (!q.is_hidden(i)) continue;
+    ++hidden;
+    if (hidden < 5) {
+      ADD_FAILURE() << "hidden query behind pixel " << q.pixels[i] % 192 << ", "
+                    << q.pixels[i] / 192 << " at " << q.positions[3 * i] << ", "
+                    << q.positions[3 * i + 1] << ", " << q.positions[3 * i + 2]
+                    << (q.far[i] ? " (sky)" : "");
+    }
+  }
+  EXPECT_EQ(hidden, 0);
+  EXPECT_GT(q.size(), 500u);  // The road, and the sky on its coarser grid.
+}
+
 TEST(SparseSampling, HiddenQueriesAreDroppedWhereAnotherViewSeesOrPassesThem) {
   const PlaneView front = SquareInFront();
   SamplingOptions options;
