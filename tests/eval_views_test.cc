@@ -219,7 +219,9 @@ TEST_F(EvalViews, ViewsAreMeasuredAgainstTheirTruth) {
   const nlohmann::json shifted = Find(report["views"], "name", "context_pose_left3m");
   EXPECT_GT(context["psnr"].get<double>(), 18.0);
   EXPECT_GT(context["psnr"].get<double>(), shifted["psnr"].get<double>() + 2.0);
-  EXPECT_GT(shifted["holeFraction"].get<double>(), context["holeFraction"].get<double>());
+  // Holes: the hidden queries behind depth edges (sparse_sampling.h) fill
+  // what the shift uncovers near them, so there may be none at either pose.
+  EXPECT_GE(shifted["holeFraction"].get<double>(), context["holeFraction"].get<double>());
 
   // At a TARGET frame's pose and time the view is that frame: same render,
   // and the synth truth is the frame's image.

@@ -9,7 +9,7 @@
 //   --refine N                       colour refinement iterations (default 2; 0 off)
 //   --splat-sigma S                  Gaussian std-dev per query spacing (default 0.6)
 //   --hidden-band PX                 hidden queries behind depth edges within PX
-//                                    pixels (sparse_sampling.h; default 0: none)
+//                                    pixels (sparse_sampling.h; default 64, 0: none)
 //   --device cpu|cuda:N              where fusion's tensor work runs (compute_device.h)
 #ifndef POINTFORWARD_WORKER_ENGINE_RECON_RECON_FLAGS_H_
 #define POINTFORWARD_WORKER_ENGINE_RECON_RECON_FLAGS_H_

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "absl/container/flat_hash_map.h"
 #include "absl/container/flat_hash_set.h"
@@ -251,6 +252,60 @@ bool OccludesBackground(const ViewDepth& depth, const LiftedView& lifted, size_t
   return false;
 }
 
+// Which way is up, and how low the scene goes: hidden queries (on surfaces
+// nobody saw) are kept above the floor, the 1st percentile of the height of
+// every measured point (not far layer) of the views, less 0.5 m; up is the
+// mean normal of the surfaces facing about the way the cameras' up axes
+// (-y) point, vehicle cameras being mounted about level.
+struct HiddenFloor {
+  Vec3 up{0, 0, 1};
+  double height = -std::numeric_limits<double>::infinity();
+};
+
+// Normals within this cosine of the cameras' up count as facing up (30 deg).
+constexpr double kGroundCos = 0.866;
+
+HiddenFloor FindHiddenFloor(const std::vector<SamplingView>& views) {
+  HiddenFloor floor;
+  Vec3 up;
+  for (const SamplingView& sv : views)
+    up = up + sv.view->world_from_camera.rotation * Vec3{0, -1, 0};
+  if (Norm(up) < 1e-9) return floor;
+  floor.up = Normalized(up);
+  // The cameras' pitch leaves that a few degrees off, tens of metres of
+  // height at the far end of the scene: the mean normal of the surfaces
+  // that face up (the ground, roofs) is the better estimate.
+  Vec3 ground;
+  int facing_up = 0;
+  for (const SamplingView& sv : views) {
+    const size_t pixels = sv.lifted->valid.size();
+    for (size_t i = 0; i < pixels; i += 7) {
+      if (!sv.lifted->valid[i] || sv.depth->is_far(i)) continue;
+      const Vec3 n{sv.lifted->normals[3 * i], sv.lifted->normals[3 * i + 1],
+                   sv.lifted->normals[3 * i + 2]};
+      if (Dot(n, floor.up) < kGroundCos) continue;
+      ground = ground + n;
+      ++facing_up;
+    }
+  }
+  if (facing_up >= 100) floor.up = Normalized(ground);
+  std::vector<double> heights;
+  for (const SamplingView& sv : views) {
+    const size_t pixels = sv.lifted->valid.size();
+    for (size_t i = 0; i < pixels; i += 7) {  // A sample is plenty for a percentile.
+      if (!sv.lifted->valid[i] || sv.depth->is_far(i)) continue;
+      heights.push_back(Dot(Vec3{sv.lifted->points[3 * i], sv.lifted->points[3 * i + 1],
+                                 sv.lifted->points[3 * i + 2]},
+                            floor.up));
+    }
+  }
+  if (heights.empty()) return floor;
+  const size_t k = heights.size() / 100;
+  std::nth_element(heights.begin(), heights.begin() + k, heights.end());
+  floor.height = heights[k] - 0.5;
+  return floor;
+}
+
 // Returns the hidden query behind pixel `i` of view `v` with background
 // pixel `source` (FindBehindSources, -1: none): on the ray through `i`,
 // where the plane of the background pixel's surface (its point and normal)
@@ -262,10 +317,10 @@ bool OccludesBackground(const ViewDepth& depth, const LiftedView& lifted, size_t
 // angle or that is not the occluder (OccludesBackground): such a surface
 // (the road toward the horizon, or up to a wall) recedes into what lies
 // beyond it rather than hiding it, and a query behind it would sit below the
-// ground; and sky behind a ray that points below the camera's horizontal
-// plane.
+// ground; sky behind a ray that points below the horizontal plane; and a
+// point below the floor (HiddenFloor).
 bool HiddenCandidate(const SamplingView& sv, int v, size_t i, int32_t source, double min_jump,
-                     double focal, double stride, Candidate* out) {
+                     double focal, double stride, const HiddenFloor& floor, Candidate* out) {
   if (source < 0 || !sv.lifted->valid[i]) return false;
   const size_t j = static_cast<size_t>(source);
   if (!sv.lifted->valid[j] || (*sv.owners)[j] != 0) return false;
@@ -284,11 +339,10 @@ bool HiddenCandidate(const SamplingView& sv, int v, size_t i, int32_t source, do
     return false;
   double range = range_j;
   if (sv.depth->is_far(j)) {
-    // The sky lies above the camera's horizontal plane (vehicle cameras are
-    // mounted level): below it, what a near surface hides is ground, and a
-    // query on the far layer would sit deep underground.
-    const Vec3 ray_camera = sv.view->world_from_camera.Inverse().rotation * ray;
-    if (ray_camera.y >= 0) return false;
+    // The sky lies above the horizontal plane: below it, what a near
+    // surface hides is ground, and a query on the far layer would sit deep
+    // underground.
+    if (Dot(ray, floor.up) <= 0) return false;
   } else {
     const Vec3 n{sv.lifted->normals[3 * j], sv.lifted->normals[3 * j + 1],
                  sv.lifted->normals[3 * j + 2]};
@@ -298,6 +352,7 @@ bool HiddenCandidate(const SamplingView& sv, int v, size_t i, int32_t source, do
       if (s > 0 && s <= 2 * range_j) range = s;
     }
     if (range <= (1 + min_jump) * range_i) return false;
+    if (Dot(origin + range * ray, floor.up) < floor.height) return false;
   }
   const float z = static_cast<float>(sv.depth->depth[i] * range / range_i);
   *out = {
@@ -326,6 +381,7 @@ size_t SampleStatic(const std::vector<SamplingView>& views, const SamplingOption
                      options.dense ? stride : std::max(1.0, stride * refine)};
   }
   const bool prefer_finer = !options.dense && options.finer_view_ratio > 0;
+  const HiddenFloor floor = options.behind_band_px > 0 ? FindHiddenFloor(views) : HiddenFloor{};
   absl::flat_hash_set<uint64_t> covered;
   for (size_t v = 0; v < views.size(); ++v) {
     const SamplingView& sv = views[v];
@@ -358,7 +414,7 @@ size_t SampleStatic(const std::vector<SamplingView>& views, const SamplingOption
         for (const std::vector<int32_t>& sources : behind.sources) {
           if (!on_hidden_grid) break;
           has_hidden = HiddenCandidate(sv, static_cast<int>(v), i, sources[i],
-                                       options.behind_min_jump, focal, stride, &hidden);
+                                       options.behind_min_jump, focal, stride, floor, &hidden);
           if (has_hidden) break;
         }
         if (has_hidden) {

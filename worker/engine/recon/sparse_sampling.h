@@ -30,7 +30,12 @@
 // like the background pixel next to the edge; it is marked `hidden`, taken
 // on a coarser grid (it copies one colour: no detail to sample), and dropped
 // when another view sees the point (that view samples it) or sees past it
-// (the point would float in free space).
+// (the point would float in free space). Only an occluder hides anything: a
+// surface seen at a grazing angle, or one that recedes to the edge (the road
+// up to a wall or to the horizon), gets no hidden query; nor do sky
+// directions below the horizontal, or points below the scene's floor (the
+// 1st percentile of measured heights less 0.5 m, "up" from the surfaces that
+// face up).
 //
 // Dense mode (the pixel-aligned model): every valid pixel is a query (and
 // one pixel of the band in behind_stride^2 gets its hidden query).
@@ -69,12 +74,9 @@ struct SamplingOptions {
   // this many pixels of a deeper background also gets a query on its ray
   // where the nearest such background's surface continues behind it, with
   // the background's colour, unless another view sees that point or past
-  // it. < 1: none, the default: on the small synth clips of the tests the
-  // rules that tell an occluder from a receding surface (sparse_sampling.cc,
-  // OccludesBackground) still let some queries through far below the ground
-  // (invisible from above it, but they stretch the scene's bounds). Opt in
-  // with `--hidden-band 64` (docs/QUALITY.md has its figures).
-  int behind_band_px = 0;
+  // it, or it would lie below the scene's floor (sparse_sampling.cc). < 1:
+  // none.
+  int behind_band_px = 64;
   double behind_min_jump = 0.1;  // Relative depth jump that makes an occlusion edge.
   // Hidden queries take one cell in behind_stride^2 (behind far-layer
   // backgrounds: in k^2, k the smallest multiple of behind_stride >=
