@@ -6,6 +6,8 @@
 
 #include <cmath>
 
+#include "worker/engine/recon/fusion_test_util.h"
+
 namespace pf {
 namespace {
 
@@ -37,21 +39,7 @@ struct FlatView {
 };
 
 // One static query at (0, 0, 10) seen from view 0 (pixel (8, 6)).
-QuerySet OneQuery(uint32_t owner = 0) {
-  QuerySet q;
-  q.positions = {0, 0, 10};
-  q.rgb = {1, 0, 0};
-  q.plucker = {0, 0, 1, 0, 0, 0};
-  q.normals = {0, 0, -1};
-  q.rays = {0, 0, 1};
-  q.depths = {10};
-  q.footprints = {1};
-  q.views = {0};
-  q.pixels = {6 * kW + 8};
-  q.owners = {owner};
-  q.far = {0};
-  return q;
-}
+QuerySet OneQuery(uint32_t owner = 0) { return testing::OneQueryTenMetresAhead(owner); }
 
 TEST(Fusion, WeightsPreferTheConsistentView) {
   const FlatView source(1, 0, 0, 10);     // d = 0

@@ -11,6 +11,7 @@
 #include <string>
 
 #include "worker/engine/recon/compute_device.h"
+#include "worker/engine/recon/fusion_test_util.h"
 
 namespace pf {
 namespace {
@@ -205,18 +206,7 @@ TEST(TensorFusion, WeightsPreferTheConsistentViewAsComputedByHand) {
                       std::vector<uint8_t>(16 * 12, 0)};
   }
   for (const TestView& view : views) fusion_views.push_back(view.fusion());
-  QuerySet q;
-  q.positions = {0, 0, 10};
-  q.rgb = {1, 0, 0};
-  q.plucker = {0, 0, 1, 0, 0, 0};
-  q.normals = {0, 0, -1};
-  q.rays = {0, 0, 1};
-  q.depths = {10};
-  q.footprints = {1};
-  q.views = {0};
-  q.pixels = {6 * 16 + 8};
-  q.owners = {0};
-  q.far = {0};
+  const QuerySet q = testing::OneQueryTenMetresAhead();
   absl::StatusOr<FusedQueries> f =
       FuseQueriesOnDevice(q, fusion_views, {}, FusionOptions{}, ComputeDevice{});
   ASSERT_TRUE(f.ok()) << f.status();
