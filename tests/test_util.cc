@@ -7,6 +7,8 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <cstdint>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -110,6 +112,17 @@ CommandResult RunCommand(const std::vector<std::string>& argv) {
   ::waitpid(pid, &status, 0);
   result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
   return result;
+}
+
+std::string WithoutDateTime(std::string bytes) {
+  const std::string attribute("capDate\0string\0", 15);
+  const size_t at = bytes.find(attribute);
+  if (at == std::string::npos || at + attribute.size() + 4 > bytes.size()) return bytes;
+  const size_t value = at + attribute.size() + 4;  // After the int32 size.
+  const uint8_t* size = reinterpret_cast<const uint8_t*>(&bytes[at + attribute.size()]);
+  const size_t length = size[0] | size[1] << 8 | size[2] << 16 | size_t{size[3]} << 24;
+  for (size_t i = value; i < std::min(bytes.size(), value + length); ++i) bytes[i] = '-';
+  return bytes;
 }
 
 nlohmann::json ReadJsonFile(const std::string& path) {

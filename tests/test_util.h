@@ -39,6 +39,12 @@ CommandResult RunCommand(const std::vector<std::string>& argv);
 // fails the calling test.
 nlohmann::json ReadJsonFile(const std::string& path);
 
+// Returns the bytes of an EXR file with the value of its "capDate" header
+// attribute (the time of writing, which OpenImageIO adds as DateTime, to the
+// second) blanked out, so two writes of the same image compare equal; PNGs
+// and EXRs without the attribute are returned unchanged.
+std::string WithoutDateTime(std::string bytes);
+
 }  // namespace pf::testing
 
 // Skips the current test when the sample data is missing.

@@ -62,19 +62,7 @@ struct FakeBlobs {
   }
 };
 
-// Returns the bytes of an EXR file with the value of its "capDate" header
-// attribute (the time of writing, which OpenImageIO adds as DateTime)
-// blanked out; PNGs and EXRs without the attribute are returned unchanged.
-std::string WithoutDateTime(std::string bytes) {
-  const std::string attribute("capDate\0string\0", 15);
-  const size_t at = bytes.find(attribute);
-  if (at == std::string::npos || at + attribute.size() + 4 > bytes.size()) return bytes;
-  const size_t value = at + attribute.size() + 4;  // After the int32 size.
-  const uint8_t* size = reinterpret_cast<const uint8_t*>(&bytes[at + attribute.size()]);
-  const size_t length = size[0] | size[1] << 8 | size[2] << 16 | size_t{size[3]} << 24;
-  for (size_t i = value; i < std::min(bytes.size(), value + length); ++i) bytes[i] = '-';
-  return bytes;
-}
+using testing::WithoutDateTime;
 
 class TaskRunner : public ::testing::Test {
  protected:
