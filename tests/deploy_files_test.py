@@ -878,8 +878,11 @@ class ManifestSmokeTest(unittest.TestCase):
         wait_until(lambda: http_get(worker_metrics, probe["path"])[0] == 200 or worker.poll() is not None, 30,
                    f"the worker's {probe['path']}")
         self.assertIsNone(worker.poll(), self.log("worker.log"))
-        self.assertEqual(http_get(worker_metrics, "/metrics")[0], 200)
-        self.assertRegex(http_get(worker_metrics, "/metrics")[1], r"(?m)^pf_scene_cache_bytes 0$")
+        # One GET may fail while the worker's small HTTP server is busy (seen
+        # once on a loaded machine); the metric must be there within 10 s.
+        wait_until(lambda: re.search(r"(?m)^pf_scene_cache_bytes 0$",
+                                     http_get(worker_metrics, "/metrics")[1]) is not None,
+                   10, "pf_scene_cache_bytes 0 on the worker's /metrics")
 
         # Graceful shutdown: an idle worker and the server exit 0 on SIGTERM.
         for process, name, seconds in ((worker, "worker.log", 20), (server, "server.log", 20)):
