@@ -368,10 +368,10 @@ double StaticStride(const SamplingView& sv, const SamplingOptions& options) {
 }
 
 // Appends the static queries of `views` to `out`, with every view's grid
-// cell side multiplied by `refine`; returns how many visible (not hidden)
-// queries were added.
+// cell side multiplied by `refine`, hidden ones kept above `floor`; returns
+// how many visible (not hidden) queries were added.
 size_t SampleStatic(const std::vector<SamplingView>& views, const SamplingOptions& options,
-                    double refine, QuerySet* out) {
+                    double refine, const HiddenFloor& floor, QuerySet* out) {
   size_t visible = 0;
   const Rigid identity;
   std::vector<ViewResolution> resolution(views.size());
@@ -381,7 +381,6 @@ size_t SampleStatic(const std::vector<SamplingView>& views, const SamplingOption
                      options.dense ? stride : std::max(1.0, stride * refine)};
   }
   const bool prefer_finer = !options.dense && options.finer_view_ratio > 0;
-  const HiddenFloor floor = options.behind_band_px > 0 ? FindHiddenFloor(views) : HiddenFloor{};
   absl::flat_hash_set<uint64_t> covered;
   for (size_t v = 0; v < views.size(); ++v) {
     const SamplingView& sv = views[v];
@@ -467,13 +466,15 @@ QuerySet SampleQueries(const std::vector<SamplingView>& views,
   QuerySet out;
   // Static queries, view by view; then, if redundancy removal left fewer
   // than V x N_s, once more on grids refined to make up the difference.
-  const size_t kept = SampleStatic(views, options, 1.0, &out);
+  // The floor depends on the views alone: found once for both passes.
+  const HiddenFloor floor = options.behind_band_px > 0 ? FindHiddenFloor(views) : HiddenFloor{};
+  const size_t kept = SampleStatic(views, options, 1.0, floor, &out);
   const double budget =
       double(views.size()) * double(std::max<int64_t>(1, options.static_per_view));
   if (options.fill_static_budget && !options.dense && kept > 0 && kept < 0.95 * budget) {
     const double refine = std::max(options.min_refine, std::sqrt(double(kept) / budget));
     out = QuerySet();
-    SampleStatic(views, options, refine, &out);
+    SampleStatic(views, options, refine, floor, &out);
   }
 
   // Dynamic queries, instance by instance, in canonical frames.

@@ -73,8 +73,9 @@ DeviceView UploadView(const FusionView& view, const at::Device& device) {
 
 // camera_from_frame[k][v] of fusion.cc as one [F, V, 12] float64 tensor
 // (row-major 3x3 rotation, then translation): frame 0 is the world, frame
-// k > 0 instance k's canonical frame.
+// k > 0 instance k's canonical frame. `camera_from_world[v]` is view v's.
 Tensor CameraFromFrames(const std::vector<FusionView>& views,
+                        const std::vector<Rigid>& camera_from_world,
                         const std::vector<InstanceTrack>& tracks, const at::Device& device) {
   const size_t num_views = views.size();
   std::vector<double> values((tracks.size() + 1) * num_views * 12, 0.0);
@@ -87,14 +88,14 @@ Tensor CameraFromFrames(const std::vector<FusionView>& views,
     out[11] = pose.translation.z;
   };
   for (size_t v = 0; v < num_views; ++v) {
-    const Rigid camera_from_world = views[v].view->world_from_camera.Inverse();
-    put(0, v, camera_from_world);
+    put(0, v, camera_from_world[v]);
     for (size_t k = 0; k < tracks.size(); ++k) {
       // A track without boxes keeps the identity, as in fusion.cc.
       put(k + 1, v,
           tracks[k].boxes.empty()
               ? Rigid{}
-              : camera_from_world * InstancePoseAt(tracks[k].boxes, views[v].view->timestamp_us));
+              : camera_from_world[v] *
+                    InstancePoseAt(tracks[k].boxes, views[v].view->timestamp_us));
     }
   }
   return ToDevice(values, at::kDouble, at::kDouble, device)
@@ -392,7 +393,7 @@ absl::StatusOr<FusedQueries> FuseQueriesOnDevice(const QuerySet& queries,
       camera_from_world.push_back(view.view->world_from_camera.Inverse());
       times.push_back(view.view->timestamp_us);
     }
-    const Tensor camera_from_frame = CameraFromFrames(views, tracks, on);
+    const Tensor camera_from_frame = CameraFromFrames(views, camera_from_world, tracks, on);
     const Tensor view_times = ToDevice(times, at::kLong, at::kLong, on);
     const int64_t batches = (static_cast<int64_t>(n) + batch - 1) / batch;
     auto run = [&](int64_t b) {
