@@ -351,6 +351,8 @@ std::string EvalReportJson(const EvalReport& report) {
   j["renderSeconds"] = report.render_seconds;
   j["fusion"] = FusionWeightsName(report.options.fusion.weights);
   j["lifespan"] = report.options.fusion.lifespan;
+  j["groundFill"] = report.options.completion.ground_fill;
+  j["groundPixels"] = report.stats.ground_pixels;
   j["staticGaussians"] = report.stats.static_gaussians;
   j["dynamicGaussians"] = report.stats.dynamic_gaussians;
   j["farGaussians"] = report.stats.far_gaussians;

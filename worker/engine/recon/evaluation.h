@@ -6,6 +6,8 @@
 // report.json:
 //   {"model": "analytic", "gaussians": N, "reconstructSeconds": s,
 //    "renderSeconds": s, "fusion": "softmax", "lifespan": true,
+//    "groundFill": true, "groundPixels": n (LiDAR pixels set from the ground
+//    plane, view_depth.h),
 //    "staticGaussians": n, "dynamicGaussians": n, "farGaussians": n,
 //    "instances": n, "contextViews": n, "ns": n, "nd": n,
 //    "stageSeconds": {"load": s, ...},

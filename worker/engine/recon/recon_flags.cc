@@ -13,7 +13,7 @@ const std::set<std::string>& ReconValueFlags() {
 }
 
 const std::set<std::string>& ReconBoolFlags() {
-  static const std::set<std::string> flags = {"no-lifespan"};
+  static const std::set<std::string> flags = {"no-lifespan", "no-ground-fill"};
   return flags;
 }
 
@@ -60,6 +60,7 @@ absl::StatusOr<ReconOptions> ReconOptionsFromFlags(const CommandLine& cl) {
                                                    "' (expected softmax, average or no-depth)"));
   }
   options.fusion.lifespan = !cl.Has("no-lifespan");
+  options.completion.ground_fill = !cl.Has("no-ground-fill");
   ASSIGN_OR_RETURN(options.decoder.tangent_sigma,
                    cl.GetDouble("splat-sigma", options.decoder.tangent_sigma));
   if (!(options.decoder.tangent_sigma > 0.05 && options.decoder.tangent_sigma <= 4)) {

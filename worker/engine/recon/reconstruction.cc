@@ -106,8 +106,11 @@ absl::StatusOr<ReconResult> ReconstructInputs(const ReconInputs& inputs,
   std::vector<bool> from_lidar(num_views, false);
   for (size_t v = 0; v < num_views; ++v) {
     bool lidar = false;
-    measured[v] = MeasuredDepth(views[v], inputs.sweeps, tracks, options.completion, &lidar);
+    int64_t ground = 0;
+    measured[v] =
+        MeasuredDepth(views[v], inputs.sweeps, tracks, options.completion, &lidar, &ground);
     from_lidar[v] = lidar;
+    stats.ground_pixels += ground;
     stats.lidar_views += lidar ? 1 : 0;
     for (float d : measured[v].pixels) max_depths[v] = std::max(max_depths[v], d);
     stats.views_without_depth += max_depths[v] > 0.f ? 0 : 1;
@@ -118,8 +121,10 @@ absl::StatusOr<ReconResult> ReconstructInputs(const ReconInputs& inputs,
     depths[v] = WithFarLayer(measured[v], from_lidar[v], views[v], far);
     measured[v] = ImageF();
   }
-  clock.Done("depth", absl::StrCat(" (", stats.lidar_views, " of ", num_views,
-                                   " views from LiDAR, far layer radius ", far.radius, " m)"));
+  clock.Done("depth",
+             absl::StrCat(" (", stats.lidar_views, " of ", num_views, " views from LiDAR, ",
+                          stats.ground_pixels, " pixels from the ground plane, far layer radius ",
+                          far.radius, " m)"));
   if (stats.views_without_depth > 0) {
     clock.Progress(absl::StrCat("warning: ", stats.views_without_depth, " of ", num_views,
                                 " views have no depth map and no LiDAR point; all their pixels "

@@ -4,6 +4,7 @@
 
 // The generated protobuf header first (see image_io.h).
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstring>
 #include <fstream>
@@ -49,6 +50,8 @@ absl::StatusOr<std::vector<LidarSweepData>> LoadLidarSweeps(const LoadedClip& lo
     const Rigid world_from_sensor = Rigid::FromRowMajor(sweep.world_from_sensor().data());
     LidarSweepData data;
     data.timestamp_us = sweep.timestamp_us();
+    data.sensor_origin = world_from_sensor.translation;
+    data.sensor_up = Normalized(world_from_sensor.rotation * Vec3{0, 0, 1});
     const size_t n = records.size() / 4;
     data.points.reserve(n * 3);
     for (size_t p = 0; p < n; ++p) {
@@ -123,7 +126,8 @@ int CompletionRadius(int height) {
   return std::max(12, static_cast<int>(std::lround(0.04 * height)));
 }
 
-ImageF CompleteDepth(const ImageF& sparse, const CompletionOptions& options) {
+ImageF CompleteDepth(const ImageF& sparse, const CompletionOptions& options,
+                     std::vector<int32_t>* sources) {
   const int w = sparse.width, h = sparse.height;
   const int max_distance =
       options.max_distance_px > 0 ? options.max_distance_px : CompletionRadius(h);
@@ -142,6 +146,11 @@ ImageF CompleteDepth(const ImageF& sparse, const CompletionOptions& options) {
       if (sparse.at(x, y) > 0.f) samples[fill[(y / cell) * gw + x / cell]++] = y * w + x;
 
   ImageF dense = sparse;
+  if (sources != nullptr) {
+    sources->assign(static_cast<size_t>(w) * h, -1);
+    for (size_t i = 0; i < sources->size(); ++i)
+      if (sparse.pixels[i] > 0.f) (*sources)[i] = static_cast<int32_t>(i);
+  }
   const double max_d2 = double(max_distance) * max_distance;
   DefaultThreadPool().ParallelFor(0, h, 4, [&](int64_t y0, int64_t y1) {
     for (int64_t y = y0; y < y1; ++y) {
@@ -160,18 +169,206 @@ ImageF CompleteDepth(const ImageF& sparse, const CompletionOptions& options) {
         if (nearest > max_d2) continue;
         const double limit = std::pow(std::sqrt(nearest) + 1.5, 2);
         float best = std::numeric_limits<float>::infinity();
+        int best_pixel = -1;
         for (int gy = std::max(0, cy - 1); gy <= std::min(gh - 1, cy + 1); ++gy)
           for (int gx = std::max(0, cx - 1); gx <= std::min(gw - 1, cx + 1); ++gx)
             for (int s = start[gy * gw + gx]; s < start[gy * gw + gx + 1]; ++s) {
               const int sx = samples[s] % w, sy = samples[s] / w;
               const double d2 = double(sx - x) * (sx - x) + double(sy - y) * (sy - y);
-              if (d2 <= limit) best = std::min(best, sparse.at(sx, sy));
+              if (d2 <= limit && sparse.at(sx, sy) < best) {
+                best = sparse.at(sx, sy);
+                best_pixel = samples[s];
+              }
             }
         dense.at(x, static_cast<int>(y)) = best;
+        if (sources != nullptr) (*sources)[static_cast<size_t>(y) * w + x] = best_pixel;
       }
     }
   });
   return dense;
+}
+
+namespace {
+
+// Ground-plane fit (FitGroundPlane): reach of the candidates, their band
+// of heights around the lowest ones, level tolerance, inlier distance,
+// RANSAC trials.
+constexpr double kGroundMinRange = 1.5, kGroundMaxRange = 60.0;
+constexpr double kGroundBelowLowest = 0.5, kGroundAboveLowest = 2.0;
+constexpr double kGroundMinCos = 0.94;  // cos(20 degrees)
+constexpr double kGroundInlier = 0.1;
+constexpr int kGroundTrials = 200;
+constexpr size_t kGroundMinInliers = 50;
+// A completed pixel within this (relative) of the road's depth is road: the
+// completion gave it the nearest ring's depth, the plane gives its own.
+constexpr double kGroundSnap = 0.15;
+// A measured point this close to the plane (metres) is on the road (the
+// inlier distance, and the half pixel its projection was rounded by).
+constexpr double kGroundOnPlane = 0.15;
+
+// Two unit vectors that complete `up` to an orthonormal frame.
+void LevelAxes(const Vec3& up, Vec3* e1, Vec3* e2) {
+  const Vec3 seed = std::abs(up.x) < 0.9 ? Vec3{1, 0, 0} : Vec3{0, 1, 0};
+  *e1 = Normalized(Cross(up, seed));
+  *e2 = Cross(up, *e1);
+}
+
+// Distance from `p` to the sensor along the plane perpendicular to `up`.
+double ReachOf(const Vec3& p, const Vec3& origin, const Vec3& up) {
+  const Vec3 d = p - origin;
+  return Norm(d - Dot(d, up) * up);
+}
+
+}  // namespace
+
+GroundPlane FitGroundPlane(const LidarSweepData& sweep) {
+  GroundPlane best;
+  const Vec3 up = Normalized(sweep.sensor_up);
+  const Vec3& o = sweep.sensor_origin;
+  // Candidates: points within reach, at most 2 m above the lowest ones (the
+  // 1st percentile of their heights; the sensor frame's origin may be on
+  // the sensor or on the ground, so heights are not taken from it).
+  std::vector<Vec3> near;
+  std::vector<double> heights;
+  const size_t n = sweep.points.size() / 3;
+  for (size_t i = 0; i < n; ++i) {
+    const Vec3 p{sweep.points[3 * i], sweep.points[3 * i + 1], sweep.points[3 * i + 2]};
+    const double reach = ReachOf(p, o, up);
+    if (reach < kGroundMinRange || reach > kGroundMaxRange) continue;
+    near.push_back(p);
+    heights.push_back(Dot(p - o, up));
+  }
+  if (near.empty()) return best;
+  std::vector<double> sorted = heights;
+  const size_t low_index = sorted.size() / 100;
+  std::nth_element(sorted.begin(), sorted.begin() + low_index, sorted.end());
+  const double lowest = sorted[low_index];
+  std::vector<Vec3> candidates;
+  for (size_t i = 0; i < near.size(); ++i) {
+    if (heights[i] >= lowest - kGroundBelowLowest && heights[i] <= lowest + kGroundAboveLowest)
+      candidates.push_back(near[i]);
+  }
+  const size_t min_inliers = std::max(kGroundMinInliers, candidates.size() / 10);
+  if (candidates.size() < min_inliers) return best;
+
+  // RANSAC over point triples, scored on at most 20 000 of the candidates.
+  const size_t score_stride = std::max<size_t>(1, candidates.size() / 20000);
+  uint64_t state = 0x9E3779B97F4A7C15ull;
+  auto next = [&](size_t bound) {
+    state = state * 6364136223846793005ull + 1442695040888963407ull;
+    return static_cast<size_t>((state >> 33) % bound);
+  };
+  Vec3 best_normal;
+  double best_offset = 0;
+  size_t best_score = 0;
+  for (int trial = 0; trial < kGroundTrials; ++trial) {
+    const Vec3& a = candidates[next(candidates.size())];
+    const Vec3& b = candidates[next(candidates.size())];
+    const Vec3& c = candidates[next(candidates.size())];
+    Vec3 normal = Cross(b - a, c - a);
+    const double length = Norm(normal);
+    if (length < 1e-9) continue;
+    normal = normal / length;
+    if (Dot(normal, up) < 0) normal = -normal;
+    if (Dot(normal, up) < kGroundMinCos) continue;
+    const double offset = Dot(normal, a);
+    size_t score = 0;
+    for (size_t i = 0; i < candidates.size(); i += score_stride)
+      if (std::abs(Dot(normal, candidates[i]) - offset) < kGroundInlier) ++score;
+    if (score > best_score) {
+      best_score = score;
+      best_normal = normal;
+      best_offset = offset;
+    }
+  }
+  if (best_score == 0) return best;
+
+  // Least squares over the inliers: height h = a u + b v + c in a frame
+  // with axes e1, e2 along the level plane and `up`.
+  Vec3 e1, e2;
+  LevelAxes(up, &e1, &e2);
+  double s[3][3] = {}, t[3] = {};
+  size_t count = 0;
+  for (const Vec3& p : candidates) {
+    if (std::abs(Dot(best_normal, p) - best_offset) >= kGroundInlier) continue;
+    const Vec3 d = p - o;
+    const double row[3] = {Dot(d, e1), Dot(d, e2), 1.0};
+    const double h = Dot(d, up);
+    for (int r = 0; r < 3; ++r) {
+      for (int k = 0; k < 3; ++k) s[r][k] += row[r] * row[k];
+      t[r] += row[r] * h;
+    }
+    ++count;
+  }
+  if (count < min_inliers) return best;
+  Mat3 m;
+  for (int r = 0; r < 3; ++r)
+    for (int k = 0; k < 3; ++k) m.m[r][k] = s[r][k];
+  const double det = Determinant(m);
+  if (std::abs(det) < 1e-12) return best;
+  double coef[3];
+  for (int col = 0; col < 3; ++col) {
+    Mat3 replaced = m;
+    for (int r = 0; r < 3; ++r) replaced.m[r][col] = t[r];
+    coef[col] = Determinant(replaced) / det;
+  }
+  const Vec3 raw = up - coef[0] * e1 - coef[1] * e2;
+  const double length = Norm(raw);
+  best.normal = raw / length;
+  best.offset = (Dot(raw, o) + coef[2]) / length;
+  if (Dot(best.normal, up) < kGroundMinCos) return GroundPlane{};
+  for (const Vec3& p : candidates) {
+    if (std::abs(Dot(best.normal, p) - best.offset) >= kGroundInlier) continue;
+    ++best.inliers;
+    best.reach = std::max(best.reach, ReachOf(p, o, best.normal));
+  }
+  best.valid = best.inliers >= min_inliers;
+  return best;
+}
+
+int64_t FillFromGround(const GroundPlane& ground, const Vec3& sensor_origin,
+                       const CameraModel& camera, const Rigid& world_from_camera,
+                       const std::vector<int32_t>& sources, ImageF* depth) {
+  if (!ground.valid) return 0;
+  const Vec3& o = world_from_camera.translation;
+  const double height = Dot(ground.normal, o) - ground.offset;
+  if (height <= 0) return 0;  // A camera under the road sees no road from above.
+  // Measured pixels whose point lies on the road.
+  const int w = depth->width;
+  std::vector<uint8_t> on_ground(sources.size(), 0);
+  for (size_t i = 0; i < sources.size(); ++i) {
+    if (sources[i] != static_cast<int32_t>(i)) continue;
+    Vec3 ray;
+    if (!camera.Unproject(i % w + 0.5, i / w + 0.5, &ray)) continue;
+    const Vec3 p = world_from_camera * (ray * double(depth->pixels[i]));
+    on_ground[i] = std::abs(Dot(ground.normal, p) - ground.offset) < kGroundOnPlane;
+  }
+  std::atomic<int64_t> filled{0};
+  DefaultThreadPool().ParallelFor(0, depth->height, 16, [&](int64_t y0, int64_t y1) {
+    int64_t local = 0;
+    for (int64_t y = y0; y < y1; ++y) {
+      for (int x = 0; x < depth->width; ++x) {
+        const size_t i = static_cast<size_t>(y) * depth->width + x;
+        if (sources[i] == static_cast<int32_t>(i)) continue;  // Measured.
+        float& d = depth->at(x, static_cast<int>(y));
+        Vec3 ray;
+        if (!camera.Unproject(x + 0.5, y + 0.5, &ray)) continue;
+        const Vec3 dir = world_from_camera.rotation * ray;  // z-scaled: s is the z depth.
+        const double down = -Dot(ground.normal, dir);
+        if (down <= 1e-9) continue;
+        const double s = height / down;
+        if (ReachOf(o + s * dir, sensor_origin, ground.normal) > ground.reach) continue;
+        if (d > 0.f &&
+            !(sources[i] >= 0 && on_ground[sources[i]] && std::abs(d - s) <= kGroundSnap * s)) {
+          continue;  // Completed from another surface.
+        }
+        d = static_cast<float>(s);
+        ++local;
+      }
+    }
+    filled += local;
+  });
+  return filled.load();
 }
 
 double FarDepth(const FarLayer& far, const CameraModel& camera, const Rigid& world_from_camera,
@@ -208,8 +405,9 @@ FarLayer FarLayerFor(const std::vector<ContextView>& views, const std::vector<fl
 
 ImageF MeasuredDepth(const ContextView& view, const std::vector<LidarSweepData>& sweeps,
                      const std::vector<InstanceTrack>& tracks, const CompletionOptions& options,
-                     bool* from_lidar) {
+                     bool* from_lidar, int64_t* ground_pixels) {
   if (from_lidar != nullptr) *from_lidar = false;
+  if (ground_pixels != nullptr) *ground_pixels = 0;
   if (view.depth.width > 0) {
     ImageF depth = view.depth;
     for (float& d : depth.pixels)
@@ -219,8 +417,17 @@ ImageF MeasuredDepth(const ContextView& view, const std::vector<LidarSweepData>&
   const int nearest = NearestSweep(sweeps, view.timestamp_us);
   if (nearest < 0) return ImageF(view.width(), view.height(), 1);
   if (from_lidar != nullptr) *from_lidar = true;
-  const std::vector<float> points = PointsAtTime(sweeps[nearest], tracks, view.timestamp_us);
-  return CompleteDepth(ProjectPoints(points, view.camera, view.world_from_camera), options);
+  const LidarSweepData& sweep = sweeps[nearest];
+  const std::vector<float> points = PointsAtTime(sweep, tracks, view.timestamp_us);
+  std::vector<int32_t> sources;
+  ImageF depth = CompleteDepth(ProjectPoints(points, view.camera, view.world_from_camera), options,
+                               options.ground_fill ? &sources : nullptr);
+  if (options.ground_fill) {
+    const int64_t filled = FillFromGround(FitGroundPlane(sweep), sweep.sensor_origin, view.camera,
+                                          view.world_from_camera, sources, &depth);
+    if (ground_pixels != nullptr) *ground_pixels = filled;
+  }
+  return depth;
 }
 
 ViewDepth WithFarLayer(const ImageF& measured, bool from_lidar, const ContextView& view,

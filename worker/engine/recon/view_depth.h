@@ -27,6 +27,8 @@ namespace pf {
 struct LidarSweepData {
   int64_t timestamp_us = 0;
   std::vector<float> points;  // [P, 3] world frame
+  Vec3 sensor_origin;         // World position of the sensor.
+  Vec3 sensor_up{0, 0, 1};    // World direction of the sensor's z axis (up on a level mount).
 };
 
 // Reads every sweep of the clip (float32 little-endian x, y, z, intensity
@@ -57,7 +59,47 @@ struct CompletionOptions {
   // CompletionRadius(image height), so the gap between LiDAR rings on the
   // road near the car (tens of pixels in a 1216-row image) is bridged.
   int max_distance_px = 0;
+  // Pixels whose ray meets the sweep's ground plane (FitGroundPlane) within
+  // the ground's measured reach take the plane's depth where completion left
+  // them unknown (the road below the lowest ring, next to the car, and in
+  // gaps between distant rings: instead of the far layer) or gave them the
+  // depth of a LiDAR point on the road (the road between rings: their own
+  // depth instead of the nearest ring's); see FillFromGround.
+  bool ground_fill = true;
 };
+
+// The road surface around a LiDAR: the points p with Dot(normal, p) = offset
+// (world frame; `normal` is a unit vector on the sensor's up side), measured
+// out to `reach` metres from the sensor along the plane.
+struct GroundPlane {
+  bool valid = false;
+  Vec3 normal{0, 0, 1};
+  double offset = 0;
+  double reach = 0;
+  size_t inliers = 0;
+};
+
+// Fits the ground plane under a sweep: RANSAC (a fixed seed, so the result
+// is reproducible) over the points 1.5-60 m from the sensor and at most 2 m
+// above the lowest of them (their 1st percentile height), planes within 20
+// degrees of level, inliers within 0.1 m; then a least-squares fit to the
+// inliers. Not valid when fewer than 50 points (or
+// 10 % of the candidates) lie on the best plane.
+GroundPlane FitGroundPlane(const LidarSweepData& sweep);
+
+// Sets the pixels of `depth` that see `ground` (their ray, through the pixel
+// centre, goes down to it at most `ground.reach` metres from the sensor at
+// `sensor_origin`, along the plane) to the z depth of that point, where
+// `depth` is unknown (0), and where completion copied the depth of a
+// measured point that lies on the road (within 0.15 m of the plane) and the
+// plane's depth is within 15 % of it: between rings, completion gives the
+// road the nearest ring's depth, the plane gives each pixel its own.
+// `sources` is CompleteDepth's (measured pixels are their own source).
+// Measured pixels and other surfaces are kept. Returns how many pixels it
+// set.
+int64_t FillFromGround(const GroundPlane& ground, const Vec3& sensor_origin,
+                       const CameraModel& camera, const Rigid& world_from_camera,
+                       const std::vector<int32_t>& sources, ImageF* depth);
 
 // Returns the automatic completion radius: max(12, 4 % of `height`) pixels.
 int CompletionRadius(int height);
@@ -67,8 +109,11 @@ int CompletionRadius(int height);
 // preferring the nearer surface among measurements within 1.5 px of the
 // nearest distance (so background does not bleed over thin foreground).
 // Measured pixels keep their value. A coarse grid of measured pixels keeps
-// the search local.
-ImageF CompleteDepth(const ImageF& sparse, const CompletionOptions& options = {});
+// the search local. `sources`, when given, receives for every pixel the
+// measured pixel (y * W + x) whose depth it took, itself when measured, -1
+// when unknown.
+ImageF CompleteDepth(const ImageF& sparse, const CompletionOptions& options = {},
+                     std::vector<int32_t>* sources = nullptr);
 
 // The far layer: a sphere that pixels without depth are lifted onto.
 struct FarLayer {
@@ -101,11 +146,12 @@ struct ViewDepth {
 
 // Returns the measured depth of `view` before the far layer: its depth map
 // when it has one, else the completed projection of the nearest sweep (moved
-// to the view's time), else all unknown. [H, W], 0 unknown. `from_lidar` says
-// which one was used.
+// to the view's time) with the ground fill of `options`, else all unknown.
+// [H, W], 0 unknown. `from_lidar` says which one was used; `ground_pixels`
+// how many pixels the ground fill set.
 ImageF MeasuredDepth(const ContextView& view, const std::vector<LidarSweepData>& sweeps,
                      const std::vector<InstanceTrack>& tracks, const CompletionOptions& options,
-                     bool* from_lidar = nullptr);
+                     bool* from_lidar = nullptr, int64_t* ground_pixels = nullptr);
 
 // Fills the unknown pixels of `measured` from the far layer.
 ViewDepth WithFarLayer(const ImageF& measured, bool from_lidar, const ContextView& view,

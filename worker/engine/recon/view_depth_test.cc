@@ -33,6 +33,13 @@ TEST(ViewDepth, CompletionFillsNearbyPixelsOnlyAndPrefersTheNearerSurface) {
   EXPECT_FLOAT_EQ(dense.at(14, 12), 50.f);  // 2.8 px from (12,10), 4.5 from (10,10).
   EXPECT_FLOAT_EQ(dense.at(30, 25), 0.f);   // Too far from any measurement.
   EXPECT_FLOAT_EQ(dense.at(10, 15), 0.f);   // 5 px away > 4.
+  std::vector<int32_t> sources;
+  EXPECT_EQ(CompleteDepth(sparse, options, &sources).pixels, dense.pixels);
+  EXPECT_EQ(sources[10 * 40 + 10], 10 * 40 + 10);  // Measured: itself.
+  EXPECT_EQ(sources[12 * 40 + 9], 10 * 40 + 10);
+  EXPECT_EQ(sources[10 * 40 + 11], 10 * 40 + 10);
+  EXPECT_EQ(sources[12 * 40 + 14], 10 * 40 + 12);
+  EXPECT_EQ(sources[25 * 40 + 30], -1);
 }
 
 TEST(ViewDepth, AutomaticRadiusGrowsWithTheImage) {
@@ -158,6 +165,156 @@ TEST(ViewDepth, MeasuredDepthPrefersTheDepthMap) {
   EXPECT_TRUE(from_lidar);
   EXPECT_FLOAT_EQ(lidar.at(20, 15), 10.f);
   EXPECT_FLOAT_EQ(lidar.at(22, 16), 10.f);  // Completed around the measurement.
+}
+
+// A camera at `height` over the world origin, looking along +x with a level
+// horizon (camera x = world -y, camera y = world -z, camera z = world x).
+Rigid LevelCameraLookingAlongX(double height) {
+  Rigid pose;
+  pose.rotation = Mat3::FromColumns({0, -1, 0}, {0, 0, -1}, {1, 0, 0});
+  pose.translation = {0, 0, height};
+  return pose;
+}
+
+// Rings of ground points z = slope * x + lift around a sensor at (0, 0,
+// 1.9), from `near` to `far` metres, over the front half circle.
+LidarSweepData GroundRings(double near, double far, double slope = 0, double lift = 0) {
+  LidarSweepData sweep;
+  sweep.sensor_origin = {0, 0, 1.9};
+  for (double r = near; r <= far + 1e-9; r += 1.0) {
+    for (double a = -90; a <= 90; a += 0.5) {
+      const double x = r * std::cos(a * M_PI / 180), y = r * std::sin(a * M_PI / 180);
+      sweep.points.insert(sweep.points.end(), {float(x), float(y), float(slope * x + lift)});
+    }
+  }
+  return sweep;
+}
+
+TEST(ViewDepth, GroundPlaneFitFindsATiltedRoadAmongWallsAndCars) {
+  // A road rising 3 % ahead, a wall across it at x = 20 and a car's side at
+  // y = 3: the plane is the road's, not the wall's nor the car's.
+  LidarSweepData sweep = GroundRings(3, 50, 0.03, 0.1);
+  for (double y = -10; y <= 10; y += 0.1)
+    for (double z = 0.7; z <= 5; z += 0.1)
+      sweep.points.insert(sweep.points.end(), {20.f, float(y), float(z)});
+  for (double x = 6; x <= 10; x += 0.05)
+    for (double z = 0.4; z <= 1.5; z += 0.05)
+      sweep.points.insert(sweep.points.end(), {float(x), 3.f, float(z)});
+  const GroundPlane ground = FitGroundPlane(sweep);
+  ASSERT_TRUE(ground.valid);
+  const Vec3 truth = Normalized(Vec3{-0.03, 0, 1});
+  EXPECT_GT(Dot(ground.normal, truth), std::cos(0.2 * M_PI / 180));
+  // The plane passes through (0, 0, 0.1) and (40, 0, 1.3).
+  EXPECT_NEAR(Dot(ground.normal, Vec3{0, 0, 0.1}), ground.offset, 0.01);
+  EXPECT_NEAR(Dot(ground.normal, Vec3{40, 0, 1.3}), ground.offset, 0.01);
+  EXPECT_NEAR(ground.reach, 50.0, 1.5);  // Up to 60 m of reach is searched.
+  EXPECT_GT(ground.inliers, 10000u);
+
+  // Too few points, or only a wall: no plane.
+  LidarSweepData sparse = GroundRings(3, 4);
+  sparse.points.resize(3 * 40);
+  EXPECT_FALSE(FitGroundPlane(sparse).valid);
+  LidarSweepData wall;
+  wall.sensor_origin = {0, 0, 1.9};
+  for (double y = -10; y <= 10; y += 0.1)
+    for (double z = -2; z <= 1.5; z += 0.1)
+      wall.points.insert(wall.points.end(), {20.f, float(y), float(z)});
+  EXPECT_FALSE(FitGroundPlane(wall).valid);
+}
+
+TEST(ViewDepth, GroundFillSetsRoadPixelsWithinItsReach) {
+  GroundPlane ground;
+  ground.valid = true;
+  ground.normal = {0, 0, 1};
+  ground.offset = 0;
+  ground.reach = 20;
+  const Rigid pose = LevelCameraLookingAlongX(1.5);
+  // Row r (v = r + 0.5) goes down (v - 15) / 40 per unit ahead, so it meets
+  // z = 0 at z depth 1.5 * 40 / (v - 15).
+  auto road = [](int row) { return 1.5 * 40 / (row + 0.5 - 15); };
+  auto at = [](int x, int y) { return y * 40 + x; };
+  ImageF depth(40, 30, 1);
+  std::vector<int32_t> sources(40 * 30, -1);
+  // Measured: a point 0.75 m above the road at (20, 25), one on the road at
+  // (20, 26). Both kept.
+  depth.at(20, 25) = 3.f;
+  sources[at(20, 25)] = at(20, 25);
+  depth.at(20, 26) = float(road(26));
+  sources[at(20, 26)] = at(20, 26);
+  // Completed from the road point, 9 % off the road: snapped to the road.
+  depth.at(20, 27) = float(road(26));
+  sources[at(20, 27)] = at(20, 26);
+  // Completed from the road point but 17 % off (beyond 15 %): kept.
+  depth.at(20, 24) = float(road(26));
+  sources[at(20, 24)] = at(20, 26);
+  // Completed from the point above the road: another surface, kept.
+  depth.at(20, 28) = 3.f;
+  sources[at(20, 28)] = at(20, 25);
+  const int64_t filled = FillFromGround(ground, Vec3{0, 0, 1.9}, kCamera, pose, sources, &depth);
+  EXPECT_NEAR(depth.at(20, 29), road(29), 1e-4);  // Unknown: the road.
+  EXPECT_NEAR(depth.at(20, 27), road(27), 1e-4);
+  EXPECT_FLOAT_EQ(depth.at(20, 24), float(road(26)));
+  EXPECT_FLOAT_EQ(depth.at(20, 28), 3.f);
+  EXPECT_FLOAT_EQ(depth.at(20, 25), 3.f);
+  EXPECT_FLOAT_EQ(depth.at(20, 26), float(road(26)));
+  // Row 16 meets the road 40 m ahead, beyond its 20 m reach; row 10 looks
+  // up: both stay unknown.
+  EXPECT_FLOAT_EQ(depth.at(20, 16), 0.f);
+  EXPECT_FLOAT_EQ(depth.at(20, 10), 0.f);
+  int64_t set = 0;
+  for (float d : depth.pixels) set += d > 0.f ? 1 : 0;
+  EXPECT_EQ(filled, set - 4);  // All but the two measured pixels and the two kept.
+  // No plane, or a camera under it: nothing set.
+  const std::vector<int32_t> none(40 * 30, -1);
+  ImageF untouched(40, 30, 1);
+  EXPECT_EQ(FillFromGround(GroundPlane{}, Vec3{}, kCamera, pose, none, &untouched), 0);
+  EXPECT_EQ(FillFromGround(ground, Vec3{}, kCamera, LevelCameraLookingAlongX(-1), none, &untouched),
+            0);
+  for (float d : untouched.pixels) EXPECT_EQ(d, 0.f);
+}
+
+TEST(ViewDepth, LidarDepthReachesTheRoadBelowTheLowestRing) {
+  // Rings from 6 m on: the road closer than that, at the bottom of a level
+  // camera 1.5 m up, has no LiDAR point; the ground fill gives it the road's
+  // depth, where without it the bottom rows are unknown (far layer).
+  const CameraModel camera(160, 120, 160, 160, 80, 60);
+  ContextView view;
+  view.camera = camera;
+  view.world_from_camera = LevelCameraLookingAlongX(1.5);
+  const LidarSweepData sweep = GroundRings(6, 30);
+  CompletionOptions options;
+  options.ground_fill = false;
+  bool from_lidar = false;
+  const ImageF without = MeasuredDepth(view, {sweep}, {}, options, &from_lidar);
+  EXPECT_TRUE(from_lidar);
+  EXPECT_FLOAT_EQ(without.at(80, 119), 0.f);
+  options.ground_fill = true;
+  int64_t ground_pixels = 0;
+  const ImageF with = MeasuredDepth(view, {sweep}, {}, options, &from_lidar, &ground_pixels);
+  EXPECT_NEAR(with.at(80, 119), 1.5 * 160 / 59.5, 1e-3);
+  EXPECT_NEAR(with.at(10, 118), 1.5 * 160 / 58.5, 1e-3);
+  EXPECT_GE(ground_pixels, 160 * 4);
+  // Between rings, completion copies the nearest ring's depth (up to half a
+  // ring's spacing off); with the ground fill every road pixel has its own.
+  // Above the horizon nothing is set but what completion spread from the
+  // farthest ring.
+  const ImageF sparse = ProjectPoints(GroundRings(6, 30).points, camera, view.world_from_camera);
+  double worst_without = 0, worst_with = 0;
+  for (int y = 80; y < 100; ++y) {
+    const double road = 1.5 * 160 / (y + 0.5 - 60);
+    for (int x = 40; x < 120; ++x) {
+      if (sparse.at(x, y) > 0.f) {
+        EXPECT_EQ(with.at(x, y), sparse.at(x, y));  // Measured: kept.
+        continue;
+      }
+      worst_without = std::max(worst_without, std::abs(without.at(x, y) - road) / road);
+      worst_with = std::max(worst_with, std::abs(with.at(x, y) - road) / road);
+    }
+  }
+  EXPECT_GT(worst_without, 0.02);
+  EXPECT_LT(worst_with, 1e-4);
+  for (int y = 0; y < 50; ++y)
+    for (int x = 0; x < 160; ++x) EXPECT_EQ(with.at(x, y), 0.f);
 }
 
 }  // namespace
