@@ -25,7 +25,8 @@ namespace {
 constexpr char kUsage[] =
     "usage: pf reconstruct CLIP.json --out SCENE [--model analytic|pixel-aligned] "
     "[--ns N --nd N] [--fusion softmax|average|no-depth] [--no-lifespan] [--refine N] "
-    "[--splat-sigma S] [--hidden-band PX] [--no-ground-fill] [--device cpu|cuda:N]";
+    "[--splat-sigma S] [--hidden-band PX] [--no-ground-fill] [--no-facades] "
+    "[--device cpu|cuda:N]";
 
 absl::Status Run(const CommandLine& cl) {
   if (cl.positional().size() != 1 || !cl.Has("out")) return absl::InvalidArgumentError(kUsage);
@@ -44,7 +45,8 @@ absl::Status Run(const CommandLine& cl) {
       {"nd", absl::StrCat(s.dynamic_per_instance)},
       {"fusion", FusionWeightsName(options.fusion.weights)},
       {"lifespan", options.fusion.lifespan ? "true" : "false"},
-      {"ground_fill", options.completion.ground_fill ? "true" : "false"}};
+      {"ground_fill", options.completion.ground_fill ? "true" : "false"},
+      {"facades", options.completion.facades ? "true" : "false"}};
   RETURN_IF_ERROR(SaveScene(result.scene, cl.Get("out"), metadata));
 
   std::vector<std::string> stages;
@@ -54,14 +56,15 @@ absl::Status Run(const CommandLine& cl) {
       "reconstructed %s (%s) -> %s\n"
       "  gaussians: %zu (static %lld incl. far layer %lld, dynamic %lld)\n"
       "  instances: %d, context views: %d (%d with depth from LiDAR, %lld pixels of them from "
-      "the ground plane, %d without depth), N_s %lld, N_d %lld\n"
+      "the ground plane and %lld from facades, %d without depth), N_s %lld, N_d %lld\n"
       "  time: %s; total %.2f s\n",
       clip_path.c_str(), ReconModelName(options.model), cl.Get("out").c_str(), result.scene.size(),
       static_cast<long long>(s.static_gaussians), static_cast<long long>(s.far_gaussians),
       static_cast<long long>(s.dynamic_gaussians), s.instances, s.views, s.lidar_views,
-      static_cast<long long>(s.ground_pixels), s.views_without_depth,
-      static_cast<long long>(s.static_per_view), static_cast<long long>(s.dynamic_per_instance),
-      absl::StrJoin(stages, ", ").c_str(), s.total_seconds);
+      static_cast<long long>(s.ground_pixels), static_cast<long long>(s.facade_pixels),
+      s.views_without_depth, static_cast<long long>(s.static_per_view),
+      static_cast<long long>(s.dynamic_per_instance), absl::StrJoin(stages, ", ").c_str(),
+      s.total_seconds);
   return absl::OkStatus();
 }
 

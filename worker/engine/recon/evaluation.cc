@@ -353,6 +353,8 @@ std::string EvalReportJson(const EvalReport& report) {
   j["lifespan"] = report.options.fusion.lifespan;
   j["groundFill"] = report.options.completion.ground_fill;
   j["groundPixels"] = report.stats.ground_pixels;
+  j["facades"] = report.options.completion.facades;
+  j["facadePixels"] = report.stats.facade_pixels;
   j["staticGaussians"] = report.stats.static_gaussians;
   j["dynamicGaussians"] = report.stats.dynamic_gaussians;
   j["farGaussians"] = report.stats.far_gaussians;

@@ -7,7 +7,8 @@
 //   {"model": "analytic", "gaussians": N, "reconstructSeconds": s,
 //    "renderSeconds": s, "fusion": "softmax", "lifespan": true,
 //    "groundFill": true, "groundPixels": n (LiDAR pixels set from the ground
-//    plane, view_depth.h),
+//    plane, view_depth.h), "facades": true, "facadePixels": n (set from
+//    facades above the LiDAR's top beam, facade_depth.h),
 //    "staticGaussians": n, "dynamicGaussians": n, "farGaussians": n,
 //    "instances": n, "contextViews": n, "ns": n, "nd": n,
 //    "stageSeconds": {"load": s, ...},

@@ -8,6 +8,8 @@
 //   --no-lifespan                    every Gaussian lives forever (ablation)
 //   --no-ground-fill                 LiDAR depth without the ground plane (view_depth.h;
 //                                    ablation)
+//   --no-facades                     LiDAR depth without facades above the top beam
+//                                    (facade_depth.h; ablation)
 //   --refine N                       colour refinement iterations (default 2; 0 off)
 //   --splat-sigma S                  Gaussian std-dev per query spacing (default 0.6)
 //   --hidden-band PX                 hidden queries behind depth edges within PX

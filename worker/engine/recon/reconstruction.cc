@@ -8,6 +8,7 @@
 #include "absl/strings/str_cat.h"
 #include "common/status_macros.h"
 #include "pointforward/v1/clip.pb.h"
+#include "worker/engine/recon/facade_depth.h"
 #include "worker/engine/recon/query_lifting.h"
 #include "worker/engine/recon/scene_graph.h"
 #if PF_HAVE_TORCH
@@ -104,14 +105,20 @@ absl::StatusOr<ReconResult> ReconstructInputs(const ReconInputs& inputs,
   std::vector<ImageF> measured(num_views);
   std::vector<float> max_depths(num_views, 0.f);
   std::vector<bool> from_lidar(num_views, false);
+  std::vector<GroundPlane> grounds(num_views);
   for (size_t v = 0; v < num_views; ++v) {
     bool lidar = false;
     int64_t ground = 0;
-    measured[v] =
-        MeasuredDepth(views[v], inputs.sweeps, tracks, options.completion, &lidar, &ground);
+    measured[v] = MeasuredDepth(views[v], inputs.sweeps, tracks, options.completion, &lidar,
+                                &ground, &grounds[v]);
     from_lidar[v] = lidar;
     stats.ground_pixels += ground;
     stats.lidar_views += lidar ? 1 : 0;
+  }
+  if (options.completion.facades) {
+    stats.facade_pixels = ExtendFacades(views, from_lidar, grounds, &measured);
+  }
+  for (size_t v = 0; v < num_views; ++v) {
     for (float d : measured[v].pixels) max_depths[v] = std::max(max_depths[v], d);
     stats.views_without_depth += max_depths[v] > 0.f ? 0 : 1;
   }
@@ -121,10 +128,10 @@ absl::StatusOr<ReconResult> ReconstructInputs(const ReconInputs& inputs,
     depths[v] = WithFarLayer(measured[v], from_lidar[v], views[v], far);
     measured[v] = ImageF();
   }
-  clock.Done("depth",
-             absl::StrCat(" (", stats.lidar_views, " of ", num_views, " views from LiDAR, ",
-                          stats.ground_pixels, " pixels from the ground plane, far layer radius ",
-                          far.radius, " m)"));
+  clock.Done("depth", absl::StrCat(" (", stats.lidar_views, " of ", num_views,
+                                   " views from LiDAR, ", stats.ground_pixels,
+                                   " pixels from the ground plane, ", stats.facade_pixels,
+                                   " from facades, far layer radius ", far.radius, " m)"));
   if (stats.views_without_depth > 0) {
     clock.Progress(absl::StrCat("warning: ", stats.views_without_depth, " of ", num_views,
                                 " views have no depth map and no LiDAR point; all their pixels "

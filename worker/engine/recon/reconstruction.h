@@ -74,6 +74,7 @@ struct ReconStats {
   int64_t dynamic_gaussians = 0;
   int lidar_views = 0;          // Views whose depth came from LiDAR.
   int64_t ground_pixels = 0;    // LiDAR views' pixels set by the ground fill (view_depth.h).
+  int64_t facade_pixels = 0;    // LiDAR views' pixels set by facades (facade_depth.h).
   int views_without_depth = 0;  // No depth map, no LiDAR point: all far layer.
   std::vector<std::pair<std::string, double>> stage_seconds;  // In order.
   double total_seconds = 0;

@@ -405,9 +405,10 @@ FarLayer FarLayerFor(const std::vector<ContextView>& views, const std::vector<fl
 
 ImageF MeasuredDepth(const ContextView& view, const std::vector<LidarSweepData>& sweeps,
                      const std::vector<InstanceTrack>& tracks, const CompletionOptions& options,
-                     bool* from_lidar, int64_t* ground_pixels) {
+                     bool* from_lidar, int64_t* ground_pixels, GroundPlane* ground) {
   if (from_lidar != nullptr) *from_lidar = false;
   if (ground_pixels != nullptr) *ground_pixels = 0;
+  if (ground != nullptr) *ground = GroundPlane{};
   if (view.depth.width > 0) {
     ImageF depth = view.depth;
     for (float& d : depth.pixels)
@@ -422,8 +423,11 @@ ImageF MeasuredDepth(const ContextView& view, const std::vector<LidarSweepData>&
   std::vector<int32_t> sources;
   ImageF depth = CompleteDepth(ProjectPoints(points, view.camera, view.world_from_camera), options,
                                options.ground_fill ? &sources : nullptr);
+  const GroundPlane plane =
+      options.ground_fill || options.facades ? FitGroundPlane(sweep) : GroundPlane{};
+  if (ground != nullptr) *ground = plane;
   if (options.ground_fill) {
-    const int64_t filled = FillFromGround(FitGroundPlane(sweep), sweep.sensor_origin, view.camera,
+    const int64_t filled = FillFromGround(plane, sweep.sensor_origin, view.camera,
                                           view.world_from_camera, sources, &depth);
     if (ground_pixels != nullptr) *ground_pixels = filled;
   }

@@ -66,6 +66,9 @@ struct CompletionOptions {
   // depth of a LiDAR point on the road (the road between rings: their own
   // depth instead of the nearest ring's); see FillFromGround.
   bool ground_fill = true;
+  // LiDAR views' pixels above the highest measured point of a facade
+  // continue its vertical plane where other views agree (facade_depth.h).
+  bool facades = true;
 };
 
 // The road surface around a LiDAR: the points p with Dot(normal, p) = offset
@@ -148,10 +151,11 @@ struct ViewDepth {
 // when it has one, else the completed projection of the nearest sweep (moved
 // to the view's time) with the ground fill of `options`, else all unknown.
 // [H, W], 0 unknown. `from_lidar` says which one was used; `ground_pixels`
-// how many pixels the ground fill set.
+// how many pixels the ground fill set, `ground` the plane it used.
 ImageF MeasuredDepth(const ContextView& view, const std::vector<LidarSweepData>& sweeps,
                      const std::vector<InstanceTrack>& tracks, const CompletionOptions& options,
-                     bool* from_lidar = nullptr, int64_t* ground_pixels = nullptr);
+                     bool* from_lidar = nullptr, int64_t* ground_pixels = nullptr,
+                     GroundPlane* ground = nullptr);
 
 // Fills the unknown pixels of `measured` from the far layer.
 ViewDepth WithFarLayer(const ImageF& measured, bool from_lidar, const ContextView& view,

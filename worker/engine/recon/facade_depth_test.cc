@@ -1,0 +1,136 @@
+// Tests of the facade extension above the LiDAR's top beam.
+#include "worker/engine/recon/facade_depth.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdint>
+
+namespace pf {
+namespace {
+
+// A street seen from the side: the road z = 0, a building front x = 12 up
+// to 6 m, the sky above. The front's bricks are 0.3 m cells of random
+// colours, so two views agree only where the right depth is used.
+constexpr double kWallX = 12, kWallTop = 6;
+
+double CellColour(int a, int b, int c) {
+  uint32_t h = static_cast<uint32_t>(a) * 73856093u ^ static_cast<uint32_t>(b) * 19349663u ^
+               static_cast<uint32_t>(c) * 83492791u;
+  h ^= h >> 13;
+  h *= 0x5bd1e995u;
+  h ^= h >> 15;
+  return (h % 1000) / 1000.0;
+}
+
+Vec3 Shade(const Vec3& o, const Vec3& d) {
+  if (d.x > 0) {
+    const double s = (kWallX - o.x) / d.x;
+    const Vec3 p = o + s * d;
+    if (p.z >= 0 && p.z <= kWallTop) {
+      const int a = static_cast<int>(std::floor(p.y / 0.3)), b = static_cast<int>(std::floor(p.z / 0.3));
+      return {CellColour(a, b, 0), CellColour(a, b, 1), CellColour(a, b, 2)};
+    }
+  }
+  if (d.z < 0) return {0.3, 0.3, 0.32};  // Road.
+  const double up = d.z / Norm(d);
+  return {0.55 + 0.2 * up, 0.65 + 0.2 * up, 0.9};  // Sky: smooth.
+}
+
+ContextView StreetView(const Vec3& position, int64_t timestamp_us) {
+  ContextView view;
+  view.camera_id = "cam_left";
+  view.timestamp_us = timestamp_us;
+  view.camera = CameraModel(160, 120, 100, 100, 80, 60);
+  view.world_from_camera.rotation = Mat3::FromColumns({0, -1, 0}, {0, 0, -1}, {1, 0, 0});
+  view.world_from_camera.translation = position;
+  view.rgb = ImageF(160, 120, 3);
+  for (int y = 0; y < 120; ++y) {
+    for (int x = 0; x < 160; ++x) {
+      Vec3 ray;
+      view.camera.Unproject(x + 0.5, y + 0.5, &ray);
+      const Vec3 c = Shade(position, view.world_from_camera.rotation * ray);
+      for (int k = 0; k < 3; ++k) view.rgb.at(x, y, k) = static_cast<float>(c[k]);
+    }
+  }
+  return view;
+}
+
+// The z depth of pixel (x, y) of `view`: the wall's or the road's, 0 for sky.
+double TrueDepth(const ContextView& view, int x, int y) {
+  Vec3 ray;
+  view.camera.Unproject(x + 0.5, y + 0.5, &ray);
+  const Vec3 d = view.world_from_camera.rotation * ray;
+  const Vec3& o = view.world_from_camera.translation;
+  if (d.x > 0) {
+    const double s = (kWallX - o.x) / d.x;
+    const double z = o.z + s * d.z;
+    if (z >= 0 && z <= kWallTop) return s;
+  }
+  if (d.z < 0) return -o.z / d.z;
+  return 0;
+}
+
+TEST(FacadeDepth, ContinuesTheFrontUpToTheRoofAndLeavesTheSky) {
+  // Two views 2 m apart along the street; the first has "LiDAR" depth only
+  // below row 50 (about 2.7 m up the front), as a spinning LiDAR whose top
+  // beam is a few degrees above the horizontal.
+  std::vector<ContextView> views = {StreetView({0, 0, 1.5}, 0), StreetView({0, 2, 1.5}, 500000)};
+  std::vector<ImageF> measured(2);
+  measured[0] = ImageF(160, 120, 1);
+  for (int y = 50; y < 120; ++y)
+    for (int x = 0; x < 160; ++x) measured[0].at(x, y) = static_cast<float>(TrueDepth(views[0], x, y));
+  GroundPlane ground;
+  ground.valid = true;
+  ground.normal = {0, 0, 1};
+  ground.offset = 0;
+  ground.reach = 50;
+  const std::vector<GroundPlane> grounds = {ground, ground};
+
+  std::vector<ImageF> extended = measured;
+  const int64_t set = ExtendFacades(views, {true, false}, grounds, &extended);
+  // The roof line is at row 60 - 100 * 4.5 / 12 = 22.5. The second view,
+  // 2 m to the first one's left, sees the front 16.7 px further right: in
+  // the last 17 columns the plane's points leave its image, nothing checks
+  // them and they stay unknown.
+  int64_t counted = 0;
+  for (int y = 0; y < 50; ++y) {
+    for (int x = 2; x < 140; ++x) {
+      const float d = extended[0].at(x, y);
+      counted += d > 0.f;
+      if (y >= 25) EXPECT_NEAR(d, TrueDepth(views[0], x, y), 0.05) << x << "," << y;
+      if (y <= 20) EXPECT_EQ(d, 0.f) << x << "," << y;  // Sky: stays on the far layer.
+    }
+  }
+  EXPECT_GE(counted, 138 * 25);
+  EXPECT_GE(set, counted);
+  // Measured pixels are kept.
+  for (int y = 50; y < 120; ++y)
+    for (int x = 0; x < 160; ++x) EXPECT_EQ(extended[0].at(x, y), measured[0].at(x, y));
+
+  // Without a second view to check against, or when turned off for the view,
+  // nothing is set.
+  std::vector<ImageF> alone = {measured[0]};
+  EXPECT_EQ(ExtendFacades({views[0]}, {true}, {ground}, &alone), 0);
+  std::vector<ImageF> off = measured;
+  EXPECT_EQ(ExtendFacades(views, {false, false}, grounds, &off), 0);
+  EXPECT_EQ(off[0].pixels, measured[0].pixels);
+}
+
+TEST(FacadeDepth, AFlatSkylineWithoutAWallIsLeftAlone) {
+  // The same street with the top rows of "LiDAR" on the road only (a view
+  // down at the road, sky above): no vertical plane, nothing set.
+  std::vector<ContextView> views = {StreetView({0, 0, 1.5}, 0), StreetView({0, 2, 1.5}, 500000)};
+  std::vector<ImageF> measured(2);
+  measured[0] = ImageF(160, 120, 1);
+  for (int y = 80; y < 120; ++y)
+    for (int x = 0; x < 160; ++x) measured[0].at(x, y) = static_cast<float>(TrueDepth(views[0], x, y));
+  GroundPlane ground;
+  ground.valid = true;
+  ground.normal = {0, 0, 1};
+  ground.reach = 50;
+  EXPECT_EQ(ExtendFacades(views, {true, false}, {ground, ground}, &measured), 0);
+}
+
+}  // namespace
+}  // namespace pf
