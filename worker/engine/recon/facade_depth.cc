@@ -25,7 +25,8 @@ double PatchCost(const ImageF& a, int ax, int ay, const ImageF& b, int bx, int b
   double sum = 0;
   for (int dy = -1; dy <= 1; ++dy)
     for (int dx = -1; dx <= 1; ++dx)
-      for (int c = 0; c < 3; ++c) sum += std::abs(a.at(ax + dx, ay + dy, c) - b.at(bx + dx, by + dy, c));
+      for (int c = 0; c < 3; ++c)
+        sum += std::abs(a.at(ax + dx, ay + dy, c) - b.at(bx + dx, by + dy, c));
   return sum / 27;
 }
 

@@ -26,16 +26,16 @@
 namespace pf {
 
 struct FacadeOptions {
-  int window_px = 6;              // Half width of the columns whose top points make the plane.
-  int band_px = 6;                // Rows of each column's top counted as its top points.
-  double max_plane_rms = 0.15;    // Metres: the top points' spread off their vertical plane.
-  double min_height = 0.5;        // Metres above the ground for a top point to count.
-  double max_rise = 40.0;         // Metres above the highest top point a facade may go.
-  double min_baseline = 0.5;      // Metres between a view and the views that check it.
-  int partners = 2;               // Views that check each view.
-  double accept_ratio = 0.6;      // Plane's patch cost below this x the far point's: accept.
-  double min_contrast = 0.03;     // Far point's mean absolute difference below this: no test.
-  int stop_after = 3;             // Consecutive rejections that end a column's scan.
+  int window_px = 6;            // Half width of the columns whose top points make the plane.
+  int band_px = 6;              // Rows of each column's top counted as its top points.
+  double max_plane_rms = 0.15;  // Metres: the top points' spread off their vertical plane.
+  double min_height = 0.5;      // Metres above the ground for a top point to count.
+  double max_rise = 40.0;       // Metres above the highest top point a facade may go.
+  double min_baseline = 0.5;    // Metres between a view and the views that check it.
+  int partners = 2;             // Views that check each view.
+  double accept_ratio = 0.6;    // Plane's patch cost below this x the far point's: accept.
+  double min_contrast = 0.03;   // Far point's mean absolute difference below this: no test.
+  int stop_after = 3;           // Consecutive rejections that end a column's scan.
 };
 
 // For every view v with `extend[v]` (LiDAR views; depth maps are complete)

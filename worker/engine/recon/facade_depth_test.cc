@@ -28,7 +28,8 @@ Vec3 Shade(const Vec3& o, const Vec3& d) {
     const double s = (kWallX - o.x) / d.x;
     const Vec3 p = o + s * d;
     if (p.z >= 0 && p.z <= kWallTop) {
-      const int a = static_cast<int>(std::floor(p.y / 0.3)), b = static_cast<int>(std::floor(p.z / 0.3));
+      const int a = static_cast<int>(std::floor(p.y / 0.3)),
+                b = static_cast<int>(std::floor(p.z / 0.3));
       return {CellColour(a, b, 0), CellColour(a, b, 1), CellColour(a, b, 2)};
     }
   }
@@ -71,24 +72,39 @@ double TrueDepth(const ContextView& view, int x, int y) {
   return 0;
 }
 
-TEST(FacadeDepth, ContinuesTheFrontUpToTheRoofAndLeavesTheSky) {
-  // Two views 2 m apart along the street; the first has "LiDAR" depth only
-  // below row 50 (about 2.7 m up the front), as a spinning LiDAR whose top
-  // beam is a few degrees above the horizontal.
-  std::vector<ContextView> views = {StreetView({0, 0, 1.5}, 0), StreetView({0, 2, 1.5}, 500000)};
-  std::vector<ImageF> measured(2);
-  measured[0] = ImageF(160, 120, 1);
-  for (int y = 50; y < 120; ++y)
-    for (int x = 0; x < 160; ++x) measured[0].at(x, y) = static_cast<float>(TrueDepth(views[0], x, y));
+// Two views 2 m apart along the street, and the first one's "LiDAR" depth
+// from row `first_row` down (a spinning LiDAR's top beam is a few degrees
+// above the horizontal); the road is the ground plane of both.
+struct Street {
+  std::vector<ContextView> views;
+  std::vector<ImageF> measured;
+  std::vector<GroundPlane> grounds;
+};
+
+Street StreetWithLidarFrom(int first_row) {
+  Street street;
+  street.views = {StreetView({0, 0, 1.5}, 0), StreetView({0, 2, 1.5}, 500000)};
+  street.measured.resize(2);
+  street.measured[0] = ImageF(160, 120, 1);
+  for (int y = first_row; y < 120; ++y) {
+    for (int x = 0; x < 160; ++x)
+      street.measured[0].at(x, y) = static_cast<float>(TrueDepth(street.views[0], x, y));
+  }
   GroundPlane ground;
   ground.valid = true;
   ground.normal = {0, 0, 1};
   ground.offset = 0;
   ground.reach = 50;
-  const std::vector<GroundPlane> grounds = {ground, ground};
+  street.grounds = {ground, ground};
+  return street;
+}
 
-  std::vector<ImageF> extended = measured;
-  const int64_t set = ExtendFacades(views, {true, false}, grounds, &extended);
+TEST(FacadeDepth, ContinuesTheFrontUpToTheRoofAndLeavesTheSky) {
+  // Depth below row 50: about 2.7 m up the front.
+  const Street street = StreetWithLidarFrom(50);
+  const ImageF& measured = street.measured[0];
+  std::vector<ImageF> extended = street.measured;
+  const int64_t set = ExtendFacades(street.views, {true, false}, street.grounds, &extended);
   // The roof line is at row 60 - 100 * 4.5 / 12 = 22.5. The second view,
   // 2 m to the first one's left, sees the front 16.7 px further right: in
   // the last 17 columns the plane's points leave its image, nothing checks
@@ -98,7 +114,7 @@ TEST(FacadeDepth, ContinuesTheFrontUpToTheRoofAndLeavesTheSky) {
     for (int x = 2; x < 140; ++x) {
       const float d = extended[0].at(x, y);
       counted += d > 0.f;
-      if (y >= 25) EXPECT_NEAR(d, TrueDepth(views[0], x, y), 0.05) << x << "," << y;
+      if (y >= 25) EXPECT_NEAR(d, TrueDepth(street.views[0], x, y), 0.05) << x << "," << y;
       if (y <= 20) EXPECT_EQ(d, 0.f) << x << "," << y;  // Sky: stays on the far layer.
     }
   }
@@ -106,30 +122,23 @@ TEST(FacadeDepth, ContinuesTheFrontUpToTheRoofAndLeavesTheSky) {
   EXPECT_GE(set, counted);
   // Measured pixels are kept.
   for (int y = 50; y < 120; ++y)
-    for (int x = 0; x < 160; ++x) EXPECT_EQ(extended[0].at(x, y), measured[0].at(x, y));
+    for (int x = 0; x < 160; ++x) EXPECT_EQ(extended[0].at(x, y), measured.at(x, y));
 
   // Without a second view to check against, or when turned off for the view,
   // nothing is set.
-  std::vector<ImageF> alone = {measured[0]};
-  EXPECT_EQ(ExtendFacades({views[0]}, {true}, {ground}, &alone), 0);
-  std::vector<ImageF> off = measured;
-  EXPECT_EQ(ExtendFacades(views, {false, false}, grounds, &off), 0);
-  EXPECT_EQ(off[0].pixels, measured[0].pixels);
+  std::vector<ImageF> alone = {measured};
+  EXPECT_EQ(ExtendFacades({street.views[0]}, {true}, {street.grounds[0]}, &alone), 0);
+  std::vector<ImageF> off = street.measured;
+  EXPECT_EQ(ExtendFacades(street.views, {false, false}, street.grounds, &off), 0);
+  EXPECT_EQ(off[0].pixels, measured.pixels);
 }
 
 TEST(FacadeDepth, AFlatSkylineWithoutAWallIsLeftAlone) {
-  // The same street with the top rows of "LiDAR" on the road only (a view
-  // down at the road, sky above): no vertical plane, nothing set.
-  std::vector<ContextView> views = {StreetView({0, 0, 1.5}, 0), StreetView({0, 2, 1.5}, 500000)};
-  std::vector<ImageF> measured(2);
-  measured[0] = ImageF(160, 120, 1);
-  for (int y = 80; y < 120; ++y)
-    for (int x = 0; x < 160; ++x) measured[0].at(x, y) = static_cast<float>(TrueDepth(views[0], x, y));
-  GroundPlane ground;
-  ground.valid = true;
-  ground.normal = {0, 0, 1};
-  ground.reach = 50;
-  EXPECT_EQ(ExtendFacades(views, {true, false}, {ground, ground}, &measured), 0);
+  // Depth below row 80 only (the front's foot is at row 72.5): every
+  // column's top measured points are on the road, so there is no vertical
+  // plane to continue.
+  Street street = StreetWithLidarFrom(80);
+  EXPECT_EQ(ExtendFacades(street.views, {true, false}, street.grounds, &street.measured), 0);
 }
 
 }  // namespace
