@@ -7,6 +7,7 @@
 #include <cmath>
 
 #include "common/thread_pool.h"
+#include "worker/engine/recon/query_lifting.h"
 
 namespace pf {
 namespace {
@@ -70,7 +71,7 @@ std::vector<size_t> Partners(const std::vector<ContextView>& views, size_t v,
   return out;
 }
 
-// A vertical plane: the points p with a * Dot(p, e1) + b * Dot(p, e2) = offset.
+// A vertical plane: the points p with Dot(normal, p) = offset.
 struct Facade {
   Vec3 normal;  // Horizontal.
   double offset = 0;
@@ -93,9 +94,8 @@ int64_t ExtendFacades(const std::vector<ContextView>& views, const std::vector<b
     ImageF& depth = (*measured)[v];
     const int w = before.width, h = before.height;
     const Vec3 up = ground.normal;
-    const Vec3 seed = std::abs(up.x) < 0.9 ? Vec3{1, 0, 0} : Vec3{0, 1, 0};
-    const Vec3 e1 = Normalized(Cross(up, seed));
-    const Vec3 e2 = Cross(up, e1);
+    Vec3 e1, e2;
+    LevelAxes(up, &e1, &e2);
     const Vec3 origin = view.world_from_camera.translation;
     std::vector<Rigid> partner_from_world;
     for (size_t u : partners) partner_from_world.push_back(views[u].world_from_camera.Inverse());
@@ -130,10 +130,11 @@ int64_t ExtendFacades(const std::vector<ContextView>& views, const std::vector<b
              cx <= std::min(w - 1, x + options.window_px); ++cx) {
           if (top[cx] < 0) continue;
           for (int y = top[cx]; y < std::min(h, top[cx] + options.band_px); ++y) {
-            const float d = before.at(cx, y);
-            Vec3 dir;
-            if (!(d > 0.f) || !ray_of(cx, y, &dir)) continue;
-            const Vec3 p = origin + double(d) * dir;
+            Vec3 p;
+            if (!LiftPixel(view.camera, view.world_from_camera, cx + 0.5, y + 0.5, before.at(cx, y),
+                           &p)) {
+              continue;
+            }
             const double height = Dot(up, p) - ground.offset;
             if (height < options.min_height) continue;
             const double a = Dot(p, e1), b = Dot(p, e2);

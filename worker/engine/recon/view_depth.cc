@@ -14,6 +14,7 @@
 #include "common/thread_pool.h"
 #include "pointforward/v1/clip.pb.h"
 #include "worker/engine/clip/clip_validator.h"
+#include "worker/engine/recon/query_lifting.h"
 #include "worker/engine/recon/scene_graph.h"
 #include "worker/engine/render/rasterizer.h"
 
@@ -206,13 +207,6 @@ constexpr double kGroundSnap = 0.15;
 // inlier distance, and the half pixel its projection was rounded by).
 constexpr double kGroundOnPlane = 0.15;
 
-// Two unit vectors that complete `up` to an orthonormal frame.
-void LevelAxes(const Vec3& up, Vec3* e1, Vec3* e2) {
-  const Vec3 seed = std::abs(up.x) < 0.9 ? Vec3{1, 0, 0} : Vec3{0, 1, 0};
-  *e1 = Normalized(Cross(up, seed));
-  *e2 = Cross(up, *e1);
-}
-
 // Distance from `p` to the sensor along the plane perpendicular to `up`.
 double ReachOf(const Vec3& p, const Vec3& origin, const Vec3& up) {
   const Vec3 d = p - origin;
@@ -220,6 +214,12 @@ double ReachOf(const Vec3& p, const Vec3& origin, const Vec3& up) {
 }
 
 }  // namespace
+
+void LevelAxes(const Vec3& up, Vec3* e1, Vec3* e2) {
+  const Vec3 seed = std::abs(up.x) < 0.9 ? Vec3{1, 0, 0} : Vec3{0, 1, 0};
+  *e1 = Normalized(Cross(up, seed));
+  *e2 = Cross(up, *e1);
+}
 
 GroundPlane FitGroundPlane(const LidarSweepData& sweep) {
   GroundPlane best;
@@ -338,9 +338,9 @@ int64_t FillFromGround(const GroundPlane& ground, const Vec3& sensor_origin,
   std::vector<uint8_t> on_ground(sources.size(), 0);
   for (size_t i = 0; i < sources.size(); ++i) {
     if (sources[i] != static_cast<int32_t>(i)) continue;
-    Vec3 ray;
-    if (!camera.Unproject(i % w + 0.5, i / w + 0.5, &ray)) continue;
-    const Vec3 p = world_from_camera * (ray * double(depth->pixels[i]));
+    Vec3 p;
+    if (!LiftPixel(camera, world_from_camera, i % w + 0.5, i / w + 0.5, depth->pixels[i], &p))
+      continue;
     on_ground[i] = std::abs(Dot(ground.normal, p) - ground.offset) < kGroundOnPlane;
   }
   std::atomic<int64_t> filled{0};

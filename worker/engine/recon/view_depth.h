@@ -82,6 +82,10 @@ struct GroundPlane {
   size_t inliers = 0;
 };
 
+// Sets `e1`, `e2` to two unit vectors that complete the unit vector `up` to
+// a right-handed orthonormal frame (e1 x e2 = up): axes of the level plane.
+void LevelAxes(const Vec3& up, Vec3* e1, Vec3* e2);
+
 // Fits the ground plane under a sweep: RANSAC (a fixed seed, so the result
 // is reproducible) over the points 1.5-60 m from the sensor and at most 2 m
 // above the lowest of them (their 1st percentile height), planes within 20
