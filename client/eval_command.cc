@@ -35,8 +35,8 @@ namespace {
 constexpr char kUsage[] =
     "usage: pf eval CLIP.json --out DIR [--model analytic|pixel-aligned] [--ns N --nd N] "
     "[--fusion softmax|average|no-depth] [--no-lifespan] [--refine N] [--splat-sigma S] "
-    "[--hidden-band PX] [--no-ground-fill] [--no-facades] [--device cpu|cuda:N] "
-    "[--views VIEWS.json --truth TRUTH_DIR] "
+    "[--low-pass PX2] [--hidden-band PX] [--no-ground-fill] [--no-facades] "
+    "[--device cpu|cuda:N] [--views VIEWS.json --truth TRUTH_DIR] "
     "[--lane-shift D1,D2,... --lane-shift-time-us T] (pf eval --help for more)";
 
 constexpr char kHelp[] = R"(usage: pf eval CLIP.json --out DIR [reconstruction flags]
@@ -50,8 +50,8 @@ pose and time, compares it with the frame, and writes DIR/report.json ("mean",
 
 reconstruction flags (as pf reconstruct):
   --model analytic|pixel-aligned  --ns N --nd N  --fusion softmax|average|no-depth
-  --no-lifespan  --refine N  --splat-sigma S  --hidden-band PX  --no-ground-fill
-  --no-facades  --device cpu|cuda:N
+  --no-lifespan  --refine N  --splat-sigma S  --low-pass PX2  --hidden-band PX
+  --no-ground-fill  --no-facades  --device cpu|cuda:N
 
 extra views (views not in the clip, e.g. extrapolated poses):
   --views VIEWS.json   a RenderViews file, as pf render --cameras and

@@ -64,7 +64,7 @@ commands:
         time the rasterizer; prints JSON
   reconstruct CLIP.json --out SCENE [--model analytic|pixel-aligned] [--ns N --nd N]
         [--fusion softmax|average|no-depth] [--no-lifespan] [--refine N] [--splat-sigma S]
-        [--hidden-band PX] [--no-ground-fill] [--no-facades] [--device cpu|cuda:N]
+        [--low-pass PX2] [--hidden-band PX] [--no-ground-fill] [--no-facades] [--device cpu|cuda:N]
         build a Gaussian scene from the clip's CONTEXT frames
   eval CLIP.json --out DIR [--model ...] [same flags as reconstruct]
        [--views VIEWS.json --truth DIR2] [--lane-shift D1,D2,... --lane-shift-time-us T]

@@ -1,6 +1,7 @@
 // pf reconstruct CLIP.json --out SCENE [--model analytic|pixel-aligned]
 //                [--ns N --nd N] [--fusion softmax|average|no-depth]
-//                [--no-lifespan] [--refine N] [--splat-sigma S] [--device cpu|cuda:N]
+//                [--no-lifespan] [--refine N] [--splat-sigma S] [--low-pass PX2]
+//                [--device cpu|cuda:N]
 // Builds a Gaussian scene from the clip's CONTEXT frames (worker/engine/
 // recon/reconstruction.h) and writes it with SaveScene. Progress per stage
 // goes to stderr, a summary to stdout.
@@ -25,7 +26,7 @@ namespace {
 constexpr char kUsage[] =
     "usage: pf reconstruct CLIP.json --out SCENE [--model analytic|pixel-aligned] "
     "[--ns N --nd N] [--fusion softmax|average|no-depth] [--no-lifespan] [--refine N] "
-    "[--splat-sigma S] [--hidden-band PX] [--no-ground-fill] [--no-facades] "
+    "[--splat-sigma S] [--low-pass PX2] [--hidden-band PX] [--no-ground-fill] [--no-facades] "
     "[--device cpu|cuda:N]";
 
 absl::Status Run(const CommandLine& cl) {

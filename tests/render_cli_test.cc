@@ -220,6 +220,7 @@ TEST_F(RenderCliTest, SceneInfoAndPlyExportRenderTheSame) {
   EXPECT_NE(info.out.find("gaussians:    2 (static 1, dynamic 1)"), std::string::npos) << info.out;
   EXPECT_NE(info.out.find("channels:     4"), std::string::npos) << info.out;
   EXPECT_NE(info.out.find("sh degree:    none"), std::string::npos) << info.out;
+  EXPECT_NE(info.out.find("low-pass:     0.3 px^2"), std::string::npos) << info.out;
   EXPECT_NE(info.out.find("car1"), std::string::npos) << info.out;
   EXPECT_NE(info.out.find("t [0, 1000000] us (1.000 s)"), std::string::npos) << info.out;
   EXPECT_NE(info.out.find("[0.000, 0.000, 5.000] .. [0.000, 0.000, 10.000]"), std::string::npos)

@@ -1,7 +1,7 @@
 // Colour refinement against the context views: the last step of the
 // analytic decoder, a least-squares fit of the Gaussians' colours.
 //
-// Splatting blurs (each Gaussian's footprint, the rasterizer's 0.3 px
+// Splatting blurs (each Gaussian's footprint, the scene's screen-space
 // low-pass, front-to-back compositing of overlapping discs), so fused
 // colours rendered back into their own views come out softer than the
 // images they came from. With geometry, opacity and time fixed, each
@@ -37,7 +37,7 @@
 namespace pf {
 
 struct RefinementOptions {
-  int iterations = 8;          // Conjugate-gradient iterations; 0: no refinement.
+  int iterations = 12;         // Conjugate-gradient iterations; 0: no refinement.
   double prior_weight = 0.05;  // Pull towards the decoded colours, relative to the data.
   double min_alpha = 0.5;
   // Leave the colour of hidden Gaussians (feature kAgreementChannel 0, see

@@ -355,6 +355,9 @@ std::string EvalReportJson(const EvalReport& report) {
   j["groundPixels"] = report.stats.ground_pixels;
   j["facades"] = report.options.completion.facades;
   j["facadePixels"] = report.stats.facade_pixels;
+  j["splatSigma"] = report.options.decoder.tangent_sigma;
+  j["lowPass"] = report.options.decoder.low_pass;
+  j["refineIterations"] = report.options.refinement.iterations;
   j["staticGaussians"] = report.stats.static_gaussians;
   j["dynamicGaussians"] = report.stats.dynamic_gaussians;
   j["farGaussians"] = report.stats.far_gaussians;

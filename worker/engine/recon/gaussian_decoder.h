@@ -19,6 +19,11 @@
 //   hidden query takes max_opacity: it stands for an opaque surface).
 // - Time: the source view's time (seconds since time_origin_us); lifespan
 //   from fusion.
+// - The scene's screen-space low-pass (GaussianScene::low_pass) is
+//   options.low_pass, 0.1 px^2: about the one-pixel box the camera images
+//   integrate over, where the 3DGS default 0.3 blurs every render by more
+//   than that (docs/QUALITY.md: +0.4-0.7 dB on synth, chosen with
+//   tangent_sigma 0.65 on CONTEXT self-renders and on seed 7).
 #ifndef POINTFORWARD_WORKER_ENGINE_RECON_GAUSSIAN_DECODER_H_
 #define POINTFORWARD_WORKER_ENGINE_RECON_GAUSSIAN_DECODER_H_
 
@@ -38,11 +43,12 @@ inline constexpr int kReconChannels = 7;
 inline constexpr int kAgreementChannel = 6;
 
 struct DecoderOptions {
-  double tangent_sigma = 0.6;  // Std-dev along the surface per query spacing.
-  double normal_sigma = 0.1;   // Std-dev across the surface per footprint.
-  double max_stretch = 4.0;    // Cap of 1 / |cos theta|.
+  double tangent_sigma = 0.65;  // Std-dev along the surface per query spacing.
+  double normal_sigma = 0.1;    // Std-dev across the surface per footprint.
+  double max_stretch = 4.0;     // Cap of 1 / |cos theta|.
   double min_opacity = 0.5;
   double max_opacity = 0.98;
+  float low_pass = 0.1f;  // The scene's screen-space low-pass, pixels^2.
 };
 
 // Returns the scene of `queries` fused as `fused`. `view_times_us[v]` is the

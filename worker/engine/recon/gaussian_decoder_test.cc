@@ -51,9 +51,10 @@ TEST(GaussianDecoder, DecodesScaleOpacityFeaturesAndTime) {
   const GaussianScene scene = DecodeGaussians(q, f, {1000000, 1500000}, 1000000, {car}, options);
   ASSERT_EQ(scene.size(), 2u);
   EXPECT_EQ(scene.num_channels, kReconChannels);
+  EXPECT_EQ(scene.low_pass, 0.1f);  // Not the 3DGS default the renderer assumes otherwise.
   EXPECT_FLOAT_EQ(scene.means[4], 5.f);
-  EXPECT_NEAR(std::exp(scene.log_scales[0]), 0.6 * 0.5, 1e-6);  // Head-on: no stretch.
-  EXPECT_NEAR(std::exp(scene.log_scales[1]), 0.6 * 0.5, 1e-6);
+  EXPECT_NEAR(std::exp(scene.log_scales[0]), 0.65 * 0.5, 1e-6);  // Head-on: no stretch.
+  EXPECT_NEAR(std::exp(scene.log_scales[1]), 0.65 * 0.5, 1e-6);
   EXPECT_NEAR(std::exp(scene.log_scales[2]), 0.1 * 0.5, 1e-6);
   EXPECT_NEAR(1 / (1 + std::exp(-scene.opacity_logits[0])), 0.98, 1e-5);
   EXPECT_NEAR(1 / (1 + std::exp(-scene.opacity_logits[1])), 0.5, 1e-5);

@@ -7,8 +7,8 @@
 namespace pf {
 
 const std::set<std::string>& ReconValueFlags() {
-  static const std::set<std::string> flags = {"model",  "ns",          "nd",     "fusion",
-                                              "device", "splat-sigma", "refine", "hidden-band"};
+  static const std::set<std::string> flags = {
+      "model", "ns", "nd", "fusion", "device", "refine", "hidden-band", "splat-sigma", "low-pass"};
   return flags;
 }
 
@@ -68,6 +68,12 @@ absl::StatusOr<ReconOptions> ReconOptionsFromFlags(const CommandLine& cl) {
     return absl::InvalidArgumentError(
         absl::StrCat("--splat-sigma: must be in (0.05, 4], got ", cl.Get("splat-sigma")));
   }
+  ASSIGN_OR_RETURN(const double low_pass, cl.GetDouble("low-pass", options.decoder.low_pass));
+  if (!(low_pass >= 0 && low_pass <= kMaxLowPass)) {
+    return absl::InvalidArgumentError(absl::StrCat("--low-pass: must be in [0, ", kMaxLowPass,
+                                                   "] pixels^2, got ", cl.Get("low-pass")));
+  }
+  options.decoder.low_pass = static_cast<float>(low_pass);
   ASSIGN_OR_RETURN(const int64_t refine, cl.GetInt("refine", options.refinement.iterations));
   if (refine < 0 || refine > 20) {
     return absl::InvalidArgumentError(

@@ -10,8 +10,10 @@
 //                                    ablation)
 //   --no-facades                     LiDAR depth without facades above the top beam
 //                                    (facade_depth.h; ablation)
-//   --refine N                       colour refinement iterations (default 2; 0 off)
-//   --splat-sigma S                  Gaussian std-dev per query spacing (default 0.6)
+//   --refine N                       colour refinement iterations (default 12; 0 off)
+//   --splat-sigma S                  Gaussian std-dev per query spacing (default 0.65)
+//   --low-pass PX2                   the scene's screen-space low-pass, pixels^2
+//                                    (default 0.1; 0.3 is the 3DGS one)
 //   --hidden-band PX                 hidden queries behind depth edges within PX
 //                                    pixels (sparse_sampling.h; default 64, 0: none)
 //   --device cpu|cuda:N              where fusion's tensor work runs (compute_device.h)

@@ -6,7 +6,7 @@
 // where alpha_ip is Gaussian i's opacity times its 2D footprint at p. With
 // geometry, opacity and time fixed, the rendered image is linear in the
 // colours: rgb = A c. ComputeCompositingWeights() records the sparse A of one
-// view by the rasterizer's own rules (EWA projection with the 0.3 px
+// view by the rasterizer's own rules (EWA projection with the scene's
 // low-pass, opacity-aware extent, depth order with ties in index order, the
 // same per-row pixel spans, alpha clamped to 0.99, contributions under 1/255
 // skipped, a pixel done once its transmittance is under 1e-4), so

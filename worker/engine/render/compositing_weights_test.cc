@@ -152,6 +152,11 @@ TEST(CompositingWeights, ReproducesRenderOnRandomScenes) {
   RenderCamera distorted = SimpleCamera(96, 64, 80);
   distorted.model.SetOpenCv(-0.2, 0.05, 0.001, -0.001, 0);
   ExpectMatchesRender(scene, distorted, 0);
+  // Under the low-pass our reconstruction writes (the weights follow the
+  // scene's, not a constant).
+  GaussianScene sharp = scene;
+  sharp.low_pass = 0.1f;
+  ExpectMatchesRender(sharp, SimpleCamera(96, 64, 80), 0);
 }
 
 TEST(CompositingWeights, TransposeIsTheAdjoint) {

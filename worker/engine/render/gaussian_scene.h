@@ -8,6 +8,13 @@
 //
 // Colour comes from spherical harmonics when `sh_degree` >= 0 (scenes from
 // 3DGS tools), else from the first three feature channels.
+//
+// `low_pass` is the screen-space variance (pixels^2) the rasterizer adds to
+// every projected 2D covariance. It belongs to the scene because a scene's
+// colours are fitted under one: 3DGS tools train with 0.3 (kThreeDgsLowPass,
+// what PLY files from them need); our reconstruction uses 0.1 (about the
+// variance of a one-pixel box, 1/12, which is what antialiased camera
+// images integrate over), docs/QUALITY.md has the comparison.
 #ifndef POINTFORWARD_WORKER_ENGINE_RENDER_GAUSSIAN_SCENE_H_
 #define POINTFORWARD_WORKER_ENGINE_RENDER_GAUSSIAN_SCENE_H_
 
@@ -35,9 +42,15 @@ struct InstanceTrack {
   std::vector<TrackBox> boxes;  // Sorted by timestamp_us; boxes[0] is canonical.
 };
 
+// The low-pass of the reference 3DGS rasterizer, and the default.
+inline constexpr float kThreeDgsLowPass = 0.3f;
+// The range ValidateScene accepts for GaussianScene::low_pass.
+inline constexpr float kMaxLowPass = 4.f;
+
 struct GaussianScene {
-  int num_channels = 3;  // N_c, 3..256.
-  int sh_degree = -1;    // -1: no SH; 0..3 otherwise.
+  int num_channels = 3;               // N_c, 3..256.
+  int sh_degree = -1;                 // -1: no SH; 0..3 otherwise.
+  float low_pass = kThreeDgsLowPass;  // Screen-space low-pass, pixels^2, in [0, kMaxLowPass].
   // Scene time of t = 0 for `times`; lifespans are in seconds.
   int64_t time_origin_us = 0;
 

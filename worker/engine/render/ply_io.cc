@@ -366,14 +366,20 @@ class BodyReader {
   size_t pos_;
 };
 
-// Our header comment: "pointforward time_origin_us=T sh_degree=D".
+// Our header comment: "pointforward time_origin_us=T sh_degree=D low_pass=S"
+// (low_pass since scene file version 2; files without it keep the 3DGS one).
 void ParseOurComment(const std::vector<std::string>& comments, int64_t* time_origin_us,
-                     std::optional<int>* sh_degree) {
+                     std::optional<int>* sh_degree, float* low_pass) {
   for (const std::string& comment : comments) {
     std::vector<std::string> words = absl::StrSplit(comment, ' ', absl::SkipWhitespace());
     if (words.empty() || words[0] != kCommentTag) continue;
     for (size_t i = 1; i < words.size(); ++i) {
       std::pair<std::string, std::string> kv = absl::StrSplit(words[i], absl::MaxSplits('=', 1));
+      if (kv.first == "low_pass") {
+        float s = 0;
+        if (absl::SimpleAtof(kv.second, &s)) *low_pass = s;
+        continue;
+      }
       int64_t value = 0;
       if (!absl::SimpleAtoi(kv.second, &value)) continue;
       if (kv.first == "time_origin_us") *time_origin_us = value;
@@ -393,9 +399,10 @@ absl::StatusOr<std::string> EncodePly(const GaussianScene& scene, const PlyExpor
                                      [](float s) { return std::isfinite(s); });
   const std::vector<std::string> names = ExportProperties(scene, with_features, with_time);
 
-  std::string header = absl::StrCat("ply\nformat binary_little_endian 1.0\ncomment ", kCommentTag,
-                                    " time_origin_us=", scene.time_origin_us,
-                                    " sh_degree=", scene.sh_degree, "\nelement vertex ", n, "\n");
+  std::string header =
+      absl::StrCat("ply\nformat binary_little_endian 1.0\ncomment ", kCommentTag,
+                   " time_origin_us=", scene.time_origin_us, " sh_degree=", scene.sh_degree,
+                   " low_pass=", scene.low_pass, "\nelement vertex ", n, "\n");
   for (const std::string& name : names) absl::StrAppend(&header, "property float ", name, "\n");
   absl::StrAppend(&header, "end_header\n");
 
@@ -538,7 +545,7 @@ absl::StatusOr<GaussianScene> DecodePly(const std::string& bytes, const std::str
 
   GaussianScene scene;
   std::optional<int> stored_degree;
-  ParseOurComment(header.comments, &scene.time_origin_us, &stored_degree);
+  ParseOurComment(header.comments, &scene.time_origin_us, &stored_degree, &scene.low_pass);
   // Our export of a scene without SH writes degree-0 f_dc; restore "no SH".
   if (degree == 0 && stored_degree == -1) degree = -1;
   scene.sh_degree = degree;

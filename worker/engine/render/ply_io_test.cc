@@ -153,8 +153,10 @@ TEST(PlyRoundTrip, ShSceneArraysAreExact) {
   scene.time_origin_us = 123456789;
   scene.lifespans[1] = 0.25f;
   scene.times[1] = 0.5f;
+  scene.low_pass = 0.1f;
   absl::StatusOr<GaussianScene> back = DecodePly(*EncodePly(scene), "mem.ply");
   ASSERT_TRUE(back.ok()) << back.status();
+  EXPECT_EQ(back->low_pass, 0.1f);  // From our header comment.
   EXPECT_EQ(back->sh_degree, 2);
   EXPECT_EQ(back->num_channels, 5);
   EXPECT_EQ(back->time_origin_us, 123456789);
@@ -187,7 +189,8 @@ TEST(PlyRoundTrip, ExportImportRenderGivesIdenticalImages) {
   const std::string dir = testing::MakeTempDir("ply_io");
   for (const auto& [degree, channels] : {std::pair{-1, 3}, std::pair{3, 3}, std::pair{1, 8}}) {
     SCOPED_TRACE(absl::StrCat("sh_degree ", degree, ", channels ", channels));
-    const GaussianScene scene = MakeScene(degree, channels);
+    GaussianScene scene = MakeScene(degree, channels);
+    if (channels == 8) scene.low_pass = 0.1f;  // Renders differ unless it is kept.
     const std::string path = absl::StrCat(dir, "/scene_", degree, "_", channels, ".ply");
     ASSERT_TRUE(ExportPly(scene, path).ok());
     absl::StatusOr<GaussianScene> back = ImportPly(path);
@@ -295,6 +298,7 @@ TEST(PlyImport, ReadsAsciiWithAnyOrderExtraPropertiesAndOtherElements) {
   absl::StatusOr<GaussianScene> scene = DecodePly(ply, "ascii.ply");
   ASSERT_TRUE(scene.ok()) << scene.status();
   ASSERT_EQ(scene->size(), 2u);
+  EXPECT_EQ(scene->low_pass, kThreeDgsLowPass);  // Another tool's scene: the 3DGS low-pass.
   EXPECT_EQ(scene->sh_degree, 1);
   EXPECT_EQ(scene->num_channels, 3);
   EXPECT_EQ(scene->means[0], 1.f);

@@ -4,8 +4,8 @@
 // result never depends on thread timing):
 //  1. Project: per Gaussian, time-faded opacity, pose (instances moved from
 //     canonical space), camera-frame mean, 2D covariance J W Sigma W^T J^T +
-//     0.3 I, conic, opacity-aware extent (the Mahalanobis radius where alpha
-//     drops to 1/255), colour.
+//     s I (s = GaussianScene::low_pass), conic, opacity-aware extent (the Mahalanobis radius where
+//     alpha drops to 1/255), colour.
 //  2. Sort the visible Gaussians by depth: one stable radix sort of
 //     (depth bits, index) keys, so ties keep index order.
 //  3. Bin: in depth order, every 16x16 tile the ellipse really touches (an

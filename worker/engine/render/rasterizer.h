@@ -1,7 +1,7 @@
 // Tile-based EWA splatting of a GaussianScene on the CPU.
 //
-// Render() projects every live Gaussian (EWA Jacobian, 0.3 px low-pass
-// dilation, opacity-aware extent), bins them into 16x16 tiles, sorts each
+// Render() projects every live Gaussian (EWA Jacobian, the scene's low-pass
+// dilation (GaussianScene::low_pass), opacity-aware extent), bins them into 16x16 tiles, sorts each
 // tile by depth and composites front to back (alpha clamped to 0.99,
 // contributions under 1/255 skipped, a pixel stops once transmittance < 1e-4).
 // Time t' scales opacity by exp(-0.5 ((t' - t) / (sigma + 1))^2) and moves

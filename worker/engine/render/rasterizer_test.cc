@@ -272,10 +272,14 @@ TEST(Rasterizer, TwoHalfTransparentGaussiansBlendInDepthOrder) {
   }
 }
 
-TEST(Rasterizer, AlphaFollowsEwaFootprintWithLowPass) {
-  // An isotropic Gaussian off the axis: 2D covariance s^2 J J^T + 0.3 I.
+class RasterizerLowPass : public ::testing::TestWithParam<float> {};
+
+TEST_P(RasterizerLowPass, AlphaFollowsEwaFootprintWithTheScenesLowPass) {
+  // An isotropic Gaussian off the axis: 2D covariance s^2 J J^T + low_pass I,
+  // for the 3DGS low-pass (the default) and the one our reconstruction uses.
   const RenderCamera camera = SimpleCamera();
   GaussianScene scene;
+  scene.low_pass = GetParam();
   const Vec3 mean = PointAtPixel(40, 25, 3.0, camera);
   const double s = 0.05, opacity = 0.8;
   AddGaussian(&scene, mean, s, opacity, {1, 1, 1});
@@ -287,7 +291,7 @@ TEST(Rasterizer, AlphaFollowsEwaFootprintWithLowPass) {
   for (int r = 0; r < 2; ++r)
     for (int c = 0; c < 2; ++c)
       cov[r][c] = s * s * (j[r][0] * j[c][0] + j[r][1] * j[c][1] + j[r][2] * j[c][2]) +
-                  (r == c ? 0.3 : 0.0);
+                  (r == c ? GetParam() : 0.0);
   const double det = cov[0][0] * cov[1][1] - cov[0][1] * cov[1][0];
   int inside = 0;
   for (int y = 0; y < 64; ++y) {
@@ -304,6 +308,9 @@ TEST(Rasterizer, AlphaFollowsEwaFootprintWithLowPass) {
   const double area = kPi * std::sqrt(det) * 2 * std::log(255 * opacity);
   EXPECT_NEAR(inside, area, 0.1 * area);
 }
+
+INSTANTIATE_TEST_SUITE_P(ThreeDgsAndOurs, RasterizerLowPass,
+                         ::testing::Values(kThreeDgsLowPass, 0.1f));
 
 TEST(Rasterizer, FaintGaussianHasSmallerExtent) {
   const RenderCamera camera = SimpleCamera(128, 128, 64);

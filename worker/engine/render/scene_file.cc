@@ -137,6 +137,10 @@ absl::Status ValidateScene(const GaussianScene& scene) {
     return absl::InvalidArgumentError(
         absl::StrCat("sh_degree: ", scene.sh_degree, " is outside [-1, 3]"));
   }
+  if (!(scene.low_pass >= 0 && scene.low_pass <= kMaxLowPass)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("low_pass: ", scene.low_pass, " pixels^2 is outside [0, ", kMaxLowPass, "]"));
+  }
   const size_t n = scene.size();
   RETURN_IF_ERROR(CheckArraySize("means", scene.means.size(), 3 * n));
   RETURN_IF_ERROR(CheckArraySize("rotations", scene.rotations.size(), 4 * n));
@@ -194,6 +198,7 @@ absl::Status SaveScene(const GaussianScene& scene, const std::string& path,
   header.Put<int32_t>(scene.num_channels);
   header.Put<int32_t>(scene.sh_degree);
   header.Put<int64_t>(scene.time_origin_us);
+  header.Put<float>(scene.low_pass);
   header.Put<uint32_t>(static_cast<uint32_t>(scene.instances.size()));
   for (const InstanceTrack& track : scene.instances) {
     header.PutString(track.id);
@@ -281,9 +286,9 @@ absl::StatusOr<SceneFile> ReadSceneFile(const std::string& path) {
   uint32_t version = 0, header_bytes = 0;
   std::memcpy(&version, prefix + 8, 4);
   std::memcpy(&header_bytes, prefix + 12, 4);
-  if (version != kSceneFileVersion) {
-    return invalid("unsupported scene file version ", version, " (this build reads version ",
-                   kSceneFileVersion, ")");
+  if (version < kOldestSceneFileVersion || version > kSceneFileVersion) {
+    return invalid("unsupported scene file version ", version, " (this build reads versions ",
+                   kOldestSceneFileVersion, " to ", kSceneFileVersion, ")");
   }
   if (header_bytes > kMaxHeaderBytes || header_bytes > file_size - kPrefixBytes) {
     return invalid("truncated or corrupt: header of ", header_bytes, " bytes but the file has ",
@@ -299,6 +304,7 @@ absl::StatusOr<SceneFile> ReadSceneFile(const std::string& path) {
   hasher.Update(header_data);
   HeaderReader header(header_data, path);
   SceneFile result;
+  result.version = version;
   GaussianScene& scene = result.scene;
   uint64_t num_gaussians = 0;
   int32_t num_channels = 0, sh_degree = 0;
@@ -306,6 +312,9 @@ absl::StatusOr<SceneFile> ReadSceneFile(const std::string& path) {
   RETURN_IF_ERROR(header.Get("num_channels", &num_channels));
   RETURN_IF_ERROR(header.Get("sh_degree", &sh_degree));
   RETURN_IF_ERROR(header.Get("time_origin_us", &scene.time_origin_us));
+  // Version 1 has no low-pass: its scenes were fitted under the 3DGS one.
+  scene.low_pass = kThreeDgsLowPass;
+  if (version >= 2) RETURN_IF_ERROR(header.Get("low_pass", &scene.low_pass));
   if (num_channels < 1 || num_channels > kMaxChannels) {
     return invalid("header num_channels ", num_channels, " is outside [1, ", kMaxChannels, "]");
   }

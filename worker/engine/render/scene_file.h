@@ -22,13 +22,16 @@ namespace pf {
 
 // The first 8 bytes of every scene file.
 inline constexpr char kSceneFileMagic[8] = {'P', 'F', 'S', 'C', 'E', 'N', 'E', '\0'};
-// The version this code writes and the only one it reads.
-inline constexpr uint32_t kSceneFileVersion = 1;
+// The version this code writes, and the oldest it reads. Version 2 added the
+// scene's low-pass (GaussianScene::low_pass); version 1 files read as 0.3.
+inline constexpr uint32_t kSceneFileVersion = 2;
+inline constexpr uint32_t kOldestSceneFileVersion = 1;
 
 // A scene as stored: the Gaussians, free-form metadata (e.g. "model",
 // "source_clip") and the file's SHA-256 checksum (hex), which identifies
 // the content.
 struct SceneFile {
+  uint32_t version = kSceneFileVersion;  // The version the file was written in.
   GaussianScene scene;
   std::map<std::string, std::string> metadata;
   std::string checksum_hex;
@@ -36,7 +39,8 @@ struct SceneFile {
 
 // Returns INVALID_ARGUMENT naming the array or field when `scene` is not
 // self-consistent: array sizes that do not match size(), num_channels outside
-// [1, 256], sh_degree outside [-1, 3], an owner beyond the instances, an
+// [1, 256], sh_degree outside [-1, 3], low_pass outside [0, kMaxLowPass],
+// an owner beyond the instances, an
 // instance without boxes or with unsorted boxes, non-finite values in the
 // geometry arrays.
 absl::Status ValidateScene(const GaussianScene& scene);

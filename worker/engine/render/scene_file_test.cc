@@ -8,7 +8,9 @@
 #include <filesystem>
 #include <limits>
 
+#include "absl/strings/str_cat.h"
 #include "common/file_util.h"
+#include "common/hash.h"
 #include "tests/test_util.h"
 
 namespace pf {
@@ -22,6 +24,7 @@ GaussianScene MakeScene() {
   scene.num_channels = 4;
   scene.sh_degree = 1;
   scene.time_origin_us = 1'700'000'000'123'456;
+  scene.low_pass = 0.1f;
   InstanceTrack car;
   car.id = "car1";
   car.category = "car";
@@ -50,6 +53,7 @@ void ExpectScenesEqual(const GaussianScene& a, const GaussianScene& b) {
   EXPECT_EQ(a.num_channels, b.num_channels);
   EXPECT_EQ(a.sh_degree, b.sh_degree);
   EXPECT_EQ(a.time_origin_us, b.time_origin_us);
+  EXPECT_EQ(a.low_pass, b.low_pass);
   EXPECT_EQ(a.means, b.means);
   EXPECT_EQ(a.rotations, b.rotations);
   EXPECT_EQ(a.log_scales, b.log_scales);
@@ -157,10 +161,60 @@ TEST_F(SceneFileTest, RejectsWrongMagic) {
 }
 
 TEST_F(SceneFileTest, RejectsWrongVersion) {
-  const absl::Status status = LoadEdited([](std::string& b) { b[8] = 2; });
-  EXPECT_EQ(status.code(), absl::StatusCode::kInvalidArgument);
-  EXPECT_NE(status.message().find("unsupported scene file version 2"), absl::string_view::npos)
-      << status;
+  for (int version : {0, 3}) {
+    const absl::Status status =
+        LoadEdited([version](std::string& b) { b[8] = static_cast<char>(version); });
+    EXPECT_EQ(status.code(), absl::StatusCode::kInvalidArgument);
+    EXPECT_NE(status.message().find(absl::StrCat("unsupported scene file version ", version,
+                                                 " (this build reads versions 1 to 2)")),
+              absl::string_view::npos)
+        << status;
+  }
+}
+
+TEST_F(SceneFileTest, ReadsVersionOneFilesWithTheThreeDgsLowPass) {
+  // A version-1 file is a version-2 file without the low-pass in the header
+  // (a float32 after time_origin_us, at byte 16 + 8 + 4 + 4 + 8 = 40).
+  const GaussianScene scene = MakeScene();
+  ASSERT_TRUE(SaveScene(scene, path_, {{"model", "analytic"}}).ok());
+  std::string bytes = *ReadFileToString(path_);
+  float stored = 0;
+  std::memcpy(&stored, bytes.data() + 40, 4);
+  ASSERT_EQ(stored, 0.1f);
+  bytes.erase(40, 4);
+  const uint32_t version = 1;
+  uint32_t header_bytes = 0;
+  std::memcpy(&header_bytes, bytes.data() + 12, 4);
+  header_bytes -= 4;
+  std::memcpy(bytes.data() + 8, &version, 4);
+  std::memcpy(bytes.data() + 12, &header_bytes, 4);
+  Sha256 hasher;
+  hasher.Update(bytes.data(), bytes.size() - 32);
+  const std::array<uint8_t, 32> digest = hasher.Finish();
+  std::memcpy(bytes.data() + bytes.size() - 32, digest.data(), 32);
+  ASSERT_TRUE(WriteFileAtomic(path_, bytes).ok());
+
+  absl::StatusOr<SceneFile> loaded = ReadSceneFile(path_);
+  ASSERT_TRUE(loaded.ok()) << loaded.status();
+  EXPECT_EQ(loaded->version, 1u);
+  EXPECT_EQ(loaded->scene.low_pass, kThreeDgsLowPass);
+  GaussianScene expected = scene;
+  expected.low_pass = kThreeDgsLowPass;
+  ExpectScenesEqual(expected, loaded->scene);
+  EXPECT_EQ(loaded->metadata.at("model"), "analytic");
+}
+
+TEST(ValidateScene, RejectsALowPassOutsideItsRange) {
+  for (float bad : {-0.1f, 4.5f, std::numeric_limits<float>::quiet_NaN()}) {
+    GaussianScene scene = MakeScene();
+    scene.low_pass = bad;
+    const absl::Status status = ValidateScene(scene);
+    EXPECT_EQ(status.code(), absl::StatusCode::kInvalidArgument) << bad;
+    EXPECT_NE(status.message().find("low_pass"), absl::string_view::npos) << status;
+  }
+  GaussianScene scene = MakeScene();
+  scene.low_pass = 0;  // No low-pass at all is allowed.
+  EXPECT_TRUE(ValidateScene(scene).ok());
 }
 
 TEST_F(SceneFileTest, RejectsTruncationNamingBothSizes) {
@@ -209,10 +263,11 @@ TEST_F(SceneFileTest, RejectsHostileCountsWithoutAllocating) {
   EXPECT_EQ(status.code(), absl::StatusCode::kInvalidArgument);
   EXPECT_NE(status.message().find("header of 4294967295 bytes"), absl::string_view::npos) << status;
 
-  // num_instances follows num_gaussians, num_channels, sh_degree, time origin.
+  // num_instances follows num_gaussians, num_channels, sh_degree, time origin,
+  // low-pass.
   status = LoadEdited([](std::string& b) {
     const uint32_t huge = 0x7FFFFFFFu;
-    std::memcpy(b.data() + 16 + 8 + 4 + 4 + 8, &huge, 4);
+    std::memcpy(b.data() + 16 + 8 + 4 + 4 + 8 + 4, &huge, 4);
   });
   EXPECT_EQ(status.code(), absl::StatusCode::kInvalidArgument);
   EXPECT_NE(status.message().find("num_instances"), absl::string_view::npos) << status;

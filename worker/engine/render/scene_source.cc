@@ -21,7 +21,7 @@ absl::StatusOr<OpenedScene> OpenScene(const std::string& path) {
   if (LooksLikeSceneFile(path)) {
     ASSIGN_OR_RETURN(SceneFile file, ReadSceneFile(path));
     opened.scene = std::move(file.scene);
-    opened.format = absl::StrCat("pointforward scene v", kSceneFileVersion);
+    opened.format = absl::StrCat("pointforward scene v", file.version);
     opened.scene_id = file.checksum_hex;
     opened.metadata = std::move(file.metadata);
     const auto model = opened.metadata.find("model");

@@ -2,11 +2,11 @@
 // (rasterizer.cc) and ComputeCompositingWeights() (compositing_weights.cc),
 // so the colour fit records exactly the weights the rasterizer composites:
 // time-faded opacity, camera-frame mean, pixel centre through the camera
-// model, the EWA covariance J W Sigma W^T J^T + 0.3 I (distortion
-// linearised at the mean), its conic and the opacity-aware extent (the
-// Mahalanobis radius where alpha drops to 1/255), and the ellipse-versus-
-// rectangle test of the binning. Header-only so the rasterizer's per-Gaussian
-// loop still inlines it.
+// model, the EWA covariance J W Sigma W^T J^T + s I (s the scene's
+// GaussianScene::low_pass; distortion linearised at the mean), its conic and
+// the opacity-aware extent (the Mahalanobis radius where alpha drops to
+// 1/255), and the ellipse-versus-rectangle test of the binning. Header-only so the rasterizer's
+// per-Gaussian loop still inlines it.
 #ifndef POINTFORWARD_WORKER_ENGINE_RENDER_SPLAT_PROJECTION_H_
 #define POINTFORWARD_WORKER_ENGINE_RENDER_SPLAT_PROJECTION_H_
 
@@ -22,8 +22,6 @@
 namespace pf {
 namespace raster {
 
-// The screen-space low-pass added to every 2D covariance (pixels^2).
-inline constexpr float kLowPass = 0.3f;
 // The row spans and tile tests use a slightly larger radius than the exact
 // 1/255 level, so float rounding never drops a pixel that the alpha test
 // would keep; the alpha test decides.
@@ -159,9 +157,9 @@ inline bool ProjectSplatGeometry(const GaussianScene& scene, size_t i,
   const float b10 = (a10 * g00 + a11 * g10 + a12 * g20) * s0;
   const float b11 = (a10 * g01 + a11 * g11 + a12 * g21) * s1;
   const float b12 = (a10 * g02 + a11 * g12 + a12 * g22) * s2;
-  const float cov_xx = b00 * b00 + b01 * b01 + b02 * b02 + kLowPass;
+  const float cov_xx = b00 * b00 + b01 * b01 + b02 * b02 + scene.low_pass;
   const float cov_xy = b00 * b10 + b01 * b11 + b02 * b12;
-  const float cov_yy = b10 * b10 + b11 * b11 + b12 * b12 + kLowPass;
+  const float cov_yy = b10 * b10 + b11 * b11 + b12 * b12 + scene.low_pass;
   const float det = cov_xx * cov_yy - cov_xy * cov_xy;
   if (!(det > 0)) return false;
   const float inv_det = 1.f / det;
