@@ -46,7 +46,11 @@ constexpr char kHelp[] = R"(usage: pf eval CLIP.json --out DIR [reconstruction f
 Reconstructs the clip from its CONTEXT frames, renders every TARGET frame at its
 pose and time, compares it with the frame, and writes DIR/report.json ("mean",
 "frames") and a contact sheet DIR/<camera>_<timestamp_us>.png per frame
-(truth | render | error heat map).
+(truth | render | error heat map). "psnr" measures the render composited over
+black, as the rgb layer of pf render is; "filledPsnr" the render composited
+over a push-pull fill of itself, as the "filled" layer is (pixels the scene
+does not cover take the colour around them); "holeFraction" is the share of
+pixels with alpha < 0.5.
 
 reconstruction flags (as pf reconstruct):
   --model analytic|pixel-aligned  --ns N --nd N  --fusion softmax|average|no-depth
@@ -62,7 +66,8 @@ extra views (views not in the clip, e.g. extrapolated poses):
                        optional), as `pf synth render --clip CLIP_DIR --cameras
                        VIEWS.json --out TRUTH_DIR` writes them
   report.json gains "views" ([{"name", "camera", "timestampUs", "psnr", "ssim",
-  "depthRmse", "dynamicPsnr", "holeFraction", "contactSheet"}]) and "viewsMean";
+  "depthRmse", "dynamicPsnr", "filledPsnr", "holeFraction", "contactSheet"}]) and
+  "viewsMean";
   the contact sheets go to DIR/views/<name>.png. A clip without TARGET frames is
   measured on its extra views alone.
 
@@ -80,7 +85,7 @@ lane shift (extrapolation sideways, one command):
   DIR/lane_shift/truth/; for other clips render the truth yourself and pass
   --views/--truth. report.json gains the views (each with "shiftM"), "laneShift"
   ([{"shiftM", "views", "psnr", "ssim", "depthRmse", "dynamicPsnr",
-  "holeFraction"}], sorted by shift), "laneShiftDrop" ({"fromM": 0, "toM": the
+  "holeFraction", "filledPsnr"}], sorted by shift), "laneShiftDrop" ({"fromM": 0, "toM": the
   largest |shift|, "psnr", "ssim": figure at 0 minus figure there}),
   "laneShiftTimeUs" and "laneShiftLeft" (the unit shift direction, world).
 
@@ -189,12 +194,12 @@ absl::Status Run(const CommandLine& cl) {
   std::printf(
       "%s: %lld gaussians, reconstruct %.2f s, %zu target frames and %zu views rendered in "
       "%.2f s\n"
-      "  mean PSNR %s, SSIM %s, depth RMSE %s, dynamic PSNR %s\n",
+      "  mean PSNR %s, SSIM %s, depth RMSE %s, dynamic PSNR %s, filled PSNR %s\n",
       ReconModelName(options.model), static_cast<long long>(report.gaussians),
       report.stats.total_seconds, report.frames.size(), report.views.size(), report.render_seconds,
       Figure(report.mean.psnr, " dB").c_str(), Figure(report.mean.ssim, "").c_str(),
-      Figure(report.mean.depth_rmse, " m").c_str(),
-      Figure(report.mean.dynamic_psnr, " dB").c_str());
+      Figure(report.mean.depth_rmse, " m").c_str(), Figure(report.mean.dynamic_psnr, " dB").c_str(),
+      Figure(report.mean.filled_psnr, " dB").c_str());
   if (!report.views.empty()) {
     std::printf("  views: mean PSNR %s, SSIM %s, depth RMSE %s\n",
                 Figure(report.views_mean.psnr, " dB").c_str(),

@@ -58,7 +58,7 @@ commands:
         turn a driving log into a clip
   scene info SCENE | scene export SCENE --ply OUT.ply [--time-us T]
         inspect or export a Gaussian scene
-  render SCENE --cameras VIEWS.json --out DIR [--outputs rgb,alpha,depth,features,instance]
+  render SCENE --cameras VIEWS.json --out DIR [--outputs rgb,alpha,depth,features,instance,filled]
         render EXR files and PNG previews of a scene
   bench raster [--gaussians N] [--width W --height H] [--channels C] [--repeat R] [--seed S]
         time the rasterizer; prints JSON

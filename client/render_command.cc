@@ -1,5 +1,5 @@
 // pf render SCENE --cameras VIEWS.json --out DIR
-//           [--outputs rgb,alpha,depth,features,instance]
+//           [--outputs rgb,alpha,depth,features,instance,filled]
 // Renders every view of VIEWS.json (pointforward.v1.RenderViews) of SCENE
 // (our scene file or a 3DGS .ply) into DIR: <view>.exr, <view>.png and a
 // manifest.json. Progress per view goes to stderr, a summary to stdout.
@@ -24,7 +24,7 @@ namespace {
 
 constexpr char kUsage[] =
     "usage: pf render SCENE --cameras VIEWS.json --out DIR "
-    "[--outputs rgb,alpha,depth,features,instance]";
+    "[--outputs rgb,alpha,depth,features,instance,filled]";
 
 absl::Status Run(const CommandLine& cl) {
   if (cl.positional().size() != 1 || !cl.Has("cameras") || !cl.Has("out")) {

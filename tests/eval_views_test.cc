@@ -307,7 +307,15 @@ TEST_F(EvalViews, LaneShiftReportsEveryShiftAndTheDrop) {
       drop["psnr"].get<double>(),
       report["laneShift"][0]["psnr"].get<double>() - report["laneShift"][2]["psnr"].get<double>(),
       1e-9);
-  EXPECT_GT(drop["psnr"].get<double>(), 0.5);  // Extrapolating 3 m sideways costs.
+  // Extrapolating 3 m sideways costs: 3 m is the worst shift. Measured
+  // (PSNR 0 / 1 / 3 m, SSIM drop): 25.23 / 25.04 / 23.41 dB, 0.051 here;
+  // 23.82 / 24.57 / 23.62 dB, 0.031 on the clip the ASan build synthesises
+  // (floating point compiled differently), so the drop itself is too fragile
+  // to bound in dB.
+  const double at3 = report["laneShift"][2]["psnr"].get<double>();
+  EXPECT_LT(at3, report["laneShift"][0]["psnr"].get<double>());
+  EXPECT_LT(at3, report["laneShift"][1]["psnr"].get<double>());
+  EXPECT_GT(drop["ssim"].get<double>(), 0.01);
 
   // The unshifted views are the TARGET frames at that time: same figures.
   for (const nlohmann::json& camera : (*clip_)["cameras"]) {

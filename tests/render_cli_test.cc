@@ -115,6 +115,16 @@ class RenderCliTest : public ::testing::Test {
     return RunCommand(argv);
   }
 
+  // Renders the views with the car removed and `outputs` selected into
+  // dir_/name; returns the first view's EXR.
+  Exr RenderWithoutTheCar(const std::string& name, const std::string& outputs) {
+    const std::string out = dir_ + "/" + name;
+    const testing::CommandResult result =
+        Render(R"({"instance": "car1", "kind": "REMOVE"})", out, {"--outputs", outputs});
+    EXPECT_EQ(result.exit_code, 0) << result.err;
+    return ReadExr(out + "/t0.exr");
+  }
+
   std::string dir_;
   std::string scene_;
 };
@@ -175,17 +185,30 @@ TEST_F(RenderCliTest, WritesExrPngAndManifestWithTheExpectedPixels) {
 }
 
 TEST_F(RenderCliTest, RemovedInstanceLeavesTheBackgroundVisible) {
-  const std::string out = dir_ + "/removed";
-  const testing::CommandResult result =
-      Render(R"({"instance": "car1", "kind": "REMOVE"})", out, {"--outputs", "rgb,depth"});
-  ASSERT_EQ(result.exit_code, 0) << result.err;
-  const Exr t0 = ReadExr(out + "/t0.exr");
+  const Exr t0 = RenderWithoutTheCar("removed", "rgb,depth");
   // Only the selected layers.
   ASSERT_EQ(t0.index.size(), 4u);
   EXPECT_TRUE(t0.index.count("Z"));
   EXPECT_FALSE(t0.index.count("A"));
   EXPECT_NEAR(t0.at(32, 24, "B"), 0.99 * kBlue[2], 2e-3);
   EXPECT_NEAR(t0.at(32, 24, "Z"), 10, 2e-3);
+}
+
+TEST_F(RenderCliTest, FilledLayerGivesUncoveredPixelsTheColourAround) {
+  // The car removed, only the blue Gaussian is left: covered pixels keep
+  // their colour, the empty corners take blue instead of black.
+  const Exr t0 = RenderWithoutTheCar("filled", "rgb,alpha,filled");
+  ASSERT_EQ(t0.index.size(), 7u);
+  EXPECT_NEAR(t0.at(32, 24, "filled.B"), 0.99 * kBlue[2], 2e-3);
+  EXPECT_EQ(t0.at(0, 0, "A"), 0.f);
+  EXPECT_EQ(t0.at(0, 0, "B"), 0.f);
+  // Blue, as dark as the mean of the pixels around (those with alpha >= 0.5
+  // count as they are, composited over black; measured 0.83 x blue).
+  const float scale = t0.at(0, 0, "filled.B") / kBlue[2];
+  EXPECT_GT(scale, 0.5f);
+  EXPECT_LE(scale, 1.f);
+  EXPECT_NEAR(t0.at(0, 0, "filled.R"), scale * kBlue[0], 2e-3);
+  EXPECT_NEAR(t0.at(0, 0, "filled.G"), scale * kBlue[1], 2e-3);
 }
 
 TEST_F(RenderCliTest, BadInputExitsTwoNamingTheField) {

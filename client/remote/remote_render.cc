@@ -34,7 +34,7 @@ namespace {
 
 constexpr char kUsage[] =
     "usage: pf --server ADDR render SCENE --cameras VIEWS.json [--out DIR --wait] "
-    "[--outputs rgb,alpha,depth,features,instance] [--chunk-frames N] [--request-id ID]\n"
+    "[--outputs rgb,alpha,depth,features,instance,filled] [--chunk-frames N] [--request-id ID]\n"
     "       pf --server ADDR render --clip CLIP.json [--model M] [--ns N] [--nd N] [--fusion F] "
     "[--no-lifespan] [--device D] --cameras VIEWS.json [--out DIR --wait] ...";
 

@@ -17,6 +17,7 @@
 #include "worker/engine/recon/image_metrics.h"
 #include "worker/engine/recon/recon_flags.h"
 #include "worker/engine/recon/scene_graph.h"
+#include "worker/engine/render/hole_fill.h"
 #include "worker/engine/render/rasterizer.h"
 
 namespace pf {
@@ -36,6 +37,7 @@ void AddFigures(const FrameMetrics& f, nlohmann::ordered_json* out) {
   (*out)["ssim"] = f.ssim;
   (*out)["depthRmse"] = OptionalNumber(f.depth_rmse);
   (*out)["dynamicPsnr"] = OptionalNumber(f.dynamic_psnr);
+  (*out)["filledPsnr"] = f.filled_psnr;
 }
 
 nlohmann::ordered_json MeanJson(const MeanMetrics& mean) {
@@ -43,7 +45,8 @@ nlohmann::ordered_json MeanJson(const MeanMetrics& mean) {
           {"ssim", OptionalNumber(mean.ssim)},
           {"depthRmse", OptionalNumber(mean.depth_rmse)},
           {"dynamicPsnr", OptionalNumber(mean.dynamic_psnr)},
-          {"holeFraction", OptionalNumber(mean.hole_fraction)}};
+          {"holeFraction", OptionalNumber(mean.hole_fraction)},
+          {"filledPsnr", OptionalNumber(mean.filled_psnr)}};
 }
 
 // Measures `buffers` against `truth_rgb` (and `truth_depth` when it has
@@ -63,6 +66,9 @@ FrameMetrics Measure(const ImageF& truth_rgb, const ImageF& truth_depth,
   }
   for (uint8_t v : dynamic_mask) m.dynamic_pixels += v != 0;
   if (m.dynamic_pixels > 0) m.dynamic_psnr = Psnr(truth_rgb, *render, dynamic_mask);
+  ImageF filled(buffers.width, buffers.height, 3);
+  filled.pixels = FillUncovered(buffers.rgb, buffers.alpha, buffers.width, buffers.height);
+  m.filled_psnr = Psnr(truth_rgb, filled).value_or(0.0);
   int64_t holes = 0;
   for (float a : buffers.alpha) holes += a < 0.5f;
   m.hole_fraction = double(holes) / double(std::max<size_t>(1, buffers.alpha.size()));
@@ -218,6 +224,8 @@ MeanMetrics MeanOf(const std::vector<FrameMetrics>& frames) {
   mean.dynamic_psnr = average([](const FrameMetrics& f) { return f.dynamic_psnr; });
   mean.hole_fraction =
       average([](const FrameMetrics& f) { return std::optional<double>(f.hole_fraction); });
+  mean.filled_psnr =
+      average([](const FrameMetrics& f) { return std::optional<double>(f.filled_psnr); });
   return mean;
 }
 

@@ -74,14 +74,17 @@ struct FrameMetrics {
   std::optional<double> depth_rmse;
   std::optional<double> dynamic_psnr;
   int64_t dynamic_pixels = 0;
-  double hole_fraction = 0;   // Pixels the render covers with alpha < 0.5.
+  double hole_fraction = 0;  // Pixels the render covers with alpha < 0.5.
+  // PSNR of the render composited over its push-pull fill (render/hole_fill.h,
+  // the `filled` EXR layer) instead of over black.
+  double filled_psnr = 0;
   std::string contact_sheet;  // File name inside the output directory.
   double render_seconds = 0;
   std::optional<double> shift_m;  // Lane-shift views: the sideways shift in metres.
 };
 
 struct MeanMetrics {
-  std::optional<double> psnr, ssim, depth_rmse, dynamic_psnr, hole_fraction;
+  std::optional<double> psnr, ssim, depth_rmse, dynamic_psnr, hole_fraction, filled_psnr;
 };
 
 // The views a lane shift made: each camera's pose at `time_us` moved

@@ -16,6 +16,7 @@
 #include "common/file_util.h"
 #include "common/status_macros.h"
 #include "worker/engine/image/image_io.h"
+#include "worker/engine/render/hole_fill.h"
 
 #ifndef PF_SOFTWARE_VERSION
 #define PF_SOFTWARE_VERSION "unknown"
@@ -52,7 +53,8 @@ std::array<float, 16> ExrWorldToCamera(const Rigid& world_from_camera) {
   return m;
 }
 
-std::vector<ChannelSource> Sources(const RenderBuffers& buffers, const OutputChannels& channels) {
+std::vector<ChannelSource> Sources(const RenderBuffers& buffers, const OutputChannels& channels,
+                                   const std::vector<float>& filled) {
   std::vector<ChannelSource> sources;
   if (channels.rgb) {
     for (int c = 0; c < 3; ++c) {
@@ -71,6 +73,12 @@ std::vector<ChannelSource> Sources(const RenderBuffers& buffers, const OutputCha
   if (channels.instance) {
     sources.push_back({"instance", TypeDesc::UINT, nullptr, buffers.instance.data(), 1});
   }
+  if (channels.filled) {
+    for (int c = 0; c < 3; ++c) {
+      sources.push_back({absl::StrCat("filled.", std::string(1, "RGB"[c])), TypeDesc::HALF,
+                         filled.data() + c, nullptr, 3});
+    }
+  }
   return sources;
 }
 
@@ -86,7 +94,7 @@ const char* SoftwareVersion() { return PF_SOFTWARE_VERSION; }
 
 absl::StatusOr<OutputChannels> ParseOutputChannels(const std::vector<std::string>& names) {
   if (names.empty()) return OutputChannels{};
-  OutputChannels out{false, false, false, false, false};
+  OutputChannels out{false, false, false, false, false, false};
   for (const std::string& name : names) {
     if (name == "rgb") {
       out.rgb = true;
@@ -98,9 +106,12 @@ absl::StatusOr<OutputChannels> ParseOutputChannels(const std::vector<std::string
       out.features = true;
     } else if (name == "instance") {
       out.instance = true;
+    } else if (name == "filled") {
+      out.filled = true;
     } else {
-      return absl::InvalidArgumentError(absl::StrCat(
-          "--outputs: unknown layer '", name, "' (use rgb, alpha, depth, features, instance)"));
+      return absl::InvalidArgumentError(
+          absl::StrCat("--outputs: unknown layer '", name,
+                       "' (use rgb, alpha, depth, features, instance, filled)"));
     }
   }
   return out;
@@ -115,6 +126,7 @@ std::vector<std::string> ExrChannelNames(const OutputChannels& channels, int num
     for (int c = 0; c < num_features; ++c) names.push_back(absl::StrFormat("feature.%03d", c));
   }
   if (channels.instance) names.push_back("instance");
+  if (channels.filled) names.insert(names.end(), {"filled.R", "filled.G", "filled.B"});
   return names;
 }
 
@@ -130,7 +142,13 @@ absl::Status WriteRenderExr(const std::string& path, const RenderBuffers& buffer
     RETURN_IF_ERROR(CheckLayer("features", buffers.features.size(), pixels * buffers.channels));
   }
   if (channels.instance) RETURN_IF_ERROR(CheckLayer("instance", buffers.instance.size(), pixels));
-  const std::vector<ChannelSource> sources = Sources(buffers, channels);
+  std::vector<float> filled;
+  if (channels.filled) {
+    RETURN_IF_ERROR(CheckLayer("rgb", buffers.rgb.size(), 3 * pixels));
+    RETURN_IF_ERROR(CheckLayer("alpha", buffers.alpha.size(), pixels));
+    filled = FillUncovered(buffers.rgb, buffers.alpha, buffers.width, buffers.height);
+  }
+  const std::vector<ChannelSource> sources = Sources(buffers, channels, filled);
   if (sources.empty()) {
     return absl::InvalidArgumentError(absl::StrCat(path, ": no output layer selected"));
   }

@@ -13,6 +13,12 @@
 //                    (features)
 //   instance  uint   owner of the largest contributor: 0 background or empty,
 //                    k the scene's k-th instance (instance)
+//   filled.R, filled.G, filled.B
+//             half   opaque colour: rgb where alpha >= 0.5, elsewhere rgb
+//                    composited over a push-pull fill of itself, so pixels
+//                    the scene does not cover take the colour around them
+//                    instead of black (hole_fill.h; filled; only when asked
+//                    for by name)
 // (OpenEXR stores channels sorted by name; readers find them by name.)
 // Header attributes:
 //   worldToCamera      m44f, the OpenEXR standard attribute: world to a camera
@@ -49,17 +55,19 @@ namespace pf {
 // The software version written into outputs.
 const char* SoftwareVersion();
 
-// Which layers an EXR carries (`--outputs rgb,alpha,depth,features,instance`).
+// Which layers an EXR carries (`--outputs rgb,alpha,depth,features,instance,filled`).
 struct OutputChannels {
   bool rgb = true;
   bool alpha = true;
   bool depth = true;
   bool features = true;
   bool instance = true;
+  bool filled = false;
 };
 
-// Parses layer names ("rgb", "alpha", "depth", "features", "instance");
-// an empty list selects all. INVALID_ARGUMENT naming an unknown layer.
+// Parses layer names ("rgb", "alpha", "depth", "features", "instance",
+// "filled"); an empty list selects the first five (filled is only written
+// when named). INVALID_ARGUMENT naming an unknown layer.
 absl::StatusOr<OutputChannels> ParseOutputChannels(const std::vector<std::string>& names);
 
 // Returns the EXR channel names for `channels` and `num_features` channels,

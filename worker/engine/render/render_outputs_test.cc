@@ -12,6 +12,7 @@
 #include "common/file_util.h"
 #include "tests/test_util.h"
 #include "worker/engine/image/image_io.h"
+#include "worker/engine/render/hole_fill.h"
 
 namespace pf {
 namespace {
@@ -189,6 +190,42 @@ TEST_F(RenderOutputsTest, OutputsSelectTheChannels) {
   EXPECT_NE(status.message().find("unknown layer 'normals'"), absl::string_view::npos);
 }
 
+TEST_F(RenderOutputsTest, FilledLayerIsTheRenderOverItsPushPullFill) {
+  absl::StatusOr<OutputChannels> channels = ParseOutputChannels({"alpha", "filled"});
+  ASSERT_TRUE(channels.ok());
+  EXPECT_EQ(ExrChannelNames(*channels, kChannels),
+            (std::vector<std::string>{"A", "filled.R", "filled.G", "filled.B"}));
+  const RenderBuffers buffers = MakeBuffers();
+  const std::string path = dir_ + "/filled.exr";
+  ASSERT_TRUE(WriteRenderExr(path, buffers, *channels, MakeView(), {}).ok());
+  auto in = OIIO::ImageInput::open(path);
+  ASSERT_TRUE(in);
+  const OIIO::ImageSpec& spec = in->spec();
+  std::vector<float> pixels(size_t(kWidth) * kHeight * spec.nchannels);
+  ASSERT_TRUE(in->read_image(0, 0, 0, spec.nchannels, TypeDesc::FLOAT, pixels.data()));
+  const std::vector<float> expected =
+      FillUncovered(buffers.rgb, buffers.alpha, buffers.width, buffers.height);
+  const int a = spec.channelindex("A");
+  int rgb[3];
+  for (int c = 0; c < 3; ++c) rgb[c] = spec.channelindex(std::string("filled.") + "RGB"[c]);
+  ASSERT_GE(a, 0);
+  int uncovered = 0;
+  for (size_t i = 0; i < size_t(kWidth) * kHeight; ++i) {
+    const float* p = &pixels[i * spec.nchannels];
+    uncovered += buffers.alpha[i] == 0.f;
+    for (int c = 0; c < 3; ++c) {
+      ASSERT_GE(rgb[c], 0);
+      // Half precision; a pixel with alpha 0 gets its neighbours' colour.
+      EXPECT_NEAR(p[rgb[c]], expected[3 * i + c], 2e-3f * expected[3 * i + c] + 1e-4f) << i;
+      if (buffers.alpha[i] == 0.f && c > 0) EXPECT_GT(p[rgb[c]], 0.f) << i;
+    }
+    EXPECT_EQ(p[a], buffers.alpha[i]);  // Alpha still says what was covered.
+  }
+  EXPECT_GT(uncovered, 0);
+  // Not in the default set.
+  EXPECT_FALSE(ParseOutputChannels({})->filled);
+}
+
 TEST_F(RenderOutputsTest, MissingLayerIsAnError) {
   RenderBuffers buffers = MakeBuffers();
   buffers.features.clear();
@@ -198,7 +235,7 @@ TEST_F(RenderOutputsTest, MissingLayerIsAnError) {
             absl::string_view::npos)
       << status;
   EXPECT_FALSE(fs::exists(dir_ + "/x.exr"));
-  OutputChannels none{false, false, false, false, false};
+  OutputChannels none{false, false, false, false, false, false};
   EXPECT_FALSE(WriteRenderExr(dir_ + "/y.exr", MakeBuffers(), none, MakeView(), {}).ok());
 }
 
