@@ -33,13 +33,14 @@
 #include "absl/status/statusor.h"
 #include "worker/engine/recon/context_views.h"
 #include "worker/engine/render/gaussian_scene.h"
+#include "worker/engine/render/hole_fill.h"
 
 namespace pf {
 
 struct RefinementOptions {
   int iterations = 12;         // Conjugate-gradient iterations; 0: no refinement.
   double prior_weight = 0.05;  // Pull towards the decoded colours, relative to the data.
-  double min_alpha = 0.5;
+  double min_alpha = kCoveredAlpha;
   // Leave the colour of hidden Gaussians (feature kAgreementChannel 0, see
   // gaussian_decoder.h: behind the surface every context view sees) as
   // decoded; needs a scene with that channel.

@@ -70,7 +70,7 @@ FrameMetrics Measure(const ImageF& truth_rgb, const ImageF& truth_depth,
   filled.pixels = FillUncovered(buffers.rgb, buffers.alpha, buffers.width, buffers.height);
   m.filled_psnr = Psnr(truth_rgb, filled).value_or(0.0);
   int64_t holes = 0;
-  for (float a : buffers.alpha) holes += a < 0.5f;
+  for (float a : buffers.alpha) holes += a < kCoveredAlpha;
   m.hole_fraction = double(holes) / double(std::max<size_t>(1, buffers.alpha.size()));
   return m;
 }

@@ -24,12 +24,17 @@
 
 namespace pf {
 
+// A pixel with at least this alpha counts as covered: the colour fit matches
+// it to the context images (RefinementOptions::min_alpha), pf eval does not
+// count it as a hole, and FillUncovered() keeps it.
+inline constexpr float kCoveredAlpha = 0.5f;
+
 // Returns the [H, W, 3] colour of the premultiplied `rgb` ([H, W, 3]) with
 // coverage `alpha` ([H, W], clamped to [0, 1]): rgb where alpha >=
 // covered_alpha, elsewhere rgb composited over its push-pull fill. Returns
 // `rgb` as it is when it or `alpha` holds fewer than width x height pixels.
 std::vector<float> FillUncovered(const std::vector<float>& rgb, const std::vector<float>& alpha,
-                                 int width, int height, float covered_alpha = 0.5f);
+                                 int width, int height, float covered_alpha = kCoveredAlpha);
 
 }  // namespace pf
 
