@@ -216,7 +216,8 @@ TEST(ColourRefinement, OverThePairBudgetTheColoursStayAsDecoded) {
   ASSERT_TRUE(fitted.ok()) << fitted.status();
   EXPECT_FALSE(fitted->skipped_over_budget);
   EXPECT_EQ(fitted->pairs, full->pairs);
-  EXPECT_NE(at_budget.features, scene.features);  // Pulled towards the 0.8 grey image.
+  EXPECT_NE(at_budget.features, scene.features);      // Pulled towards the 0.8 grey image.
+  EXPECT_EQ(at_budget.features, unbounded.features);  // The same fit as without a budget.
 }
 
 TEST(ColourRefinement, RejectsBadOptionsAndScenes) {

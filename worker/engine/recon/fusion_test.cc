@@ -120,8 +120,11 @@ TEST(Fusion, InstanceQueriesAreReposedToEachViewsTime) {
 }
 
 TEST(Fusion, UnfusedKeepsOwnColour) {
-  const FusedQueries f = UnfusedQueries(OneQuery());
-  EXPECT_FLOAT_EQ(f.rgb[0], 1.f);
+  QuerySet q = OneQuery();
+  q.rgb = {0.25f, 0.5f, 0.75f};
+  const FusedQueries f = UnfusedQueries(q);
+  EXPECT_EQ(f.rgb, q.rgb);
+  EXPECT_EQ(f.observations, std::vector<uint16_t>{1});
   EXPECT_FLOAT_EQ(f.agreement[0], 1.f);
   EXPECT_TRUE(std::isinf(f.lifespans[0]));
 }

@@ -50,6 +50,12 @@ TEST(ImageMetrics, SsimDropsWithNoiseButNotWithIdenticalStructure) {
   const double s = *Ssim(a, noisy);
   EXPECT_LT(s, 0.99);
   EXPECT_GT(s, 0.5);
+  // The same checkerboard a little brighter: only the luminance term moves
+  // (0.55 / 0.5525 at the cells' mean of 0.5).
+  ImageF brighter = a;
+  for (float& v : brighter.pixels) v += 0.05f;
+  EXPECT_GT(*Ssim(a, brighter), 0.99);
+  EXPECT_LT(*Ssim(a, brighter), 1.0);
 }
 
 TEST(ImageMetrics, DepthRmseOnlyWhereTruthHasDepth) {

@@ -93,8 +93,6 @@ TEST(SparseSampling, RedundancyRemovalFreesBudgetForDetail) {
   // about 0.208 x sqrt(0.5) after.
   EXPECT_NEAR(once.footprints[0], 4 * 10.0 / 192, 1e-4);
   EXPECT_LT(twice.footprints[0], 0.8 * once.footprints[0]);
-  options.fill_static_budget = false;
-  EXPECT_LT(SampleQueries({a.sampling(), b.sampling()}, {}, options).size(), 1728u * 5 / 4);
 }
 
 // A 192 x 144 view of the red plane z = 10 with a green 32 x 32 square at
@@ -242,7 +240,7 @@ TEST(SparseSampling, InstanceQueriesAreCanonicalAndWithinBudget) {
     EXPECT_NEAR(q.positions[3 * i + 2], 10.f, 1e-4);
   }
   EXPECT_LE(dynamic, 500);
-  EXPECT_GE(dynamic, 250);  // The bisection lands near the budget.
+  EXPECT_GE(dynamic, 450);  // The bisection lands near the budget.
   for (size_t i = 0; i < q.size(); ++i)
     if (q.owners[i] == 0) EXPECT_EQ(plane.owners[q.pixels[i]], 0u);
 }

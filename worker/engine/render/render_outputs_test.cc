@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <nlohmann/json.hpp>
 
+#include "absl/strings/str_format.h"
 #include "common/file_util.h"
 #include "tests/test_util.h"
 #include "worker/engine/image/image_io.h"
@@ -109,11 +110,14 @@ TEST_F(RenderOutputsTest, ExrHasEveryChannelWithItsTypeValuesAndHeader) {
   };
   for (size_t i = 0; i < size_t(kWidth) * kHeight; ++i) {
     EXPECT_NEAR(value(i, "R"), buffers.rgb[3 * i], 1e-3) << i;
+    EXPECT_NEAR(value(i, "G"), buffers.rgb[3 * i + 1], 1e-3) << i;
     EXPECT_NEAR(value(i, "B"), buffers.rgb[3 * i + 2], 1e-3) << i;
     EXPECT_NEAR(value(i, "A"), buffers.alpha[i], 1e-3) << i;
     EXPECT_EQ(value(i, "Z"), buffers.depth[i]) << i;
-    EXPECT_NEAR(value(i, "feature.002"), buffers.features[kChannels * i + 2], 2e-3) << i;
-    EXPECT_NEAR(value(i, "feature.003"), buffers.features[kChannels * i + 3], 2e-3) << i;
+    for (int c = 0; c < kChannels; ++c) {
+      const std::string name = absl::StrFormat("feature.%03d", c);
+      EXPECT_NEAR(value(i, name), buffers.features[kChannels * i + c], 2e-3) << i << " " << name;
+    }
     EXPECT_EQ(ids[i], buffers.instance[i]) << i;
   }
   EXPECT_EQ(ids[3], 70000u);

@@ -30,7 +30,7 @@ GaussianScene MakeScene() {
   car.category = "car";
   car.boxes.push_back({1'700'000'000'123'456, {1, 2, 3}, {4.5, 1.8, 1.5}, {1, 0, 0, 0}});
   car.boxes.push_back(
-      {1'700'000'000'623'456, {3, 2, 3}, {4.5, 1.8, 1.5}, QuatNormalized({0.9, 0, 0, 0.1})});
+      {1'700'000'000'623'456, {3, 2, 3}, {4.5, 1.8, 1.5}, QuatNormalized({0.9, 0.05, -0.03, 0.1})});
   scene.instances.push_back(car);
   scene.Resize(7);
   for (size_t i = 0; i < scene.size(); ++i) {
@@ -77,6 +77,8 @@ void ExpectScenesEqual(const GaussianScene& a, const GaussianScene& b) {
         EXPECT_EQ(x.size[i], y.size[i]);
       }
       EXPECT_EQ(x.rotation.w, y.rotation.w);
+      EXPECT_EQ(x.rotation.x, y.rotation.x);
+      EXPECT_EQ(x.rotation.y, y.rotation.y);
       EXPECT_EQ(x.rotation.z, y.rotation.z);
     }
   }
