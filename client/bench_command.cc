@@ -39,6 +39,7 @@ absl::Status BenchRaster(const std::vector<std::string>& args) {
   if (!cl.positional().empty()) {
     return absl::InvalidArgumentError("unexpected argument '" + cl.positional()[0] + "'");
   }
+  RETURN_IF_ERROR(cl.RequireBoth("width", "height"));
   ASSIGN_OR_RETURN(const int64_t gaussians, cl.GetInt("gaussians", 100000));
   ASSIGN_OR_RETURN(const int64_t width, cl.GetInt("width", 768));
   ASSIGN_OR_RETURN(const int64_t height, cl.GetInt("height", 576));

@@ -23,6 +23,7 @@
 #include "common/file_util.h"
 #include "common/status_macros.h"
 #include "worker/engine/clip/clip_io.h"
+#include "worker/engine/clip/clip_validator.h"
 #include "worker/engine/recon/context_views.h"
 #include "worker/engine/recon/evaluation.h"
 #include "worker/engine/recon/recon_flags.h"
@@ -36,7 +37,7 @@ constexpr char kUsage[] =
     "usage: pf eval CLIP.json --out DIR [--model analytic|pixel-aligned] [--ns N --nd N] "
     "[--fusion softmax|average|no-depth] [--no-lifespan] [--refine N] [--splat-sigma S] "
     "[--low-pass PX2] [--hidden-band PX] [--no-ground-fill] [--no-facades] "
-    "[--device cpu|cuda:N] [--views VIEWS.json --truth TRUTH_DIR] "
+    "[--device cpu|cuda[:N]] [--allow-outside-paths] [--views VIEWS.json --truth TRUTH_DIR] "
     "[--lane-shift D1,D2,... --lane-shift-time-us T] (pf eval --help for more)";
 
 constexpr char kHelp[] = R"(usage: pf eval CLIP.json --out DIR [reconstruction flags]
@@ -55,7 +56,7 @@ pixels with alpha < 0.5.
 reconstruction flags (as pf reconstruct):
   --model analytic|pixel-aligned  --ns N --nd N  --fusion softmax|average|no-depth
   --no-lifespan  --refine N  --splat-sigma S  --low-pass PX2  --hidden-band PX
-  --no-ground-fill  --no-facades  --device cpu|cuda:N
+  --no-ground-fill  --no-facades  --device cpu|cuda[:N]  --allow-outside-paths
 
 extra views (views not in the clip, e.g. extrapolated poses):
   --views VIEWS.json   a RenderViews file, as pf render --cameras and
@@ -164,7 +165,8 @@ absl::StatusOr<ExtraViews> PrepareLaneShift(const CommandLine& cl, const LoadedC
 }
 
 absl::Status Run(const CommandLine& cl) {
-  if (cl.positional().size() != 1 || !cl.Has("out")) return absl::InvalidArgumentError(kUsage);
+  if (cl.positional().size() != 1) return absl::InvalidArgumentError(kUsage);
+  RETURN_IF_ERROR(cl.Require({"out"}, kUsage));
   if (cl.Has("views") != cl.Has("truth")) {
     return absl::InvalidArgumentError(cl.Has("views")
                                           ? "--truth: required with --views (the truth images)"
@@ -181,8 +183,11 @@ absl::Status Run(const CommandLine& cl) {
   options.progress = [](const std::string& line) {
     std::fprintf(stderr, "pf eval: %s\n", line.c_str());
   };
-  ASSIGN_OR_RETURN(const LoadedClip loaded, LoadClip(cl.positional()[0]));
   const std::string out_dir = cl.Get("out");
+  RETURN_IF_ERROR(CheckOutputDirPath("--out", out_dir));
+  ValidateOptions validate;
+  validate.allow_outside_paths = options.allow_outside_paths;
+  ASSIGN_OR_RETURN(const LoadedClip loaded, LoadValidClip(cl.positional()[0], validate));
   std::optional<ExtraViews> extra;
   if (cl.Has("views")) {
     ASSIGN_OR_RETURN(RenderRequest request, LoadViewsForClip(cl.Get("views"), loaded));

@@ -13,6 +13,7 @@
 #include "absl/strings/str_cat.h"
 #include "client/commands.h"
 #include "common/command_line.h"
+#include "common/file_util.h"
 #include "common/status_macros.h"
 #include "worker/engine/importers/clip_output.h"
 #include "worker/engine/importers/dgp_importer.h"
@@ -32,6 +33,7 @@ absl::StatusOr<ImportOptions> ParseOptions(const CommandLine& cl) {
   ImportOptions options;
   options.out_dir = cl.Get("out");
   if (options.out_dir.empty()) return absl::InvalidArgumentError("--out DIR is required");
+  RETURN_IF_ERROR(CheckOutputDirPath("--out", options.out_dir));
   options.cameras = cl.GetList("cameras");
   ASSIGN_OR_RETURN(options.start_us, cl.GetInt("start-us", 0));
   if (options.start_us < 0) return absl::InvalidArgumentError("--start-us must be >= 0");
@@ -49,7 +51,9 @@ absl::StatusOr<std::string> Import(const std::vector<std::string>& args) {
                                                              "duration-us", "roles"}));
   if (cl.positional().size() != 2) {
     return absl::InvalidArgumentError(
-        absl::StrCat("expected a format and a source path\n", kImportUsage));
+        absl::StrCat(cl.positional().empty() ? "expected a format (waymo or dgp) and a source path"
+                                             : "expected a source path after the format",
+                     "\n", kImportUsage));
   }
   const std::string& format = cl.positional()[0];
   const std::string& source = cl.positional()[1];
@@ -73,7 +77,11 @@ absl::StatusOr<std::string> Import(const std::vector<std::string>& args) {
 
 int RunImport(const std::vector<std::string>& args) {
   const absl::StatusOr<std::string> summary = Import(args);
-  if (!summary.ok()) return ReportError("import", summary.status());
+  if (!summary.ok()) {
+    // A corrupt or truncated log (DATA_LOSS) is bad input, not a failure here.
+    const int code = ReportError("import", summary.status());
+    return summary.status().code() == absl::StatusCode::kDataLoss ? kExitBadInput : code;
+  }
   std::printf("%s\n", summary->c_str());
   return kExitOk;
 }

@@ -2,10 +2,12 @@
 // of the words to it; see `pf help`. With `--server ADDR` first (or PF_SERVER
 // set) the scene, render and jobs commands go to a pf-server instead
 // (client/remote/).
+#include <algorithm>
 #include <cstdio>
 #include <cstring>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "absl/strings/str_cat.h"
@@ -64,13 +66,14 @@ commands:
         time the rasterizer; prints JSON
   reconstruct CLIP.json --out SCENE [--model analytic|pixel-aligned] [--ns N --nd N]
         [--fusion softmax|average|no-depth] [--no-lifespan] [--refine N] [--splat-sigma S]
-        [--low-pass PX2] [--hidden-band PX] [--no-ground-fill] [--no-facades] [--device cpu|cuda:N]
-        build a Gaussian scene from the clip's CONTEXT frames
+        [--low-pass PX2] [--hidden-band PX] [--no-ground-fill] [--no-facades] [--device cpu|cuda[:N]]
+        [--allow-outside-paths]
+        check the clip as validate does, build a Gaussian scene from its CONTEXT frames
   eval CLIP.json --out DIR [--model ...] [same flags as reconstruct]
        [--views VIEWS.json --truth DIR2] [--lane-shift D1,D2,... --lane-shift-time-us T]
         reconstruct, render the TARGET frames (and extra or lane-shifted views), write
         DIR/report.json and contact sheets; pf eval --help for the details
-  help  this text
+  help  this text; pf COMMAND --help shows one command's lines
 
 remote mode: pf --server HOST:PORT <command> (or PF_SERVER=HOST:PORT, which sends
 scene, render and jobs to that server; other commands always run here).
@@ -87,7 +90,8 @@ the token in PF_TOKEN):
         inspect, list, delete scenes; export one as a 3DGS PLY (sha256 checked)
   render SCENE --cameras VIEWS.json [--out DIR --wait] [--outputs LIST]
          [--chunk-frames N] [--request-id ID]
-  render --clip CLIP.json [reconstruction flags] --cameras VIEWS.json [--out DIR --wait]
+  render --clip CLIP.json [--model M] [--ns N] [--nd N] [--fusion F] [--no-lifespan]
+         [--device D] --cameras VIEWS.json [--out DIR --wait] [--outputs LIST]
         submit a render job (of a clip: reconstructed first unless cached);
         --wait waits and downloads every output file into DIR
   jobs list [--kind reconstruct|render] | jobs get ID | jobs cancel ID
@@ -99,6 +103,36 @@ the token in PF_TOKEN):
 Exit codes: 0 done, 1 failed, 2 bad input, 3 server unreachable.
 Set PF_LOG_LEVEL=debug for more logging, PF_THREADS=N to size the thread pool.
 )";
+
+// Returns the lines of kUsage's local commands that describe `command`: each
+// entry (a line indented by two spaces, with the more indented lines after
+// it) that starts with the command's name.
+std::string UsageOf(const std::string& command) {
+  const std::string_view usage = kUsage;
+  const size_t begin = usage.find("commands:\n");
+  const size_t end = usage.find("\nremote mode:");
+  std::string out, entry;
+  bool keep = false;
+  auto flush = [&] {
+    if (keep) out += entry;
+    entry.clear();
+  };
+  for (std::string_view rest = usage.substr(begin, end - begin); !rest.empty();) {
+    const size_t newline = rest.find('\n');
+    const std::string_view line =
+        rest.substr(0, newline == std::string_view::npos ? rest.size() : newline + 1);
+    rest.remove_prefix(line.size());
+    if (line.size() > 2 && line.substr(0, 2) == "  " && line[2] != ' ') {
+      flush();
+      const std::string_view words = line.substr(2);
+      keep = words.substr(0, command.size()) == command &&
+             (words.size() == command.size() || words[command.size()] == ' ');
+    }
+    entry += line;
+  }
+  flush();
+  return out;
+}
 
 }  // namespace
 }  // namespace pf
@@ -117,6 +151,18 @@ int main(int argc, char** argv) {
   }
   const std::string command = argv[1];
   const std::vector<std::string> args(argv + 2, argv + argc);
+  // pf COMMAND --help: that command's lines of pf help (pf eval has its own).
+  if (command != "eval" && std::any_of(args.begin(), args.end(), [](const std::string& a) {
+        return a == "--help" || a == "-h";
+      })) {
+    const std::string usage = pf::UsageOf(command);
+    if (!usage.empty()) {
+      std::printf(
+          "usage:\n%s\nExit codes: 0 done, 1 failed, 2 bad input. pf help lists every command.\n",
+          usage.c_str());
+      return pf::kExitOk;
+    }
+  }
   if (command == "validate") return pf::RunValidate(args);
   if (command == "synth") return pf::RunSynth(args);
   if (command == "import") return pf::RunImport(args);

@@ -1,10 +1,11 @@
 // pf reconstruct CLIP.json --out SCENE [--model analytic|pixel-aligned]
 //                [--ns N --nd N] [--fusion softmax|average|no-depth]
 //                [--no-lifespan] [--refine N] [--splat-sigma S] [--low-pass PX2]
-//                [--device cpu|cuda:N]
-// Builds a Gaussian scene from the clip's CONTEXT frames (worker/engine/
-// recon/reconstruction.h) and writes it with SaveScene. Progress per stage
-// goes to stderr, a summary to stdout.
+//                [--hidden-band PX] [--no-ground-fill] [--no-facades]
+//                [--device cpu|cuda[:N]] [--allow-outside-paths]
+// Checks the clip as pf validate does, then builds a Gaussian scene from the
+// clip's CONTEXT frames (worker/engine/recon/reconstruction.h) and writes it
+// with SaveScene. Progress per stage goes to stderr, a summary to stdout.
 #include <cstdio>
 #include <map>
 #include <string>
@@ -14,8 +15,10 @@
 #include "absl/strings/str_join.h"
 #include "client/commands.h"
 #include "common/command_line.h"
+#include "common/file_util.h"
 #include "common/status_macros.h"
 #include "worker/engine/clip/clip_io.h"
+#include "worker/engine/clip/clip_validator.h"
 #include "worker/engine/recon/recon_flags.h"
 #include "worker/engine/recon/reconstruction.h"
 #include "worker/engine/render/scene_file.h"
@@ -27,16 +30,20 @@ constexpr char kUsage[] =
     "usage: pf reconstruct CLIP.json --out SCENE [--model analytic|pixel-aligned] "
     "[--ns N --nd N] [--fusion softmax|average|no-depth] [--no-lifespan] [--refine N] "
     "[--splat-sigma S] [--low-pass PX2] [--hidden-band PX] [--no-ground-fill] [--no-facades] "
-    "[--device cpu|cuda:N]";
+    "[--device cpu|cuda[:N]] [--allow-outside-paths]";
 
 absl::Status Run(const CommandLine& cl) {
-  if (cl.positional().size() != 1 || !cl.Has("out")) return absl::InvalidArgumentError(kUsage);
+  if (cl.positional().size() != 1) return absl::InvalidArgumentError(kUsage);
+  RETURN_IF_ERROR(cl.Require({"out"}, kUsage));
   ASSIGN_OR_RETURN(ReconOptions options, ReconOptionsFromFlags(cl));
   options.progress = [](const std::string& line) {
     std::fprintf(stderr, "pf reconstruct: %s\n", line.c_str());
   };
   const std::string clip_path = cl.positional()[0];
-  ASSIGN_OR_RETURN(const LoadedClip loaded, LoadClip(clip_path));
+  RETURN_IF_ERROR(CheckOutputFilePath("--out", cl.Get("out")));
+  ValidateOptions validate;
+  validate.allow_outside_paths = options.allow_outside_paths;
+  ASSIGN_OR_RETURN(const LoadedClip loaded, LoadValidClip(clip_path, validate));
   ASSIGN_OR_RETURN(const ReconResult result, Reconstruct(loaded, options));
   const ReconStats& s = result.stats;
   const std::map<std::string, std::string> metadata = {

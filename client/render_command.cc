@@ -27,10 +27,13 @@ constexpr char kUsage[] =
     "[--outputs rgb,alpha,depth,features,instance,filled]";
 
 absl::Status Run(const CommandLine& cl) {
-  if (cl.positional().size() != 1 || !cl.Has("cameras") || !cl.Has("out")) {
-    return absl::InvalidArgumentError(kUsage);
+  if (cl.positional().size() != 1) return absl::InvalidArgumentError(kUsage);
+  RETURN_IF_ERROR(cl.Require({"cameras", "out"}, kUsage));
+  absl::StatusOr<OutputChannels> parsed = ParseOutputChannels(cl.GetList("outputs"));
+  if (!parsed.ok()) {
+    return absl::InvalidArgumentError(absl::StrCat("--outputs: ", parsed.status().message()));
   }
-  ASSIGN_OR_RETURN(const OutputChannels channels, ParseOutputChannels(cl.GetList("outputs")));
+  const OutputChannels channels = *parsed;
   const auto start = std::chrono::steady_clock::now();
   ASSIGN_OR_RETURN(OpenedScene opened, OpenScene(cl.positional()[0]));
   ASSIGN_OR_RETURN(const RenderRequest request, LoadRenderViews(cl.Get("cameras"), opened.scene));

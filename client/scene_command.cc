@@ -102,8 +102,11 @@ int Info(const std::string& path) {
 }
 
 int Export(const CommandLine& cl) {
-  if (cl.positional().size() != 2 || !cl.Has("ply")) {
+  if (cl.positional().size() != 2) {
     return ReportError("scene export", absl::InvalidArgumentError(kUsage));
+  }
+  if (absl::Status required = cl.Require({"ply"}, kUsage); !required.ok()) {
+    return ReportError("scene export", required);
   }
   const std::string& path = cl.positional()[1];
   absl::StatusOr<OpenedScene> opened = OpenScene(path);

@@ -9,6 +9,7 @@
 #include "absl/strings/str_cat.h"
 #include "client/commands.h"
 #include "common/command_line.h"
+#include "common/file_util.h"
 #include "common/status_macros.h"
 #include "worker/engine/synth/synth_clip_writer.h"
 #include "worker/engine/synth/synth_view_renderer.h"
@@ -42,12 +43,14 @@ absl::Status Synth(const std::vector<std::string>& args) {
   }
   const std::string out = cl.Get("out");
   if (out.empty()) return absl::InvalidArgumentError("--out: required (the clip directory)");
+  RETURN_IF_ERROR(CheckOutputDirPath("--out", out));
   SynthOptions options;
   ASSIGN_OR_RETURN(int64_t seed, cl.GetInt("seed", 1));
   if (seed < 0) return absl::InvalidArgumentError("--seed: must not be negative");
   options.seed = static_cast<uint64_t>(seed);
   RETURN_IF_ERROR(IntFlag(cl, "cameras", &options.num_cameras));
   RETURN_IF_ERROR(IntFlag(cl, "frames", &options.num_frames));
+  RETURN_IF_ERROR(cl.RequireBoth("width", "height"));
   RETURN_IF_ERROR(IntFlag(cl, "width", &options.width));
   RETURN_IF_ERROR(IntFlag(cl, "height", &options.height));
   RETURN_IF_ERROR(IntFlag(cl, "antialias", &options.antialias));

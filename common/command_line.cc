@@ -50,6 +50,22 @@ absl::StatusOr<CommandLine> CommandLine::Parse(const std::vector<std::string>& w
   return cl;
 }
 
+absl::Status CommandLine::Require(const std::vector<std::string>& names,
+                                  const std::string& usage) const {
+  for (const std::string& name : names) {
+    if (!Has(name))
+      return absl::InvalidArgumentError(absl::StrCat("--", name, ": required\n", usage));
+  }
+  return absl::OkStatus();
+}
+
+absl::Status CommandLine::RequireBoth(const std::string& a, const std::string& b) const {
+  if (Has(a) == Has(b)) return absl::OkStatus();
+  const std::string& given = Has(a) ? a : b;
+  const std::string& missing = Has(a) ? b : a;
+  return absl::InvalidArgumentError(absl::StrCat("--", missing, ": required with --", given));
+}
+
 bool CommandLine::Has(const std::string& name) const {
   auto it = values_.find(name);
   return it != values_.end() && it->second != "false";
@@ -83,7 +99,8 @@ absl::StatusOr<double> CommandLine::GetDouble(const std::string& name, double fa
 }
 
 std::vector<std::string> CommandLine::GetList(const std::string& name) const {
-  return absl::StrSplit(Get(name), ',', absl::SkipEmpty());
+  if (values_.find(name) == values_.end()) return {};
+  return absl::StrSplit(Get(name), ',');
 }
 
 }  // namespace pf

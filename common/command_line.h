@@ -36,8 +36,16 @@ class CommandLine {
   // the flag if it is not one.
   absl::StatusOr<int64_t> GetInt(const std::string& name, int64_t fallback) const;
   absl::StatusOr<double> GetDouble(const std::string& name, double fallback) const;
-  // Returns the value split at commas, empty items dropped.
+  // Returns the value split at commas: nothing when the flag is absent; an
+  // empty item ("a,,b", or an empty value) is kept as "" for the caller to
+  // reject with its own message.
   std::vector<std::string> GetList(const std::string& name) const;
+  // Returns OK when every flag of `names` was given, else INVALID_ARGUMENT
+  // "--NAME: required" for the first missing one, then `usage` on its own line.
+  absl::Status Require(const std::vector<std::string>& names, const std::string& usage) const;
+  // Returns OK when flags `a` and `b` are both given or both absent, else
+  // INVALID_ARGUMENT "--B: required with --A" (or the other way round).
+  absl::Status RequireBoth(const std::string& a, const std::string& b) const;
 
  private:
   std::vector<std::string> positional_;

@@ -36,5 +36,39 @@ TEST(CommandLine, DoubleDashEndsFlags) {
   EXPECT_EQ(cl->positional(), std::vector<std::string>{"--out"});
 }
 
+TEST(CommandLine, RequireNamesTheFirstMissingFlagAndShowsTheUsage) {
+  auto cl = CommandLine::Parse({"scene", "--out", "dir"}, {"out", "cameras"});
+  ASSERT_TRUE(cl.ok());
+  EXPECT_TRUE(cl->Require({"out"}, "usage: x").ok());
+  const absl::Status missing = cl->Require({"out", "cameras"}, "usage: pf render ...");
+  EXPECT_EQ(missing.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(missing.message(), "--cameras: required\nusage: pf render ...");
+}
+
+TEST(CommandLine, RequireBothNamesTheMissingPartner) {
+  auto width_only = CommandLine::Parse({"--width", "64"}, {"width", "height"});
+  ASSERT_TRUE(width_only.ok());
+  EXPECT_EQ(width_only->RequireBoth("width", "height").message(),
+            "--height: required with --width");
+  auto height_only = CommandLine::Parse({"--height", "48"}, {"width", "height"});
+  EXPECT_EQ(height_only->RequireBoth("width", "height").message(),
+            "--width: required with --height");
+  auto both = CommandLine::Parse({"--height", "48", "--width", "64"}, {"width", "height"});
+  EXPECT_TRUE(both->RequireBoth("width", "height").ok());
+  auto neither = CommandLine::Parse({}, {"width", "height"});
+  EXPECT_TRUE(neither->RequireBoth("width", "height").ok());
+}
+
+// Empty items are kept for the caller to reject ("--lane-shift 1,,2" is a
+// typo, not two shifts); an absent flag gives no items.
+TEST(CommandLine, GetListKeepsEmptyItems) {
+  auto cl = CommandLine::Parse({"--a", "1,,2", "--b", "", "--c", "x,y"}, {"a", "b", "c", "d"});
+  ASSERT_TRUE(cl.ok());
+  EXPECT_EQ(cl->GetList("a"), (std::vector<std::string>{"1", "", "2"}));
+  EXPECT_EQ(cl->GetList("b"), std::vector<std::string>{""});
+  EXPECT_EQ(cl->GetList("c"), (std::vector<std::string>{"x", "y"}));
+  EXPECT_TRUE(cl->GetList("d").empty());
+}
+
 }  // namespace
 }  // namespace pf

@@ -19,6 +19,10 @@ namespace pf {
 namespace fs = std::filesystem;
 
 absl::StatusOr<std::string> ReadFileToString(const std::string& path) {
+  std::error_code dir_ec;
+  if (fs::is_directory(path, dir_ec)) {
+    return absl::InvalidArgumentError(absl::StrCat(path, ": is a directory, not a file"));
+  }
   std::ifstream in(path, std::ios::binary);
   if (!in) {
     std::error_code ec;
@@ -58,8 +62,32 @@ absl::Status CommitTempFile(const std::string& temp_path, const std::string& pat
   std::error_code ec;
   fs::rename(temp_path, path, ec);
   if (ec) {
+    const std::string reason = ec.message();
+    const bool is_dir = fs::is_directory(path, ec);
     fs::remove(temp_path, ec);
-    return absl::InternalError(absl::StrCat(path, ": rename failed: ", ec.message()));
+    if (is_dir) {
+      return absl::FailedPreconditionError(
+          absl::StrCat(path, ": is a directory (give a file path to write)"));
+    }
+    return absl::InternalError(absl::StrCat(path, ": rename failed: ", reason));
+  }
+  return absl::OkStatus();
+}
+
+absl::Status CheckOutputFilePath(const std::string& flag, const std::string& path) {
+  std::error_code ec;
+  if (fs::is_directory(path, ec)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(flag, ": '", path, "' is a directory; give the path of the file to write"));
+  }
+  return absl::OkStatus();
+}
+
+absl::Status CheckOutputDirPath(const std::string& flag, const std::string& path) {
+  std::error_code ec;
+  if (fs::exists(path, ec) && !fs::is_directory(path, ec)) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        flag, ": '", path, "' is a file; give a directory (it is created if missing)"));
   }
   return absl::OkStatus();
 }

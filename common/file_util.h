@@ -37,6 +37,13 @@ absl::Status CommitTempFile(const std::string& temp_path, const std::string& pat
 // Creates `dir` and its parents if missing.
 absl::Status MakeDirs(const std::string& dir);
 
+// Checks, before any work, that an output named by command-line flag `flag`
+// (e.g. "--out") can be written where `path` says: INVALID_ARGUMENT naming
+// the flag when a file is to be written where a directory is
+// (CheckOutputFilePath) or a directory where a file is (CheckOutputDirPath).
+absl::Status CheckOutputFilePath(const std::string& flag, const std::string& path);
+absl::Status CheckOutputDirPath(const std::string& flag, const std::string& path);
+
 // How ResolvePath treats paths outside the root.
 enum class PathPolicy {
   kUnderRootOnly,  // Absolute paths and "..", symlinks out of root: rejected.

@@ -32,6 +32,44 @@ TEST(WriteFileAtomic, WritesWholeFileAndLeavesNoTemporary) {
   EXPECT_EQ(entries, 1);
 }
 
+// Writing a file where a directory is: the error says so (the rename's
+// errno, not the clean-up's "Success"), and nothing is left behind.
+TEST(WriteFileAtomic, ADirectoryInTheWayIsNamed) {
+  const std::string dir = FreshDir("atomic_dir");
+  fs::create_directories(dir + "/scene.pfscene");
+  const absl::Status status = WriteFileAtomic(dir + "/scene.pfscene", "x");
+  EXPECT_EQ(status.code(), absl::StatusCode::kFailedPrecondition);
+  EXPECT_NE(status.message().find("scene.pfscene: is a directory"), std::string::npos) << status;
+  int entries = 0;
+  for (const auto& e : fs::directory_iterator(dir))
+    entries += e.path().filename() != "scene.pfscene";
+  EXPECT_EQ(entries, 0);
+}
+
+TEST(ReadFileToString, ADirectoryIsNotAFile) {
+  const std::string dir = FreshDir("read_dir");
+  const absl::StatusOr<std::string> read = ReadFileToString(dir);
+  EXPECT_EQ(read.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(read.status().message(), dir + ": is a directory, not a file");
+  EXPECT_EQ(ReadFileToString(dir + "/missing").status().code(), absl::StatusCode::kNotFound);
+}
+
+TEST(CheckOutputPath, NamesTheFlagWhenAFileOrDirectoryIsInTheWay) {
+  const std::string dir = FreshDir("out_check");
+  ASSERT_TRUE(WriteFileAtomic(dir + "/file.json", "{}").ok());
+  EXPECT_TRUE(CheckOutputFilePath("--out", dir + "/new.pfscene").ok());
+  EXPECT_TRUE(CheckOutputFilePath("--out", dir + "/file.json").ok());  // Replaced.
+  const absl::Status on_dir = CheckOutputFilePath("--out", dir);
+  EXPECT_EQ(on_dir.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(on_dir.message(),
+            "--out: '" + dir + "' is a directory; give the path of the file to write");
+  EXPECT_TRUE(CheckOutputDirPath("--out", dir).ok());
+  EXPECT_TRUE(CheckOutputDirPath("--out", dir + "/new_dir").ok());  // Created later.
+  const absl::Status on_file = CheckOutputDirPath("--out", dir + "/file.json");
+  EXPECT_EQ(on_file.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(on_file.message().find("--out: '" + dir + "/file.json' is a file"), std::string::npos);
+}
+
 TEST(ResolvePath, AcceptsPathsInsideTheRoot) {
   const std::string root = FreshDir("resolve_ok");
   auto p = ResolvePath(root, "images/../images/a.png", PathPolicy::kUnderRootOnly);

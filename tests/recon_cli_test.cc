@@ -166,6 +166,54 @@ TEST_F(ReconCli, HiddenBandSetsHowManyHiddenGaussiansThereAre) {
   EXPECT_NE(bad.err.find("--hidden-band: must be in [0, 256]"), std::string::npos) << bad.err;
 }
 
+// The clip is checked as pf validate checks it before any work: a TARGET
+// frame without a camera (which reconstruction never reads) stops it, with
+// pf validate's words, and no scene is written. Absolute paths need
+// --allow-outside-paths, as for pf validate.
+TEST_F(ReconCli, TheClipIsValidatedBeforeAnyWork) {
+  nlohmann::json clip = ReadJsonFile(Clip());
+  size_t target = 0;
+  while ((clip["frames"][target]["role"]) != "TARGET") ++target;
+  nlohmann::json broken = clip;
+  broken["frames"][target].erase("camera");
+  const std::string broken_path = *dir_ + "/clip/broken.json";
+  std::ofstream(broken_path) << broken.dump();
+  const std::string scene = *dir_ + "/broken.pfscene";
+  for (const char* command : {"reconstruct", "eval"}) {
+    const CommandResult result = RunCommand({Pf(), command, broken_path, "--out", scene});
+    EXPECT_EQ(result.exit_code, 2) << command;
+    EXPECT_NE(result.err.find("frames[" + std::to_string(target) +
+                              "].camera: missing (the id of one of the cameras)"),
+              std::string::npos)
+        << result.err;
+    EXPECT_EQ(result.err.find("loading context frames"), std::string::npos) << result.err;
+    EXPECT_FALSE(fs::exists(scene));
+  }
+
+  nlohmann::json absolute = clip;
+  for (nlohmann::json& frame : absolute["frames"]) {
+    frame["image"] = *dir_ + "/clip/" + frame["image"].get<std::string>();
+  }
+  const std::string absolute_path = *dir_ + "/clip/absolute.json";
+  std::ofstream(absolute_path) << absolute.dump();
+  CommandResult result = RunCommand(
+      {Pf(), "reconstruct", absolute_path, "--out", scene, "--ns", "500", "--refine", "0"});
+  EXPECT_EQ(result.exit_code, 2);
+  EXPECT_NE(result.err.find("frames[0].image: "), std::string::npos) << result.err;
+  EXPECT_NE(result.err.find("absolute"), std::string::npos) << result.err;
+  result = RunCommand({Pf(), "reconstruct", absolute_path, "--out", scene, "--ns", "500",
+                       "--refine", "0", "--allow-outside-paths"});
+  EXPECT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_TRUE(ReadSceneFile(scene).ok());
+
+  // An output path that is a directory is refused before the work, too.
+  result = RunCommand({Pf(), "reconstruct", Clip(), "--out", *dir_});
+  EXPECT_EQ(result.exit_code, 2);
+  EXPECT_NE(result.err.find("--out: '" + *dir_ + "' is a directory"), std::string::npos)
+      << result.err;
+  EXPECT_EQ(result.err.find("loading context frames"), std::string::npos) << result.err;
+}
+
 TEST_F(ReconCli, AblationFlagsAreRecordedInTheReport) {
   const std::string out = *dir_ + "/eval_ablation";
   const CommandResult result =

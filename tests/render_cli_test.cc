@@ -229,12 +229,38 @@ TEST_F(RenderCliTest, BadInputExitsTwoNamingTheField) {
 
   result = Render("", dir_ + "/bad3", {"--outputs", "rgb,normals"});
   EXPECT_EQ(result.exit_code, 2);
-  EXPECT_NE(result.err.find("unknown layer 'normals'"), std::string::npos) << result.err;
+  EXPECT_NE(result.err.find("--outputs: unknown layer 'normals'"), std::string::npos) << result.err;
+  result = Render("", dir_ + "/bad3", {"--outputs", ""});  // Not the default set.
+  EXPECT_EQ(result.exit_code, 2);
+  EXPECT_NE(result.err.find("--outputs: unknown layer ''"), std::string::npos) << result.err;
+
+  result = RunCommand({BinPath("pf"), "render", scene_, "--out", dir_ + "/bad5"});
+  EXPECT_EQ(result.exit_code, 2);
+  EXPECT_NE(result.err.find("--cameras: required\nusage: pf render SCENE"), std::string::npos)
+      << result.err;
+  result = RunCommand({BinPath("pf"), "scene", "export", scene_});
+  EXPECT_EQ(result.exit_code, 2);
+  EXPECT_NE(result.err.find("--ply: required"), std::string::npos) << result.err;
 
   result = RunCommand({BinPath("pf"), "render", dir_ + "/missing.pfscene", "--cameras", path,
                        "--out", dir_ + "/bad4"});
   EXPECT_EQ(result.exit_code, 2);
   EXPECT_NE(result.err.find("file not found"), std::string::npos) << result.err;
+}
+
+// pf COMMAND --help prints that command's lines of pf help, on stdout.
+TEST(PfHelp, EveryCommandAnswersHelp) {
+  for (const std::string command :
+       {"synth", "validate", "import", "scene", "render", "bench", "reconstruct", "eval"}) {
+    const testing::CommandResult result = RunCommand({BinPath("pf"), command, "--help"});
+    EXPECT_EQ(result.exit_code, 0) << command << ": " << result.err;
+    EXPECT_NE(result.out.find("usage:"), std::string::npos) << command;
+    EXPECT_NE(result.out.find(command + " "), std::string::npos) << command << ": " << result.out;
+  }
+  const testing::CommandResult render = RunCommand({BinPath("pf"), "render", "-h"});
+  EXPECT_NE(render.out.find("render SCENE --cameras VIEWS.json --out DIR"), std::string::npos)
+      << render.out;
+  EXPECT_EQ(render.out.find("reconstruct CLIP.json"), std::string::npos) << render.out;
 }
 
 TEST_F(RenderCliTest, SceneInfoAndPlyExportRenderTheSame) {

@@ -101,10 +101,20 @@ TEST(SynthCli, BadFlagsAreBadInput) {
   EXPECT_EQ(result.exit_code, 2);
   EXPECT_NE(result.err.find("--out: required"), std::string::npos) << result.err;
   const std::string out = testing::MakeTempDir("synth_cli_bad");
-  result = RunCommand({BinPath("pf"), "synth", "--out", out, "--width", "4"});
+  result = RunCommand({BinPath("pf"), "synth", "--out", out, "--width", "4", "--height", "48"});
   EXPECT_EQ(result.exit_code, 2);
   EXPECT_NE(result.err.find("--width: must be in [16, 8192], got 4"), std::string::npos)
       << result.err;
+  result = RunCommand({BinPath("pf"), "synth", "--out", out + "/w", "--width", "64"});
+  EXPECT_EQ(result.exit_code, 2);
+  EXPECT_NE(result.err.find("--height: required with --width"), std::string::npos) << result.err;
+  result = RunCommand({BinPath("pf"), "synth", "--out", out + "/w", "--height", "48"});
+  EXPECT_NE(result.err.find("--width: required with --height"), std::string::npos) << result.err;
+  const std::string file = out + "/a_file";
+  std::ofstream(file) << "x";
+  result = RunCommand({BinPath("pf"), "synth", "--out", file});
+  EXPECT_EQ(result.exit_code, 2);
+  EXPECT_NE(result.err.find("--out: '" + file + "' is a file"), std::string::npos) << result.err;
   result = RunCommand({BinPath("pf"), "synth", "--out", out, "--seed", "abc"});
   EXPECT_EQ(result.exit_code, 2);
   EXPECT_NE(result.err.find("seed"), std::string::npos) << result.err;

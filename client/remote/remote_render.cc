@@ -106,7 +106,7 @@ absl::StatusOr<int> RunRemoteRender(RemoteContext& ctx, const std::vector<std::s
   std::set<std::string> bool_flags = kReconBoolFlags;
   bool_flags.insert("wait");
   ASSIGN_OR_RETURN(const CommandLine cl, CommandLine::Parse(args, value_flags, bool_flags));
-  if (!cl.Has("cameras")) return absl::InvalidArgumentError(kUsage);
+  RETURN_IF_ERROR(cl.Require({"cameras"}, kUsage));
   if (cl.Has("wait") && !cl.Has("out")) {
     return absl::InvalidArgumentError("--wait needs --out DIR to download the outputs into");
   }

@@ -1,6 +1,9 @@
 // Job and scene names as the user types them, turned into resource names.
 #include "client/remote/resource_names.h"
 
+#include <filesystem>
+#include <system_error>
+
 #include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
 
@@ -47,6 +50,14 @@ absl::StatusOr<std::string> OperationNameFor(const std::string& id) {
 }
 
 absl::StatusOr<std::string> SceneNameFor(const std::string& id) {
+  std::error_code ec;
+  if (!absl::StartsWith(id, kScenes) && std::filesystem::is_regular_file(id, ec)) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "'", id,
+        "' is a file on this machine; with --server (or PF_SERVER), SCENE names a scene on the "
+        "server (scenes/ID or ID, as pf scene create and pf scene list print). For a local "
+        "scene file, run the command without --server"));
+  }
   const std::string bare = StripPrefix(id, kScenes);
   if (const absl::Status status = CheckId(id, bare, "scenes/ID or ID"); !status.ok()) {
     return status;

@@ -17,7 +17,8 @@ namespace pf {
 absl::StatusOr<std::string> OperationNameFor(const std::string& id);
 
 // Returns the scene name of `id` ("scenes/X" or a bare "X"); anything else is
-// INVALID_ARGUMENT.
+// INVALID_ARGUMENT, and so is a bare X that is a file here (a local scene
+// given to a remote command: the message says to run without --server).
 absl::StatusOr<std::string> SceneNameFor(const std::string& id);
 
 }  // namespace pf

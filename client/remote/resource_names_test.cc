@@ -3,6 +3,8 @@
 
 #include <gtest/gtest.h>
 
+#include <fstream>
+
 namespace pf {
 namespace {
 
@@ -34,6 +36,20 @@ TEST(SceneNameFor, AddsThePrefixOnce) {
   EXPECT_EQ(*SceneNameFor("scenes/s1"), "scenes/s1");
   EXPECT_FALSE(SceneNameFor("renderJobs/r1").ok());
   EXPECT_FALSE(SceneNameFor("scenes/").ok());
+}
+
+// A local scene file given to a remote command: say what SCENE means there.
+TEST(SceneNameFor, ALocalFileIsNotTakenForAServerScene) {
+  const std::string path = ::testing::TempDir() + "/local.pfscene";
+  std::ofstream(path) << "x";
+  const absl::StatusOr<std::string> name = SceneNameFor(path);
+  EXPECT_EQ(name.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(std::string(name.status().message()).find("is a file on this machine"),
+            std::string::npos)
+      << name.status();
+  EXPECT_NE(std::string(name.status().message()).find("run the command without --server"),
+            std::string::npos);
+  EXPECT_EQ(*SceneNameFor("scenes/local.pfscene"), "scenes/local.pfscene");  // Explicit.
 }
 
 }  // namespace

@@ -530,14 +530,9 @@ std::string ClipProblem::ToString() const {
   return field.empty() ? message : absl::StrCat(field, ": ", message);
 }
 
-absl::StatusOr<LoadedClip> ParseClip(const std::string& json, const std::string& dir,
-                                     std::vector<ClipProblem>* problems) {
+absl::Status ParseJsonMessage(const std::string& json, google::protobuf::Message* message,
+                              std::vector<ClipProblem>* problems) {
   std::vector<ClipProblem> found;
-  LoadedClip loaded;
-  std::error_code ec;  // fs::absolute fails only without a working directory.
-  loaded.dir = fs::absolute(dir.empty() ? "." : dir, ec).lexically_normal().string();
-  if (loaded.dir.size() > 1 && loaded.dir.back() == '/') loaded.dir.pop_back();
-
   Json root;
   bool well_formed = true;
   try {
@@ -557,11 +552,20 @@ absl::StatusOr<LoadedClip> ParseClip(const std::string& json, const std::string&
       found.push_back(
           {"", absl::StrCat("expected a JSON object at the top level, got ", Describe(root))});
     } else {
-      ManifestReader(&found).ReadMessage(root, "", &loaded.clip);
+      ManifestReader(&found).ReadMessage(root, "", message);
     }
   }
   if (problems != nullptr) problems->insert(problems->end(), found.begin(), found.end());
-  if (!found.empty()) return ProblemsToStatus(found);
+  return found.empty() ? absl::OkStatus() : ProblemsToStatus(found);
+}
+
+absl::StatusOr<LoadedClip> ParseClip(const std::string& json, const std::string& dir,
+                                     std::vector<ClipProblem>* problems) {
+  LoadedClip loaded;
+  std::error_code ec;  // fs::absolute fails only without a working directory.
+  loaded.dir = fs::absolute(dir.empty() ? "." : dir, ec).lexically_normal().string();
+  if (loaded.dir.size() > 1 && loaded.dir.back() == '/') loaded.dir.pop_back();
+  RETURN_IF_ERROR(ParseJsonMessage(json, &loaded.clip, problems));
   return loaded;
 }
 

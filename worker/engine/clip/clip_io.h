@@ -42,6 +42,15 @@ struct LoadedClip {
   std::string dir;  // The manifest's directory (absolute, normalised).
 };
 
+// Parses JSON text `json` into `message` (any proto message) by the
+// manifest's rules: proto3 JSON names, types checked, duplicate keys and
+// unknown fields refused (with a "did you mean"), each problem naming its
+// field path (`views[0].timestampUs`). Every problem found is appended to
+// `problems` (if non-null) and the result is then INVALID_ARGUMENT whose
+// message lists them one per line.
+absl::Status ParseJsonMessage(const std::string& json, google::protobuf::Message* message,
+                              std::vector<ClipProblem>* problems = nullptr);
+
 // Parses manifest text `json`; relative paths in it will resolve against
 // `dir`. Every problem found is appended to `problems` (if non-null) and the
 // result is then INVALID_ARGUMENT whose message lists them one per line.

@@ -510,6 +510,28 @@ ClipReport ValidateClipFile(const std::string& path, const ValidateOptions& opti
   return ValidateClip(*loaded, options);
 }
 
+absl::StatusOr<LoadedClip> LoadValidClip(const std::string& path, const ValidateOptions& options) {
+  std::vector<ClipProblem> problems;
+  absl::StatusOr<LoadedClip> loaded = LoadClip(path, &problems);
+  if (!loaded.ok() &&
+      (problems.empty() || loaded.status().code() != absl::StatusCode::kInvalidArgument)) {
+    return loaded.status();
+  }
+  if (loaded.ok()) problems = ValidateClip(*loaded, options).problems;
+  if (problems.empty()) return loaded;
+  auto line = [&](const ClipProblem& problem) {
+    // Problems about the whole document carry no field: name the file.
+    const std::string text = problem.ToString();
+    return problem.field.empty() && text.rfind(path, 0) != 0 ? absl::StrCat(path, ": ", text)
+                                                             : text;
+  };
+  if (problems.size() == 1) return absl::InvalidArgumentError(line(problems[0]));
+  std::string message =
+      absl::StrCat(path, ": ", problems.size(), " problems (pf validate lists them):");
+  for (const ClipProblem& problem : problems) absl::StrAppend(&message, "\n  ", line(problem));
+  return absl::InvalidArgumentError(message);
+}
+
 absl::StatusOr<std::string> ResolveClipPath(const LoadedClip& loaded, const std::string& relative,
                                             bool allow_outside) {
   return ResolvePath(loaded.dir, relative,

@@ -65,6 +65,13 @@ ClipReport ValidateClip(const LoadedClip& loaded, const ValidateOptions& options
 // semantic checks run only when parsing succeeded.
 ClipReport ValidateClipFile(const std::string& path, const ValidateOptions& options);
 
+// Loads the manifest at `path` and validates it (ValidateClipFile), for a
+// command that goes on to use the clip, so that it stops before any work
+// with what `pf validate` would say: INVALID_ARGUMENT with every problem,
+// one per line, after "PATH: N problems (pf validate lists them):" when
+// there are several; NOT_FOUND when the file does not exist.
+absl::StatusOr<LoadedClip> LoadValidClip(const std::string& path, const ValidateOptions& options);
+
 // Resolves `relative` (a path written in the manifest) against the clip's
 // directory. Absolute paths and paths that leave the directory (by ".." or a
 // symbolic link) are INVALID_ARGUMENT unless `allow_outside`.

@@ -138,6 +138,37 @@ TEST(ClipValidator, ReportsEveryProblemInManifestOrder) {
   EXPECT_EQ(report.problems[3].field, "instances[0].boxes[0].size[0]");
 }
 
+// What pf reconstruct and pf eval load: the clip when it is valid, else one
+// error with pf validate's lines.
+TEST(ClipValidator, LoadValidClipStopsWithEveryProblem) {
+  const std::string dir = MakeTempDir("clip_load_valid");
+  Clip clip = MakeTestClip(dir);
+  const std::string path = testing::WriteTestClip(dir, clip);
+  absl::StatusOr<LoadedClip> loaded = LoadValidClip(path, {});
+  ASSERT_TRUE(loaded.ok()) << loaded.status();
+  EXPECT_EQ(loaded->clip.frames_size(), 6);
+
+  clip.mutable_frames(4)->clear_camera();  // A TARGET frame: reconstruction never reads it.
+  testing::WriteTestClip(dir, clip);
+  loaded = LoadValidClip(path, {});
+  EXPECT_EQ(loaded.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(loaded.status().message(), "frames[4].camera: missing (the id of one of the cameras)");
+
+  clip.mutable_cameras(1)->set_width(0);
+  testing::WriteTestClip(dir, clip);
+  loaded = LoadValidClip(path, {});
+  EXPECT_EQ(loaded.status().code(), absl::StatusCode::kInvalidArgument);
+  const std::string message(loaded.status().message());
+  EXPECT_EQ(message.rfind(path + ": ", 0), 0u) << message;
+  EXPECT_NE(message.find("problems (pf validate lists them):\n  cameras[1].width: "),
+            std::string::npos)
+      << message;
+  EXPECT_NE(message.find("\n  frames[4].camera: missing"), std::string::npos) << message;
+
+  EXPECT_EQ(LoadValidClip(dir + "/none.json", {}).status().code(), absl::StatusCode::kNotFound);
+  EXPECT_EQ(LoadValidClip(dir, {}).status().message(), dir + ": is a directory, not a file");
+}
+
 TEST(ClipValidator, SkipsFilesWhenAsked) {
   const std::string dir = MakeTempDir("clip_nofiles");
   Clip clip = MakeTestClip(dir);

@@ -13,7 +13,8 @@ const std::set<std::string>& ReconValueFlags() {
 }
 
 const std::set<std::string>& ReconBoolFlags() {
-  static const std::set<std::string> flags = {"no-lifespan", "no-ground-fill", "no-facades"};
+  static const std::set<std::string> flags = {"no-lifespan", "no-ground-fill", "no-facades",
+                                              "allow-outside-paths"};
   return flags;
 }
 
@@ -62,6 +63,7 @@ absl::StatusOr<ReconOptions> ReconOptionsFromFlags(const CommandLine& cl) {
   options.fusion.lifespan = !cl.Has("no-lifespan");
   options.completion.ground_fill = !cl.Has("no-ground-fill");
   options.completion.facades = !cl.Has("no-facades");
+  options.allow_outside_paths = cl.Has("allow-outside-paths");
   ASSIGN_OR_RETURN(options.decoder.tangent_sigma,
                    cl.GetDouble("splat-sigma", options.decoder.tangent_sigma));
   if (!(options.decoder.tangent_sigma > 0.05 && options.decoder.tangent_sigma <= 4)) {

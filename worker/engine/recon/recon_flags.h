@@ -16,7 +16,9 @@
 //                                    (default 0.1; 0.3 is the 3DGS one)
 //   --hidden-band PX                 hidden queries behind depth edges within PX
 //                                    pixels (sparse_sampling.h; default 64, 0: none)
-//   --device cpu|cuda:N              where fusion's tensor work runs (compute_device.h)
+//   --device cpu|cuda[:N]              where fusion's tensor work runs (compute_device.h)
+//   --allow-outside-paths            accept manifest paths that are absolute or leave
+//                                    the clip's directory (as pf validate does)
 #ifndef POINTFORWARD_WORKER_ENGINE_RECON_RECON_FLAGS_H_
 #define POINTFORWARD_WORKER_ENGINE_RECON_RECON_FLAGS_H_
 

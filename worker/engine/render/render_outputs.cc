@@ -109,9 +109,8 @@ absl::StatusOr<OutputChannels> ParseOutputChannels(const std::vector<std::string
     } else if (name == "filled") {
       out.filled = true;
     } else {
-      return absl::InvalidArgumentError(
-          absl::StrCat("--outputs: unknown layer '", name,
-                       "' (use rgb, alpha, depth, features, instance, filled)"));
+      return absl::InvalidArgumentError(absl::StrCat(
+          "unknown layer '", name, "' (use rgb, alpha, depth, features, instance, filled)"));
     }
   }
   return out;

@@ -67,7 +67,8 @@ struct OutputChannels {
 
 // Parses layer names ("rgb", "alpha", "depth", "features", "instance",
 // "filled"); an empty list selects the first five (filled is only written
-// when named). INVALID_ARGUMENT naming an unknown layer.
+// when named). INVALID_ARGUMENT naming an unknown layer (the caller adds
+// the field or flag it came from).
 absl::StatusOr<OutputChannels> ParseOutputChannels(const std::vector<std::string>& names);
 
 // Returns the EXR channel names for `channels` and `num_features` channels,

@@ -15,6 +15,7 @@
 #include "common/status_macros.h"
 #include "pointforward/v1/views.pb.h"
 #include "worker/engine/camera/camera_model.h"
+#include "worker/engine/clip/clip_io.h"
 
 namespace pf {
 namespace {
@@ -120,16 +121,9 @@ std::vector<double> DistortionCoefficients(const v1::Distortion& d) {
 absl::StatusOr<RenderRequest> ParseRenderViews(const std::string& json,
                                                const GaussianScene& scene) {
   v1::RenderViews message;
-  google::protobuf::util::JsonParseOptions options;
-  options.ignore_unknown_fields = false;
-  try {
-    const auto status = google::protobuf::util::JsonStringToMessage(json, &message, options);
-    if (!status.ok()) {
-      return absl::InvalidArgumentError(
-          absl::StrCat("not a RenderViews JSON: ", std::string(status.message())));
-    }
-  } catch (const std::exception& e) {
-    return absl::InvalidArgumentError(absl::StrCat("not a RenderViews JSON: ", e.what()));
+  if (const absl::Status parsed = ParseJsonMessage(json, &message); !parsed.ok()) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("not a RenderViews JSON: ", std::string(parsed.message())));
   }
 
   // Cameras by id.

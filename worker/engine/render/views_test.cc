@@ -121,8 +121,12 @@ TEST(RenderViews, ErrorsNameTheField) {
             std::string::npos);
   EXPECT_EQ(ErrorFor("[0,0,1,5, -1,0,0,2, 0,-1,0,1.5, 0,0,0,1]", "[1,0,0,0]"),
             "views[0].worldFromCamera: expected 16 numbers (4x4 row-major), got 4");
-  EXPECT_NE(ErrorFor(R"("timestampUs": 42)", R"("timestampUs": 42, "colour": 1)")
-                .find("not a RenderViews JSON"),
+  // JSON-level problems read as the clip manifest's do: field paths in
+  // JSON names, a suggestion for a misspelt field.
+  EXPECT_EQ(ErrorFor(R"("timestampUs": 42)", R"("timestampUs": 42, "nmae": "x")"),
+            "not a RenderViews JSON: views[1].nmae: unknown field (did you mean 'name'?)");
+  EXPECT_NE(ErrorFor(R"("timestampUs": 42)", R"("timestampUs": "abc")")
+                .find("not a RenderViews JSON: views[1].timestampUs: "),
             std::string::npos);
   EXPECT_NE(ErrorFor(R"("edits": [)", R"("edits": {)").find("not a RenderViews JSON"),
             std::string::npos);
