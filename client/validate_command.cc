@@ -6,7 +6,6 @@
 #include <string>
 #include <vector>
 
-#include "absl/strings/str_cat.h"
 #include "client/commands.h"
 #include "common/command_line.h"
 #include "worker/engine/clip/clip_validator.h"
@@ -30,11 +29,7 @@ int RunValidate(const std::vector<std::string>& args) {
     return kExitOk;
   }
   for (const ClipProblem& problem : report.problems) {
-    // Problems about the whole document (malformed JSON) carry no field: name
-    // the file instead, unless the message already starts with it.
-    std::string line = problem.ToString();
-    if (problem.field.empty() && line.rfind(path, 0) != 0) line = absl::StrCat(path, ": ", line);
-    std::printf("%s\n", line.c_str());
+    std::printf("%s\n", ClipProblemLine(problem, path).c_str());
   }
   std::fflush(stdout);
   std::fprintf(stderr, "pf validate: %zu problem%s in %s\n", report.problems.size(),

@@ -27,6 +27,16 @@ using testing::RunCommand;
 
 std::string Pf() { return testing::BinPath("pf"); }
 
+// Hidden Gaussians (agreement 0, gaussian_decoder.h) continue the background
+// behind depth edges.
+int64_t HiddenGaussians(const GaussianScene& scene) {
+  int64_t hidden = 0;
+  for (size_t i = 0; i < scene.size(); ++i) {
+    hidden += scene.features[i * scene.num_channels + kAgreementChannel] == 0.f;
+  }
+  return hidden;
+}
+
 // One small synth clip and the evals of both models, shared by the tests.
 class ReconCli : public ::testing::Test {
  protected:
@@ -48,6 +58,18 @@ class ReconCli : public ::testing::Test {
   static std::string Clip() { return *dir_ + "/clip/clip.json"; }
   static nlohmann::json Report(const std::string& model) {
     return ReadJsonFile(*dir_ + "/eval_" + model + "/report.json");
+  }
+  // Reconstructs the clip with N_s 2000 and `extra` flags and returns the
+  // scene written (empty, with a failure recorded, if there is none).
+  static GaussianScene ReconstructWith(const std::vector<std::string>& extra) {
+    const std::string path = *dir_ + "/with_flags.pfscene";
+    std::vector<std::string> argv = {Pf(), "reconstruct", Clip(), "--out", path, "--ns", "2000"};
+    argv.insert(argv.end(), extra.begin(), extra.end());
+    const CommandResult result = RunCommand(argv);
+    EXPECT_EQ(result.exit_code, 0) << result.err;
+    absl::StatusOr<SceneFile> file = ReadSceneFile(path);
+    EXPECT_TRUE(file.ok()) << file.status();
+    return file.ok() ? file->scene : GaussianScene{};
   }
   static std::string* dir_;
 };
@@ -118,13 +140,10 @@ TEST_F(ReconCli, ReconstructWritesALoadableSceneAndASummary) {
   const GaussianScene& scene = file->scene;
   EXPECT_EQ(file->metadata.at("model"), "analytic");
   EXPECT_EQ(scene.instances.size(), 4u);
-  size_t dynamic = 0, hidden = 0;
+  size_t dynamic = 0;
   for (uint32_t owner : scene.owners) dynamic += owner != 0;
-  // Hidden Gaussians (agreement 0, gaussian_decoder.h) continue the
-  // background behind depth edges: extra to the paper's count.
-  for (size_t i = 0; i < scene.size(); ++i) {
-    hidden += scene.features[i * scene.num_channels + kAgreementChannel] == 0.f;
-  }
+  // Hidden Gaussians are extra to the paper's count.
+  const size_t hidden = static_cast<size_t>(HiddenGaussians(scene));
   EXPECT_GT(hidden, 0u);
   EXPECT_GT(dynamic, 0u);
   EXPECT_LE(dynamic, 4u * 300);  // N_d per instance.
@@ -140,22 +159,12 @@ TEST_F(ReconCli, ReconstructWritesALoadableSceneAndASummary) {
 // and a narrower band gives fewer (sparse_sampling_test.cc checks where
 // they go).
 TEST_F(ReconCli, HiddenBandSetsHowManyHiddenGaussiansThereAre) {
-  auto hidden_count = [&](const std::vector<std::string>& extra) -> int64_t {
-    const std::string path = *dir_ + "/hidden.pfscene";
-    std::vector<std::string> argv = {Pf(), "reconstruct", Clip(), "--out", path, "--ns", "2000"};
-    argv.insert(argv.end(), extra.begin(), extra.end());
-    const CommandResult result = RunCommand(argv);
-    EXPECT_EQ(result.exit_code, 0) << result.err;
-    absl::StatusOr<SceneFile> file = ReadSceneFile(path);
-    if (!file.ok()) return -1;
-    const GaussianScene& scene = file->scene;
-    int64_t hidden = 0;
-    for (size_t i = 0; i < scene.size(); ++i) {
-      hidden += scene.features[i * scene.num_channels + kAgreementChannel] == 0.f;
-    }
-    return hidden;
+  auto hidden_count = [](const std::vector<std::string>& extra) {
+    return HiddenGaussians(ReconstructWith(extra));
   };
-  EXPECT_EQ(hidden_count({"--hidden-band", "0"}), 0);
+  const GaussianScene none = ReconstructWith({"--hidden-band", "0"});
+  ASSERT_GT(none.size(), 0u);
+  EXPECT_EQ(HiddenGaussians(none), 0);
   const int64_t narrow = hidden_count({"--hidden-band", "4"});
   const int64_t wide = hidden_count({});
   EXPECT_GT(narrow, 0);
@@ -228,23 +237,13 @@ TEST_F(ReconCli, AblationFlagsAreRecordedInTheReport) {
 // Gaussian fades (the default gives a few finite ones, 15 of 13,842 here:
 // views that disagree in time), and plain averaging gives other colours.
 TEST_F(ReconCli, AblationFlagsChangeTheScene) {
-  auto scene = [&](const std::vector<std::string>& extra) -> GaussianScene {
-    const std::string path = *dir_ + "/ablation.pfscene";
-    std::vector<std::string> argv = {Pf(), "reconstruct", Clip(), "--out", path, "--ns", "2000"};
-    argv.insert(argv.end(), extra.begin(), extra.end());
-    const CommandResult result = RunCommand(argv);
-    EXPECT_EQ(result.exit_code, 0) << result.err;
-    absl::StatusOr<SceneFile> file = ReadSceneFile(path);
-    EXPECT_TRUE(file.ok()) << file.status();
-    return file.ok() ? file->scene : GaussianScene{};
-  };
   auto finite_lifespans = [](const GaussianScene& s) {
     return std::count_if(s.lifespans.begin(), s.lifespans.end(),
                          [](float l) { return std::isfinite(l); });
   };
-  const GaussianScene base = scene({});
-  const GaussianScene no_lifespan = scene({"--no-lifespan"});
-  const GaussianScene average = scene({"--fusion", "average"});
+  const GaussianScene base = ReconstructWith({});
+  const GaussianScene no_lifespan = ReconstructWith({"--no-lifespan"});
+  const GaussianScene average = ReconstructWith({"--fusion", "average"});
   ASSERT_GT(base.size(), 0u);
   EXPECT_GT(finite_lifespans(base), 0);
   EXPECT_EQ(finite_lifespans(no_lifespan), 0);

@@ -519,17 +519,19 @@ absl::StatusOr<LoadedClip> LoadValidClip(const std::string& path, const Validate
   }
   if (loaded.ok()) problems = ValidateClip(*loaded, options).problems;
   if (problems.empty()) return loaded;
-  auto line = [&](const ClipProblem& problem) {
-    // Problems about the whole document carry no field: name the file.
-    const std::string text = problem.ToString();
-    return problem.field.empty() && text.rfind(path, 0) != 0 ? absl::StrCat(path, ": ", text)
-                                                             : text;
-  };
-  if (problems.size() == 1) return absl::InvalidArgumentError(line(problems[0]));
+  if (problems.size() == 1) return absl::InvalidArgumentError(ClipProblemLine(problems[0], path));
   std::string message =
       absl::StrCat(path, ": ", problems.size(), " problems (pf validate lists them):");
-  for (const ClipProblem& problem : problems) absl::StrAppend(&message, "\n  ", line(problem));
+  for (const ClipProblem& problem : problems) {
+    absl::StrAppend(&message, "\n  ", ClipProblemLine(problem, path));
+  }
   return absl::InvalidArgumentError(message);
+}
+
+std::string ClipProblemLine(const ClipProblem& problem, const std::string& path) {
+  std::string line = problem.ToString();
+  if (problem.field.empty() && line.rfind(path, 0) != 0) line = absl::StrCat(path, ": ", line);
+  return line;
 }
 
 absl::StatusOr<std::string> ResolveClipPath(const LoadedClip& loaded, const std::string& relative,

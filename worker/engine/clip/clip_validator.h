@@ -65,11 +65,17 @@ ClipReport ValidateClip(const LoadedClip& loaded, const ValidateOptions& options
 // semantic checks run only when parsing succeeded.
 ClipReport ValidateClipFile(const std::string& path, const ValidateOptions& options);
 
-// Loads the manifest at `path` and validates it (ValidateClipFile), for a
-// command that goes on to use the clip, so that it stops before any work
-// with what `pf validate` would say: INVALID_ARGUMENT with every problem,
-// one per line, after "PATH: N problems (pf validate lists them):" when
-// there are several; NOT_FOUND when the file does not exist.
+// Returns `problem` as pf validate prints it for the manifest at `path`:
+// "field: message", or for a problem about the whole document (no field,
+// e.g. malformed JSON) the message prefixed by the path unless it already
+// starts with it.
+std::string ClipProblemLine(const ClipProblem& problem, const std::string& path);
+
+// Loads the manifest at `path` and validates it as ValidateClipFile does, for
+// a command that goes on to use the clip, so that it stops before any work
+// with what `pf validate` would say: INVALID_ARGUMENT with every problem
+// (ClipProblemLine), one per line, after "PATH: N problems (pf validate lists
+// them):" when there are several; NOT_FOUND when the file does not exist.
 absl::StatusOr<LoadedClip> LoadValidClip(const std::string& path, const ValidateOptions& options);
 
 // Resolves `relative` (a path written in the manifest) against the clip's

@@ -5,11 +5,13 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <limits>
 #include <random>
 #include <string>
+#include <vector>
 
 #include "worker/engine/render/bench_scene.h"
 #include "worker/engine/render/raster_tile.h"
@@ -329,23 +331,41 @@ TEST(Rasterizer, FaintGaussianHasSmallerExtent) {
   EXPECT_NEAR(static_cast<double>(faint) / strong, std::log(5.1) / std::log(229.5), 0.05);
 }
 
-TEST(Rasterizer, ShColourSeenAlongViewDirection) {
+// The colour of one near-opaque Gaussian (opacity 0.999, alpha 0.99 at its
+// centre) with spherical harmonics `sh` of `degree`, at its pixel (45, 20),
+// and the direction it is seen along.
+struct ShPixel {
+  std::array<float, 3> rgb{};
+  Vec3 direction;
+};
+
+ShPixel RenderShGaussian(int degree, std::vector<float> sh) {
   const RenderCamera camera = SimpleCamera();
   GaussianScene scene;
-  scene.sh_degree = 1;
+  scene.sh_degree = degree;
   const Vec3 mean = PointAtPixel(45, 20, 2.0, camera);
   AddGaussian(&scene, mean, 0.2, 0.999, {0, 0, 0});
+  scene.sh = std::move(sh);
+  ShPixel out;
+  out.direction = Normalized(mean);
+  absl::StatusOr<RenderBuffers> buffers = Render(scene, camera, 0, {});
+  EXPECT_TRUE(buffers.ok()) << buffers.status();
+  if (!buffers.ok()) return out;
+  for (int c = 0; c < 3; ++c) out.rgb[c] = buffers->rgb[3 * Pixel(*buffers, 45, 20) + c];
+  return out;
+}
+
+TEST(Rasterizer, ShColourSeenAlongViewDirection) {
   // Per channel: dc, then the three degree-1 coefficients.
-  scene.sh = {0.5, 0.1, 0.2, 0.3, -0.4, 0.0, 0.0, 0.6, 1.0, -0.3, 0.1, 0.0};
-  absl::StatusOr<RenderBuffers> out = Render(scene, camera, 0, {});
-  ASSERT_TRUE(out.ok()) << out.status();
-  const Vec3 d = Normalized(mean);
+  const std::vector<float> sh = {0.5, 0.1, 0.2, 0.3, -0.4, 0.0, 0.0, 0.6, 1.0, -0.3, 0.1, 0.0};
+  const ShPixel out = RenderShGaussian(1, sh);
+  const Vec3& d = out.direction;
   const double c0 = 0.28209479177387814, c1 = 0.4886025119029199;
   for (int c = 0; c < 3; ++c) {
-    const float* k = &scene.sh[4 * c];
+    const float* k = &sh[4 * c];
     const double expected =
         std::max(0.0, c0 * k[0] - c1 * d.y * k[1] + c1 * d.z * k[2] - c1 * d.x * k[3] + 0.5);
-    EXPECT_NEAR(out->rgb[3 * Pixel(*out, 45, 20) + c], 0.99 * expected, 1e-5) << c;
+    EXPECT_NEAR(out.rgb[c], 0.99 * expected, 1e-5) << c;
   }
 }
 
@@ -353,21 +373,15 @@ TEST(Rasterizer, ShColourSeenAlongViewDirection) {
 // spherical harmonics written out here (normalisations from their
 // definitions, signs as 3DGS uses them), not raster_sh.h's table.
 TEST(Rasterizer, ShColourOfDegreesTwoAndThree) {
-  const RenderCamera camera = SimpleCamera();
-  GaussianScene scene;
-  scene.sh_degree = 3;
-  const Vec3 mean = PointAtPixel(45, 20, 2.0, camera);
-  AddGaussian(&scene, mean, 0.2, 0.999, {0, 0, 0});
-  scene.sh.assign(3 * 16, 0.f);
-  for (int c = 0; c < 3; ++c) scene.sh[16 * c] = 0.3f;
-  scene.sh[6] = 0.7f;        // Red: degree 2, m = 0.
-  scene.sh[16 + 10] = 0.9f;  // Green: degree 3, x y z.
-  scene.sh[32 + 15] = 0.8f;  // Blue: degree 3, x (x^2 - 3 y^2) ...
-  scene.sh[32 + 8] = -0.6f;  // ... and degree 2, x^2 - y^2.
-  absl::StatusOr<RenderBuffers> out = Render(scene, camera, 0, {});
-  ASSERT_TRUE(out.ok()) << out.status();
-  const Vec3 d = Normalized(mean);
-  const double x = d.x, y = d.y, z = d.z, pi = std::acos(-1.0);
+  std::vector<float> sh(3 * 16, 0.f);
+  for (int c = 0; c < 3; ++c) sh[16 * c] = 0.3f;
+  sh[6] = 0.7f;        // Red: degree 2, m = 0.
+  sh[16 + 10] = 0.9f;  // Green: degree 3, x y z.
+  sh[32 + 15] = 0.8f;  // Blue: degree 3, x (x^2 - 3 y^2) ...
+  sh[32 + 8] = -0.6f;  // ... and degree 2, x^2 - y^2.
+  const ShPixel out = RenderShGaussian(3, sh);
+  const double x = out.direction.x, y = out.direction.y, z = out.direction.z;
+  const double pi = std::acos(-1.0);
   ASSERT_GT(std::abs(x * y), 1e-3);  // Off-axis, so every term counts.
   const double dc = 0.3 * 0.5 / std::sqrt(pi);
   const double red = dc + 0.7 * std::sqrt(5 / pi) / 4 * (2 * z * z - x * x - y * y);
@@ -376,9 +390,7 @@ TEST(Rasterizer, ShColourOfDegreesTwoAndThree) {
                       0.6 * std::sqrt(15 / pi) / 4 * (x * x - y * y);
   const double expected[3] = {red, green, blue};
   for (int c = 0; c < 3; ++c) {
-    EXPECT_NEAR(out->rgb[3 * Pixel(*out, 45, 20) + c], 0.99 * std::max(0.0, expected[c] + 0.5),
-                1e-5)
-        << c;
+    EXPECT_NEAR(out.rgb[c], 0.99 * std::max(0.0, expected[c] + 0.5), 1e-5) << c;
   }
 }
 

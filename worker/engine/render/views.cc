@@ -1,8 +1,6 @@
 // RenderViews JSON: parsing and checking against the scene.
 #include "worker/engine/render/views.h"
 
-#include <google/protobuf/util/json_util.h>
-
 #include <algorithm>
 #include <cctype>
 #include <cmath>
