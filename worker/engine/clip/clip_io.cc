@@ -598,6 +598,9 @@ std::vector<ClipFileRef> ReferencedFiles(const pointforward::v1::Clip& clip) {
   auto add = [&](std::string field, const std::string& path) {
     if (!path.empty() && seen.insert(path).second) refs.push_back({std::move(field), path});
   };
+  for (int i = 0; i < clip.cameras_size(); ++i) {
+    add(absl::StrCat("cameras[", i, "].egoMask"), clip.cameras(i).ego_mask());
+  }
   for (int i = 0; i < clip.frames_size(); ++i) {
     add(absl::StrCat("frames[", i, "].image"), clip.frames(i).image());
     add(absl::StrCat("frames[", i, "].depth"), clip.frames(i).depth());

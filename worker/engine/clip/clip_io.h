@@ -74,11 +74,12 @@ absl::Status SaveClip(const pointforward::v1::Clip& clip, const std::string& pat
 
 // A file the manifest references, as written in it.
 struct ClipFileRef {
-  std::string field;  // "frames[3].image", "frames[3].depth", "lidar[0].points".
+  std::string field;  // "frames[3].image", "cameras[0].egoMask", "lidar[0].points".
   std::string path;
 };
 
-// Every file `clip` references (frame images and depth maps, LiDAR sweeps),
+// Every file `clip` references (cameras' ego masks, frame images and depth
+// maps, LiDAR sweeps),
 // in manifest order; a path named twice is listed once, at its first field.
 std::vector<ClipFileRef> ReferencedFiles(const pointforward::v1::Clip& clip);
 

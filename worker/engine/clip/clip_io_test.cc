@@ -253,8 +253,10 @@ TEST(ClipIo, ClipToJsonUsesManifestSpelling) {
 namespace pf {
 namespace {
 
-TEST(ReferencedFilesTest, ListsImagesDepthsAndSweepsOnceEachInManifestOrder) {
+TEST(ReferencedFilesTest, ListsMasksImagesDepthsAndSweepsOnceEachInManifestOrder) {
   pointforward::v1::Clip clip;
+  clip.add_cameras()->set_ego_mask("masks/front.png");
+  clip.add_cameras();  // No mask: not listed.
   auto* f0 = clip.add_frames();
   f0->set_image("images/a.png");
   f0->set_depth("depth/a.exr");
@@ -265,15 +267,17 @@ TEST(ReferencedFilesTest, ListsImagesDepthsAndSweepsOnceEachInManifestOrder) {
   clip.add_lidar();  // No path: not listed.
 
   const std::vector<ClipFileRef> refs = ReferencedFiles(clip);
-  ASSERT_EQ(refs.size(), 4u);
-  EXPECT_EQ(refs[0].field, "frames[0].image");
-  EXPECT_EQ(refs[0].path, "images/a.png");
-  EXPECT_EQ(refs[1].field, "frames[0].depth");
-  EXPECT_EQ(refs[1].path, "depth/a.exr");
-  EXPECT_EQ(refs[2].field, "frames[1].image");
-  EXPECT_EQ(refs[2].path, "images/b.png");
-  EXPECT_EQ(refs[3].field, "lidar[0].points");
-  EXPECT_EQ(refs[3].path, "lidar/0.bin");
+  ASSERT_EQ(refs.size(), 5u);
+  EXPECT_EQ(refs[0].field, "cameras[0].egoMask");
+  EXPECT_EQ(refs[0].path, "masks/front.png");
+  EXPECT_EQ(refs[1].field, "frames[0].image");
+  EXPECT_EQ(refs[1].path, "images/a.png");
+  EXPECT_EQ(refs[2].field, "frames[0].depth");
+  EXPECT_EQ(refs[2].path, "depth/a.exr");
+  EXPECT_EQ(refs[3].field, "frames[1].image");
+  EXPECT_EQ(refs[3].path, "images/b.png");
+  EXPECT_EQ(refs[4].field, "lidar[0].points");
+  EXPECT_EQ(refs[4].path, "lidar/0.bin");
 }
 
 }  // namespace

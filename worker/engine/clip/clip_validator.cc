@@ -44,7 +44,7 @@ std::string SizeText(int width, int height) { return absl::StrCat(width, "x", he
 
 // A referenced file to open, and what it must satisfy.
 struct FileCheck {
-  enum class Kind { kImage, kDepth, kLidar };
+  enum class Kind { kImage, kDepth, kLidar, kEgoMask };
   Kind kind = Kind::kImage;
   Section section = Section::kFrames;
   int item = 0;
@@ -68,13 +68,22 @@ void RunFileCheck(FileCheck* check) {
     }
   };
   switch (check->kind) {
-    case FileCheck::Kind::kImage: {
+    case FileCheck::Kind::kImage:
+    case FileCheck::Kind::kEgoMask: {
+      const bool is_mask = check->kind == FileCheck::Kind::kEgoMask;
       absl::StatusOr<ImageF> image = ReadImage(check->path);
       if (!image.ok()) {
         add(std::string(image.status().message()));
         return;
       }
-      check_size("image", image->width, image->height);
+      check_size(is_mask ? "mask" : "image", image->width, image->height);
+      if (!is_mask) return;
+      const std::vector<uint8_t> mask = EgoMaskFromImage(*image);
+      if (!mask.empty() &&
+          std::all_of(mask.begin(), mask.end(), [](uint8_t m) { return m != 0; })) {
+        add("every pixel is marked as the ego body (pixels >= 128 of 255 are masked out; "
+            "the rest of the image should be 0)");
+      }
       return;
     }
     case FileCheck::Kind::kDepth: {
@@ -114,6 +123,19 @@ void RunFileCheck(FileCheck* check) {
     }
   }
 }
+
+}  // namespace
+
+std::vector<uint8_t> EgoMaskFromImage(const ImageF& image) {
+  const size_t pixels = static_cast<size_t>(image.width) * image.height;
+  std::vector<uint8_t> mask(pixels, 0);
+  for (size_t i = 0; i < pixels; ++i) {
+    mask[i] = image.pixels[i * image.channels] >= kEgoMaskThreshold ? 1 : 0;
+  }
+  return mask;
+}
+
+namespace {
 
 class ClipChecker {
  public:
@@ -270,6 +292,10 @@ class ClipChecker {
         }
       }
       if (camera.has_distortion()) CheckDistortion(i, at, camera.distortion());
+      if (!camera.ego_mask().empty()) {
+        CheckPath(Section::kCameras, i, at + ".egoMask", camera.ego_mask(),
+                  FileCheck::Kind::kEgoMask, &camera);
+      }
     }
   }
 

@@ -17,12 +17,20 @@
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
 #include "worker/engine/clip/clip_io.h"
+#include "worker/engine/image/image_io.h"
 
 namespace pf {
 
 // Tolerances of the numeric checks.
 inline constexpr double kRigidityTolerance = 1e-3;    // RigidityError() of a pose.
 inline constexpr double kQuaternionTolerance = 1e-3;  // | |q| - 1 | of a box rotation.
+
+// A camera's ego mask (Camera.ego_mask): pixels whose first channel is at
+// least this are the ego vehicle's body.
+inline constexpr float kEgoMaskThreshold = 0.5f;
+
+// Returns the ego mask in `image`: [H, W] 1 on the ego body, 0 elsewhere.
+std::vector<uint8_t> EgoMaskFromImage(const ImageF& image);
 
 struct ValidateOptions {
   // Accept absolute paths and paths that leave the clip directory.

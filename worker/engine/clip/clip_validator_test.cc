@@ -5,6 +5,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <functional>
@@ -78,6 +79,22 @@ TEST(ClipValidator, ValidClipFromFilePasses) {
   const ClipReport report = ValidateClipFile(path, {});
   EXPECT_TRUE(report.ok()) << Dump(report);
   EXPECT_EQ(report.summary.frames, 6);
+}
+
+TEST(ClipValidator, EgoMaskOfTheCamerasSizePasses) {
+  const std::string dir = MakeTempDir("clip_ego");
+  Clip clip = MakeTestClip(dir);
+  ImageF hood(testing::kTestWidth, testing::kTestHeight, 1);
+  for (int x = 0; x < testing::kTestWidth; ++x) hood.at(x, testing::kTestHeight - 1, 0) = 1.f;
+  ASSERT_TRUE(WritePng(dir + "/hood.png", hood).ok());
+  clip.mutable_cameras(0)->set_ego_mask("hood.png");
+  const ClipReport report = Validate(clip, dir);
+  EXPECT_TRUE(report.ok()) << Dump(report);
+  const std::vector<uint8_t> mask = EgoMaskFromImage(*ReadImage(dir + "/hood.png"));
+  ASSERT_EQ(mask.size(), size_t(testing::kTestWidth * testing::kTestHeight));
+  EXPECT_EQ(std::count(mask.begin(), mask.end(), 1), testing::kTestWidth);
+  EXPECT_EQ(mask.back(), 1);
+  EXPECT_EQ(mask.front(), 0);
 }
 
 TEST(ClipValidator, TimestampRangeIgnoresFrameOrder) {
@@ -278,6 +295,22 @@ const BrokenClip kBrokenClips[] = {
      "cameras[1].distortion.model", "coefficients are set but the model is NONE"},
     {"DuplicateCameraId", [](Clip* c, auto) { c->mutable_cameras(1)->set_id("front"); },
      "cameras[1].id", "duplicate camera id 'front' (also cameras[0])", -1},
+    {"EgoMaskFileMissing", [](Clip* c, auto) { c->mutable_cameras(0)->set_ego_mask("hood.png"); },
+     "cameras[0].egoMask", "file not found"},
+    {"EgoMaskSizeDiffers",
+     [](Clip* c, const std::string& dir) {
+       testing::WriteTestImage(dir + "/hood.png", 16, 12);
+       c->mutable_cameras(0)->set_ego_mask("hood.png");
+     },
+     "cameras[0].egoMask", "mask is 16x12 but camera 'front' is 32x24"},
+    {"EgoMaskEverywhere",
+     [](Clip* c, const std::string& dir) {
+       ImageF white(testing::kTestWidth, testing::kTestHeight, 1);
+       for (float& v : white.pixels) v = 1.f;
+       ASSERT_TRUE(WritePng(dir + "/hood.png", white).ok());
+       c->mutable_cameras(1)->set_ego_mask("hood.png");
+     },
+     "cameras[1].egoMask", "every pixel is marked as the ego body"},
 
     // Frames.
     {"NoFrames", [](Clip* c, auto) { c->clear_frames(); }, "frames", "missing"},

@@ -154,7 +154,7 @@ absl::StatusOr<RefinementStats> RefineColours(const std::vector<ContextView>& vi
       fit[v].image = &view.rgb;
       fit[v].fitted.resize(fit[v].a.alpha.size());
       for (size_t p = 0; p < fit[v].fitted.size(); ++p)
-        fit[v].fitted[p] = fit[v].a.alpha[p] >= options.min_alpha;
+        fit[v].fitted[p] = fit[v].a.alpha[p] >= options.min_alpha && !view.is_ego(p);
     }
   });
   for (const absl::Status& error : errors) RETURN_IF_ERROR(error);

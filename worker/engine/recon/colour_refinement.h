@@ -21,7 +21,8 @@
 // [min_colour, max_colour]. Only CONTEXT images are used; geometry,
 // opacity, time and the other feature channels are not touched. Pixels the
 // render barely covers (alpha < min_alpha: holes, their rims) are left out,
-// so Gaussians at the rim of a hole are not brightened to fill it. Hidden
+// so Gaussians at the rim of a hole are not brightened to fill it; nor are
+// pixels on the ego vehicle's body (ContextView::ego). Hidden
 // Gaussians (agreement 0: the background continued behind an occluding
 // edge, sparse_sampling.h) keep their colour.
 #ifndef POINTFORWARD_WORKER_ENGINE_RECON_COLOUR_REFINEMENT_H_

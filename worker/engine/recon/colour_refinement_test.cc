@@ -136,6 +136,26 @@ TEST(ColourRefinement, PixelsUnderMinAlphaAreLeftOut) {
   EXPECT_EQ(stats->pixels, 1);
 }
 
+TEST(ColourRefinement, EgoBodyPixelsAreLeftOut) {
+  // The problem above with two strong Gaussians; the pixel of the second is
+  // on the ego vehicle's body (ContextView::ego): it keeps its colour and
+  // only the first is fitted.
+  GaussianScene scene = EmptyScene();
+  AddGaussian(&scene, {-0.4375, 0, 1}, 0.001, 0.95, {0.1, 0.1, 0.1});  // Pixel 4.
+  AddGaussian(&scene, {0.5625, 0, 1}, 0.001, 0.95, {0.1, 0.1, 0.1});   // Pixel 12.
+  ContextView view = UniformView(16, 1, 8, 0.9f);
+  view.ego.assign(16, 0);
+  view.ego[12] = 1;
+  RefinementOptions options;
+  options.iterations = 4;
+  options.prior_weight = 1e-3;
+  absl::StatusOr<RefinementStats> stats = RefineColours({view}, options, &scene);
+  ASSERT_TRUE(stats.ok()) << stats.status();
+  EXPECT_NEAR(scene.features[0], 0.9 / 0.95, 0.01);
+  EXPECT_FLOAT_EQ(scene.features[kReconChannels], 0.1f);
+  EXPECT_EQ(stats->pixels, 1);
+}
+
 TEST(ColourRefinement, RecoversTheColoursAContextImageWasRenderedFrom) {
   // A wall of overlapping discs 10 m away, random colours; the context image
   // is their render. Starting from grey, the fit must find the colours the

@@ -44,10 +44,21 @@ absl::StatusOr<std::vector<ContextView>> LoadViews(const LoadedClip& loaded,
                                                    const LoadViewsOptions& options) {
   const Clip& clip = loaded.clip;
   std::map<std::string, CameraModel> cameras;
+  std::map<std::string, std::vector<uint8_t>> ego_masks;
   for (int c = 0; c < clip.cameras_size(); ++c) {
     absl::StatusOr<CameraModel> model = CameraModelFromProto(clip.cameras(c));
     if (!model.ok()) return WithField(model.status(), absl::StrCat("cameras[", c, "]"));
     cameras[clip.cameras(c).id()] = *model;
+    const std::string& mask_file = clip.cameras(c).ego_mask();
+    if (mask_file.empty()) continue;
+    const std::string where = absl::StrCat("cameras[", c, "].egoMask");
+    absl::StatusOr<std::string> mask_path =
+        ResolveClipPath(loaded, mask_file, options.allow_outside_paths);
+    if (!mask_path.ok()) return WithField(mask_path.status(), where);
+    absl::StatusOr<ImageF> mask = ReadImage(*mask_path);
+    if (!mask.ok()) return WithField(mask.status(), where);
+    RETURN_IF_ERROR(CheckSize(*mask, *model, where));
+    ego_masks[clip.cameras(c).id()] = EgoMaskFromImage(*mask);
   }
   std::vector<ContextView> views;
   for (int f = 0; f < clip.frames_size(); ++f) {
@@ -70,6 +81,9 @@ absl::StatusOr<std::vector<ContextView>> LoadViews(const LoadedClip& loaded,
     view.camera = camera->second;
     view.world_from_camera = Rigid::FromRowMajor(frame.world_from_camera().data());
     view.timestamp_us = frame.timestamp_us();
+    if (auto mask = ego_masks.find(frame.camera()); mask != ego_masks.end()) {
+      view.ego = mask->second;
+    }
 
     absl::StatusOr<std::string> image_path =
         ResolveClipPath(loaded, frame.image(), options.allow_outside_paths);

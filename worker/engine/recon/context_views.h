@@ -32,6 +32,12 @@ struct ContextView {
   int64_t timestamp_us = 0;
   ImageF rgb;    // [H, W, 3] in [0, 1].
   ImageF depth;  // [H, W, 1] metres along z, 0 unknown; empty (width 0) when the frame has none.
+  // [H, W] 1 on the ego vehicle's body (Camera.ego_mask), 0 elsewhere; empty
+  // when the camera has no mask. Such pixels are never lifted, observe
+  // nothing in fusion, are left out of the colour fit and of eval's figures.
+  std::vector<uint8_t> ego;
+
+  bool is_ego(size_t pixel) const { return !ego.empty() && ego[pixel] != 0; }
 
   int width() const { return camera.width(); }
   int height() const { return camera.height(); }
@@ -48,7 +54,8 @@ struct LoadViewsOptions {
 // Decodes the frames of `loaded` with the selected role, in manifest order.
 // INVALID_ARGUMENT naming the field (`frames[3].image: ...`) for an unknown
 // camera, a pose that is not 16 numbers, or an image/depth map whose size is
-// not the camera's; NOT_FOUND for a missing file.
+// not the camera's, and likewise for a camera's ego mask
+// (`cameras[1].egoMask: ...`); NOT_FOUND for a missing file.
 absl::StatusOr<std::vector<ContextView>> LoadViews(const LoadedClip& loaded,
                                                    FrameSelection selection,
                                                    const LoadViewsOptions& options = {});

@@ -38,6 +38,7 @@ void AddFigures(const FrameMetrics& f, nlohmann::ordered_json* out) {
   (*out)["depthRmse"] = OptionalNumber(f.depth_rmse);
   (*out)["dynamicPsnr"] = OptionalNumber(f.dynamic_psnr);
   (*out)["filledPsnr"] = f.filled_psnr;
+  if (f.ego_pixels > 0) (*out)["egoPixels"] = f.ego_pixels;
 }
 
 nlohmann::ordered_json MeanJson(const MeanMetrics& mean) {
@@ -51,27 +52,56 @@ nlohmann::ordered_json MeanJson(const MeanMetrics& mean) {
 
 // Measures `buffers` against `truth_rgb` (and `truth_depth` when it has
 // pixels); `dynamic_mask` selects the pixels of dynamicPsnr (none: left out).
+// Pixels where `ego` (empty: none) is set are the ego vehicle's body: left
+// out of every figure (SSIM, whose windows need whole images, sees them
+// equal to the truth).
 FrameMetrics Measure(const ImageF& truth_rgb, const ImageF& truth_depth,
-                     const RenderBuffers& buffers, const std::vector<uint8_t>& dynamic_mask,
-                     ImageF* render) {
+                     const RenderBuffers& buffers, std::vector<uint8_t> dynamic_mask,
+                     const std::vector<uint8_t>& ego, ImageF* render) {
   FrameMetrics m;
   *render = ImageF(buffers.width, buffers.height, 3);
   render->pixels = buffers.rgb;
-  m.psnr = Psnr(truth_rgb, *render).value_or(0.0);
-  m.ssim = Ssim(truth_rgb, *render).value_or(0.0);
+  const size_t pixels = buffers.alpha.size();
+  std::vector<uint8_t> scene_pixels;  // Not the ego body; empty: all.
+  if (!ego.empty()) {
+    scene_pixels.resize(pixels);
+    for (size_t i = 0; i < pixels; ++i) {
+      scene_pixels[i] = ego[i] == 0;
+      m.ego_pixels += ego[i] != 0;
+      if (ego[i] != 0 && !dynamic_mask.empty()) dynamic_mask[i] = 0;
+    }
+  }
+  m.psnr = Psnr(truth_rgb, *render, scene_pixels).value_or(0.0);
+  if (m.ego_pixels == 0) {
+    m.ssim = Ssim(truth_rgb, *render).value_or(0.0);
+  } else {
+    ImageF same_on_ego = *render;
+    for (size_t i = 0; i < pixels; ++i) {
+      if (ego[i] == 0) continue;
+      for (int c = 0; c < 3; ++c) same_on_ego.pixels[3 * i + c] = truth_rgb.pixels[3 * i + c];
+    }
+    m.ssim = Ssim(truth_rgb, same_on_ego).value_or(0.0);
+  }
   if (truth_depth.width > 0) {
     ImageF depth(buffers.width, buffers.height, 1);
     depth.pixels = buffers.depth;
-    m.depth_rmse = DepthRmse(truth_depth, depth);
+    ImageF truth = truth_depth;
+    for (size_t i = 0; i < ego.size(); ++i) {
+      if (ego[i] != 0) truth.pixels[i] = 0.f;  // 0: no truth there.
+    }
+    m.depth_rmse = DepthRmse(truth, depth);
   }
   for (uint8_t v : dynamic_mask) m.dynamic_pixels += v != 0;
   if (m.dynamic_pixels > 0) m.dynamic_psnr = Psnr(truth_rgb, *render, dynamic_mask);
   ImageF filled(buffers.width, buffers.height, 3);
   filled.pixels = FillUncovered(buffers.rgb, buffers.alpha, buffers.width, buffers.height);
-  m.filled_psnr = Psnr(truth_rgb, filled).value_or(0.0);
+  m.filled_psnr = Psnr(truth_rgb, filled, scene_pixels).value_or(0.0);
   int64_t holes = 0;
-  for (float a : buffers.alpha) holes += a < kCoveredAlpha;
-  m.hole_fraction = double(holes) / double(std::max<size_t>(1, buffers.alpha.size()));
+  for (size_t i = 0; i < pixels; ++i) {
+    holes += buffers.alpha[i] < kCoveredAlpha && (ego.empty() || ego[i] == 0);
+  }
+  m.hole_fraction =
+      double(holes) / double(std::max<int64_t>(1, static_cast<int64_t>(pixels) - m.ego_pixels));
   return m;
 }
 
@@ -159,7 +189,7 @@ absl::Status EvaluateExtraViews(const GaussianScene& scene, const CheckedViews& 
                          view.timestamp_us);
     }
     ImageF render;
-    FrameMetrics m = Measure(truth_rgb, truth_depth, *buffers, mask, &render);
+    FrameMetrics m = Measure(truth_rgb, truth_depth, *buffers, std::move(mask), {}, &render);
     m.name = view.name;
     m.camera = view.camera_id;
     m.timestamp_us = view.timestamp_us;
@@ -471,10 +501,11 @@ absl::StatusOr<EvalReport> EvaluateClip(const LoadedClip& loaded, const ReconOpt
                                                    target.timestamp_us, {}, render_options));
     const double render_seconds = SecondsSince(start);
     const auto metrics_start = std::chrono::steady_clock::now();
-    const std::vector<uint8_t> mask =
+    std::vector<uint8_t> mask =
         DynamicMask(target.camera, target.world_from_camera, scene.instances, target.timestamp_us);
     ImageF render;
-    FrameMetrics m = Measure(target.rgb, target.depth, buffers, mask, &render);
+    FrameMetrics m =
+        Measure(target.rgb, target.depth, buffers, std::move(mask), target.ego, &render);
     m.render_seconds = render_seconds;
     report.render_seconds += m.render_seconds;
     m.camera = target.camera_id;

@@ -22,6 +22,9 @@
 // holeFraction is the share of pixels the render leaves (nearly) empty,
 // alpha < 0.5, which show black (regions no context view saw). Means
 // are over the frames that have the figure; a figure no frame has is null.
+// A camera with an ego mask (Camera.ego_mask) has its masked pixels left
+// out of every figure of its frames (SSIM sees them equal to the truth;
+// holeFraction is over the other pixels) and their count as "egoPixels".
 //
 // Extra views (`pf eval --views VIEWS.json --truth DIR`, ExtraViews below):
 // after the TARGET frames, every view of a RenderViews file (what
@@ -75,6 +78,9 @@ struct FrameMetrics {
   std::optional<double> dynamic_psnr;
   int64_t dynamic_pixels = 0;
   double hole_fraction = 0;  // Pixels the render covers with alpha < 0.5.
+  // Pixels on the ego vehicle's body (Camera.ego_mask), left out of every
+  // figure; holeFraction is over the others.
+  int64_t ego_pixels = 0;
   // PSNR of the render composited over its push-pull fill (render/hole_fill.h,
   // the `filled` EXR layer) instead of over black.
   double filled_psnr = 0;

@@ -99,6 +99,9 @@ FusedQueries FuseQueries(const QuerySet& queries, const std::vector<FusionView>&
         if (x < 0 || y < 0 || x >= fv.depth->width || y >= fv.depth->height) continue;
         const size_t j = static_cast<size_t>(y) * fv.depth->width + x;
         const bool is_source = static_cast<int>(v) == source;
+        // A pixel on the ego vehicle's body sees the body, not the query (and
+        // is never a source: lifting skips it).
+        if (!is_source && fv.view->is_ego(j)) continue;
         if (owner == 0 && !is_source && fv.mask != nullptr && (*fv.mask)[j] != 0) continue;
         const float z = static_cast<float>(pc.z);
         float d = 0.f;  // Relative depth difference.

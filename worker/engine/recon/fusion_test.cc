@@ -82,6 +82,31 @@ TEST(Fusion, StaticQueriesIgnoreMaskedPixels) {
   EXPECT_EQ(f.observations[0], 1);
 }
 
+// The ego vehicle's body hides every query, static or on an instance,
+// under every weighting (ContextView::ego).
+TEST(Fusion, NoQueryIsSeenThroughTheEgoBody) {
+  const FlatView source(1, 0, 0, 10);
+  FlatView hood(0, 1, 0, 10);
+  hood.view.ego.assign(kW * kH, 0);
+  hood.view.ego[6 * kW + 8] = 1;  // The pixel the query projects to.
+  InstanceTrack car;              // Standing still.
+  car.boxes = {{0, {0, 0, 10}, {2, 2, 2}, Quat{}}};
+  for (FusionWeights weights :
+       {FusionWeights::kDepthSoftmax, FusionWeights::kPlainAverage, FusionWeights::kNoDepth}) {
+    FusionOptions options;
+    options.weights = weights;
+    const FusedQueries f =
+        FuseQueries(OneQuery(/*owner=*/1), {source.fusion(), hood.fusion()}, {car}, options);
+    EXPECT_NEAR(f.rgb[0], 1.f, 1e-6) << int(weights);
+    EXPECT_NEAR(f.rgb[1], 0.f, 1e-6) << int(weights);
+    EXPECT_EQ(f.observations[0], 1) << int(weights);
+  }
+  // The neighbouring pixel is not the body: the view observes again.
+  hood.view.ego.assign(kW * kH, 0);
+  hood.view.ego[6 * kW + 9] = 1;
+  EXPECT_EQ(FuseQueries(OneQuery(), {source.fusion(), hood.fusion()}, {}, {}).observations[0], 2);
+}
+
 TEST(Fusion, SeeingPastAPointShortensItsLifespan) {
   const FlatView source(1, 0, 0, 10, 0);
   const FlatView later_same(1, 0, 0, 10, 300000);

@@ -53,6 +53,7 @@ LiftedView LiftView(const ContextView& view, const ViewDepth& depth) {
       for (int x = 0; x < w; ++x) {
         const size_t i = static_cast<size_t>(y) * w + x;
         Vec3 p;
+        if (view.is_ego(i)) continue;  // The ego vehicle's body: not the scene.
         if (!LiftPixel(view.camera, view.world_from_camera, x + 0.5, y + 0.5, depth.depth[i], &p))
           continue;
         out.points[3 * i] = float(p.x);

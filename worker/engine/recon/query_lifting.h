@@ -38,7 +38,7 @@ struct LiftedView {
   int width = 0, height = 0;
   std::vector<float> points;   // [H, W, 3] world
   std::vector<float> normals;  // [H, W, 3] world, unit, facing the camera
-  std::vector<uint8_t> valid;  // [H, W] 1 where the pixel could be lifted
+  std::vector<uint8_t> valid;  // [H, W] 1 where the pixel could be lifted (never on the ego body)
 };
 
 // Lifts every pixel of `view` with `depth`. Normals come from central

@@ -88,5 +88,32 @@ TEST(QueryLifting, NormalsOfAPlaneFaceTheCamera) {
   }
 }
 
+// Pixels on the ego vehicle's body are never lifted, and their neighbours'
+// normals do not lean on them.
+TEST(QueryLifting, EgoBodyPixelsAreNotLifted) {
+  ContextView view;
+  view.camera = CameraModel(16, 16, 20, 20, 8, 8);
+  view.rgb = ImageF(16, 16, 3);
+  view.ego.assign(16 * 16, 0);
+  for (int x = 0; x < 16; ++x) view.ego[12 * 16 + x] = view.ego[13 * 16 + x] = 1;  // Rows 12-13.
+  ViewDepth depth;
+  depth.width = depth.height = 16;
+  depth.depth.assign(16 * 16, 5.f);
+  for (int x = 0; x < 16; ++x) depth.depth[12 * 16 + x] = depth.depth[13 * 16 + x] = 1.f;
+  depth.source.assign(16 * 16, 0);
+  const LiftedView lifted = LiftView(view, depth);
+  int valid = 0;
+  for (uint8_t v : lifted.valid) valid += v;
+  EXPECT_EQ(valid, 16 * 14);
+  for (int x = 0; x < 16; ++x) {
+    EXPECT_FALSE(lifted.valid[12 * 16 + x]);
+    EXPECT_FALSE(lifted.valid[13 * 16 + x]);
+  }
+  // Row 11, next to the body, lies on the 5 m plane: it faces the camera.
+  const int i = 11 * 16 + 8;
+  ASSERT_TRUE(lifted.valid[i]);
+  EXPECT_NEAR(lifted.normals[3 * i + 2], -1.0, 1e-3);
+}
+
 }  // namespace
 }  // namespace pf

@@ -42,6 +42,7 @@ struct DeviceView {
   Tensor nearest;  // [H * W] float: least non-far depth over the clamped 3x3
                    // neighbourhood, +inf where all nine are far
   Tensor mask;     // [H * W] bool; undefined without a mask
+  Tensor ego;      // [H * W] bool, the ego body; undefined without an ego mask
   const CameraModel* camera = nullptr;
   int width = 0, height = 0;
   int64_t timestamp_us = 0;
@@ -67,6 +68,9 @@ DeviceView UploadView(const FusionView& view, const at::Device& device) {
   out.nearest = at::max_pool2d(padded.neg(), {3, 3}, {1, 1}).neg().reshape({-1});
   if (view.mask != nullptr && !view.mask->empty()) {
     out.mask = ToDevice(*view.mask, at::kByte, at::kByte, device).ne(0);
+  }
+  if (!view.view->ego.empty()) {
+    out.ego = ToDevice(view.view->ego, at::kByte, at::kByte, device).ne(0);
   }
   return out;
 }
@@ -264,12 +268,17 @@ void FuseBatch(const QuerySet& queries, int64_t begin, int64_t end,
     w_pixel = w_pixel.index_select(0, local);
     cz = cz.index_select(0, local);
     Tensor is_source = source.index_select(0, index).eq(static_cast<int64_t>(v));
-    if (view.mask.defined()) {
-      // Static queries of other views are not seen inside a dynamic mask.
-      const Tensor keep = is_static.index_select(0, index)
-                              .logical_and(is_source.logical_not())
-                              .logical_and(view.mask.take(pixel))
-                              .logical_not();
+    if (view.mask.defined() || view.ego.defined()) {
+      // Static queries of other views are not seen inside a dynamic mask, and
+      // no query is seen through the ego vehicle's body.
+      Tensor hidden = view.mask.defined() ? is_static.index_select(0, index)
+                                                .logical_and(is_source.logical_not())
+                                                .logical_and(view.mask.take(pixel))
+                                          : at::zeros_like(is_source);
+      if (view.ego.defined()) {
+        hidden = hidden.logical_or(view.ego.take(pixel).logical_and(is_source.logical_not()));
+      }
+      const Tensor keep = hidden.logical_not();
       index = index.masked_select(keep);
       pixel = pixel.masked_select(keep);
       is_source = is_source.masked_select(keep);

@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 #include <string>
@@ -35,7 +36,8 @@ Rigid YawAt(double yaw, const Vec3& position) {
 
 // Five views along x looking at a slanted wall about 10 m ahead, with an
 // OpenCV and a fisheye camera among them, 8 % far pixels, a masked
-// rectangle per view and a colour gradient; views 100 ms apart.
+// rectangle per view, the ego body on the bottom rows of views 1 and 3, and
+// a colour gradient; views 100 ms apart.
 std::vector<TestView> RandomViews(std::mt19937& random) {
   std::uniform_real_distribution<float> unit(0.f, 1.f);
   std::vector<TestView> views(5);
@@ -52,6 +54,10 @@ std::vector<TestView> RandomViews(std::mt19937& random) {
     t.depth.depth.resize(kW * kH);
     t.depth.source.assign(kW * kH, uint8_t(DepthSource::kDepthMap));
     t.mask.assign(kW * kH, 0);
+    if (v == 1 || v == 3) {
+      t.view.ego.assign(kW * kH, 0);
+      std::fill(t.view.ego.begin() + (kH - 10) * kW, t.view.ego.end(), 1);
+    }
     const int mx = static_cast<int>(unit(random) * (kW - 12)),
               my = static_cast<int>(unit(random) * (kH - 10));
     for (int y = 0; y < kH; ++y) {
@@ -84,6 +90,7 @@ QuerySet RandomQueries(const std::vector<TestView>& views, int per_view, std::mt
     for (int i = 0; i < per_view; ++i) {
       const int x = static_cast<int>(unit(random) * kW), y = static_cast<int>(unit(random) * kH);
       const size_t j = static_cast<size_t>(y) * kW + x;
+      if (t.view.is_ego(j)) continue;  // Never lifted.
       Vec3 ray;
       if (!t.view.camera.Unproject(x + 0.5, y + 0.5, &ray)) continue;
       const bool far = unit(random) < 0.1f;
@@ -183,6 +190,20 @@ TEST(TensorFusion, MatchesTheCxxKernelOnARandomSceneForEveryWeighting) {
           EXPECT_GT(contradicted, 100) << label;
           EXPECT_GT(fading, 50) << label;
           EXPECT_GT(alone, 100) << label;
+
+          // The ego rows of views 1 and 3 hide what they would observe.
+          std::vector<FusionView> without_ego = fusion_views;
+          std::vector<ContextView> plain = {views[1].view, views[3].view};
+          for (ContextView& view : plain) view.ego.clear();
+          without_ego[1].view = &plain[0];
+          without_ego[3].view = &plain[1];
+          const FusedQueries unmasked = FuseQueries(queries, without_ego, tracks, options);
+          int fewer = 0;
+          for (size_t i = 0; i < queries.size(); ++i) {
+            EXPECT_LE(expected.observations[i], unmasked.observations[i]);
+            fewer += expected.observations[i] < unmasked.observations[i];
+          }
+          EXPECT_GT(fewer, 200) << label;
         }
       }
     }
