@@ -29,6 +29,7 @@
 #include "tests/service_checks.h"
 #include "tests/service_harness.h"
 #include "tests/test_util.h"
+#include "worker/engine/image/image_io.h"
 
 namespace pf {
 namespace {
@@ -345,6 +346,47 @@ TEST_F(RemoteCliE2e, SceneExportMatchesEmbeddedMode) {
   EXPECT_FALSE(mid_bytes == bytes);
   // Nothing but the two PLYs: no temporary files left behind.
   EXPECT_EQ(std::distance(fs::directory_iterator(test_dir_ + "/out"), fs::directory_iterator()), 2);
+}
+
+// A camera's ego mask travels with the clip: uploaded with the images,
+// staged by the server, fetched and honoured by the worker, so the remote
+// scene is the embedded one of the same masked clip, and not the unmasked.
+TEST_F(RemoteCliE2e, AnEgoMaskIsUploadedAndHonouredByTheWorker) {
+  const std::string clip_dir = test_dir_ + "/masked";
+  fs::copy(*dir_ + "/clip", clip_dir, fs::copy_options::recursive);
+  std::ifstream in(clip_dir + "/clip.json");
+  nlohmann::json clip = nlohmann::json::parse(in);
+  nlohmann::json& camera = clip["cameras"][0];
+  const int width = camera["width"], height = camera["height"];
+  ImageF mask(width, height, 1);
+  for (int y = height * 3 / 4; y < height; ++y)
+    for (int x = 0; x < width; ++x) mask.at(x, y) = 1.f;
+  fs::create_directories(clip_dir + "/masks");
+  ASSERT_TRUE(WritePng(clip_dir + "/masks/hood.png", mask).ok());
+  camera["egoMask"] = "masks/hood.png";
+  const std::string manifest = clip_dir + "/masked.json";
+  std::ofstream(manifest) << clip.dump(2);
+
+  const std::string embedded_scene = test_dir_ + "/masked.pfs";
+  const std::string embedded_ply = test_dir_ + "/masked_embedded.ply";
+  CommandResult result = RunCommand({Pf(), "reconstruct", manifest, "--out", embedded_scene});
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  result = RunCommand({Pf(), "scene", "export", embedded_scene, "--ply", embedded_ply});
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+
+  StartServer();
+  StartWorker("w1");
+  const CommandResult create = Remote({"scene", "create", manifest, "--wait"});
+  ASSERT_EQ(create.exit_code, 0) << create.out << create.err << Logs();
+  const std::string scene = Capture(create.out, "scene: +(scenes/[0-9a-f]+)\n");
+  ASSERT_FALSE(scene.empty()) << create.out;
+  const std::string ply = test_dir_ + "/out/masked.ply";
+  result = Remote({"scene", "export", scene, "--ply", ply});
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  const std::string bytes = ReadAll(ply);
+  EXPECT_GT(PlyVertexCount(bytes), 0);
+  EXPECT_TRUE(bytes == ReadAll(embedded_ply)) << "the worker's scene is not the masked clip's";
+  EXPECT_FALSE(bytes == ReadAll(*dir_ + "/embedded.ply")) << "the mask changed nothing";
 }
 
 // `render --clip --wait`: the scene is created in the same call, the job
