@@ -81,7 +81,7 @@ Before the command: [--tls-ca PEM] (TLS; or PF_TLS_CA) [--tls-cert PEM --tls-key
 (mutual TLS; or PF_TLS_CERT, PF_TLS_KEY) [--token-file PATH] (bearer token; else
 the token in PF_TOKEN):
   scene create CLIP.json|file:///abs/clip.json [--wait] [--model M] [--ns N] [--nd N]
-        [--fusion F] [--no-lifespan] [--device D] [--request-id ID]
+        [--fusion F] [--no-lifespan] [--device D] [--request-id ID] [TUNING]
         upload the clip and every file it names (or let the server read a file://
         clip), start its reconstruction; prints the operation name. --wait waits
         and prints the scene
@@ -91,8 +91,11 @@ the token in PF_TOKEN):
   render SCENE --cameras VIEWS.json [--out DIR --wait] [--outputs LIST]
          [--chunk-frames N] [--request-id ID]
   render --clip CLIP.json [--model M] [--ns N] [--nd N] [--fusion F] [--no-lifespan]
-         [--device D] --cameras VIEWS.json [--out DIR --wait] [--outputs LIST]
+         [--device D] [TUNING] --cameras VIEWS.json [--out DIR --wait] [--outputs LIST]
         submit a render job (of a clip: reconstructed first unless cached);
+        TUNING: [--refine N] [--splat-sigma S] [--low-pass PX2] [--hidden-band PX]
+        [--no-ground-fill] [--no-facades], as pf reconstruct's (unset: the worker's
+        defaults; a scene made with other values is another scene);
         --wait waits and downloads every output file into DIR
   jobs list [--kind reconstruct|render] | jobs get ID | jobs cancel ID
   jobs wait ID [--out DIR]

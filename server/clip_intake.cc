@@ -10,12 +10,14 @@
 
 #include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
 #include "absl/strings/str_join.h"
 #include "common/file_util.h"
 #include "common/hash.h"
 #include "common/status_macros.h"
 #include "worker/engine/clip/clip_io.h"
 #include "worker/engine/clip/clip_validator.h"
+#include "worker/engine/recon/tuning_limits.h"
 #include "worker/engine/render/render_outputs.h"
 
 namespace pf {
@@ -247,6 +249,7 @@ absl::StatusOr<v1::ReconstructionOptions> NormalizeOptions(
   if (out.nd() < 0) {
     return absl::InvalidArgumentError(absl::StrCat("options.nd: must be >= 0, got ", out.nd()));
   }
+  RETURN_IF_ERROR(CheckTuningFields(out));
   if (out.device().empty()) out.set_device("cpu");
   if (out.device() != "cpu") {
     return absl::FailedPreconditionError(absl::StrCat(
@@ -270,6 +273,15 @@ std::string SceneCacheKey(const v1::UploadedClip& clip, const v1::Reconstruction
   field("nd", absl::StrCat(options.nd()));
   field("fusion", options.fusion());
   field("lifespan", options.no_lifespan() ? "off" : "on");
+  // The tuning values enter the key only when set, so the keys of scenes
+  // made with the defaults stay as they were.
+  if (options.has_refine()) field("refine", absl::StrCat(options.refine()));
+  // Doubles exactly (hexadecimal), so nearby values are different scenes.
+  if (options.has_splat_sigma()) field("splat_sigma", absl::StrFormat("%a", options.splat_sigma()));
+  if (options.has_low_pass()) field("low_pass", absl::StrFormat("%a", options.low_pass()));
+  if (options.has_hidden_band()) field("hidden_band", absl::StrCat(options.hidden_band()));
+  if (options.no_ground_fill()) field("ground_fill", "off");
+  if (options.no_facades()) field("facades", "off");
   return hash.FinishHex();
 }
 

@@ -158,14 +158,38 @@ class RemoteCliE2e : public ::testing::Test {
   }
 
   // `scene create CLIP --wait` with `flags`; returns the scene's name.
-  std::string CreateScene(const std::vector<std::string>& flags = {}) {
-    std::vector<std::string> args = {"scene", "create", Clip(), "--wait"};
+  std::string CreateScene(const std::vector<std::string>& flags = {},
+                          const std::string& clip = Clip()) {
+    std::vector<std::string> args = {"scene", "create", clip, "--wait"};
     args.insert(args.end(), flags.begin(), flags.end());
     const CommandResult create = Remote(args);
     EXPECT_EQ(create.exit_code, 0) << create.out << create.err;
     const std::string scene = Capture(create.out, "scene: +(scenes/[0-9a-f]+)\n");
     EXPECT_FALSE(scene.empty()) << create.out;
     return scene;
+  }
+
+  // Returns the PLY of `clip` reconstructed here with `flags` (empty, with
+  // a failure recorded, when a command fails).
+  std::string EmbeddedPly(const std::string& clip, const std::vector<std::string>& flags,
+                          const std::string& name) {
+    const std::string scene = test_dir_ + "/" + name + ".pfs";
+    std::vector<std::string> argv = {Pf(), "reconstruct", clip, "--out", scene};
+    argv.insert(argv.end(), flags.begin(), flags.end());
+    CommandResult result = RunCommand(argv);
+    EXPECT_EQ(result.exit_code, 0) << result.err;
+    const std::string ply = test_dir_ + "/" + name + "_embedded.ply";
+    result = RunCommand({Pf(), "scene", "export", scene, "--ply", ply});
+    EXPECT_EQ(result.exit_code, 0) << result.err;
+    return ReadAll(ply);
+  }
+
+  // Returns the PLY of the server's `scene`, exported at its time origin.
+  std::string RemotePly(const std::string& scene, const std::string& name) {
+    const std::string ply = test_dir_ + "/out/" + name + ".ply";
+    const CommandResult result = Remote({"scene", "export", scene, "--ply", ply});
+    EXPECT_EQ(result.exit_code, 0) << result.err;
+    return ReadAll(ply);
   }
 
   // What the server and workers logged, for failure messages.
@@ -367,26 +391,42 @@ TEST_F(RemoteCliE2e, AnEgoMaskIsUploadedAndHonouredByTheWorker) {
   const std::string manifest = clip_dir + "/masked.json";
   std::ofstream(manifest) << clip.dump(2);
 
-  const std::string embedded_scene = test_dir_ + "/masked.pfs";
-  const std::string embedded_ply = test_dir_ + "/masked_embedded.ply";
-  CommandResult result = RunCommand({Pf(), "reconstruct", manifest, "--out", embedded_scene});
-  ASSERT_EQ(result.exit_code, 0) << result.err;
-  result = RunCommand({Pf(), "scene", "export", embedded_scene, "--ply", embedded_ply});
-  ASSERT_EQ(result.exit_code, 0) << result.err;
+  const std::string embedded = EmbeddedPly(manifest, {}, "masked");
 
   StartServer();
   StartWorker("w1");
-  const CommandResult create = Remote({"scene", "create", manifest, "--wait"});
-  ASSERT_EQ(create.exit_code, 0) << create.out << create.err << Logs();
-  const std::string scene = Capture(create.out, "scene: +(scenes/[0-9a-f]+)\n");
-  ASSERT_FALSE(scene.empty()) << create.out;
-  const std::string ply = test_dir_ + "/out/masked.ply";
-  result = Remote({"scene", "export", scene, "--ply", ply});
-  ASSERT_EQ(result.exit_code, 0) << result.err;
-  const std::string bytes = ReadAll(ply);
+  const std::string scene = CreateScene({}, manifest);
+  ASSERT_FALSE(scene.empty()) << Logs();
+  const std::string bytes = RemotePly(scene, "masked");
   EXPECT_GT(PlyVertexCount(bytes), 0);
-  EXPECT_TRUE(bytes == ReadAll(embedded_ply)) << "the worker's scene is not the masked clip's";
+  EXPECT_TRUE(bytes == embedded) << "the worker's scene is not the masked clip's";
   EXPECT_FALSE(bytes == ReadAll(*dir_ + "/embedded.ply")) << "the mask changed nothing";
+}
+
+// The tuning flags of local pf reconstruct reach the worker: the remote
+// scene made with --low-pass 2 --refine 0 --hidden-band 0 is the embedded
+// one made with the same flags, and another scene than the default one;
+// a value out of range is refused by the client naming the flag.
+TEST_F(RemoteCliE2e, TuningFlagsReachTheWorkerAndMakeAnotherScene) {
+  const std::vector<std::string> tuning = {"--low-pass",    "2", "--refine", "0",
+                                           "--hidden-band", "0"};
+  const std::string embedded = EmbeddedPly(Clip(), tuning, "tuned");
+
+  StartServer();
+  StartWorker("w1");
+  const CommandResult bad = Remote({"scene", "create", Clip(), "--refine", "25"});
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_NE(bad.err.find("--refine: must be in [0, 20] iterations, got 25"), std::string::npos)
+      << bad.err;
+
+  const std::string scene = CreateScene(tuning);
+  ASSERT_FALSE(scene.empty());
+  const std::string bytes = RemotePly(scene, "tuned");
+  EXPECT_GT(PlyVertexCount(bytes), 0);
+  EXPECT_TRUE(bytes == embedded) << "the worker did not use the flags";
+  EXPECT_FALSE(bytes == ReadAll(*dir_ + "/embedded.ply")) << "the flags changed nothing";
+  // The default scene of the same clip is another one.
+  EXPECT_NE(CreateScene(), scene);
 }
 
 // `render --clip --wait`: the scene is created in the same call, the job

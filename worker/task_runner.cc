@@ -18,6 +18,7 @@
 #include "nlohmann/json.hpp"
 #include "worker/engine/clip/clip_io.h"
 #include "worker/engine/recon/recon_flags.h"
+#include "worker/engine/recon/tuning_limits.h"
 #include "worker/engine/render/rasterizer.h"
 #include "worker/engine/render/render_outputs.h"
 #include "worker/engine/render/scene_file.h"
@@ -182,6 +183,13 @@ absl::StatusOr<ReconOptions> ReconOptionsFromProto(const pb::ReconstructionOptio
                                                    "' (expected softmax, average or no-depth)"));
   }
   options.fusion.lifespan = !proto.no_lifespan();
+  options.completion.ground_fill = !proto.no_ground_fill();
+  options.completion.facades = !proto.no_facades();
+  RETURN_IF_ERROR(CheckTuningFields(proto));
+  if (proto.has_refine()) options.refinement.iterations = proto.refine();
+  if (proto.has_splat_sigma()) options.decoder.tangent_sigma = proto.splat_sigma();
+  if (proto.has_low_pass()) options.decoder.low_pass = static_cast<float>(proto.low_pass());
+  if (proto.has_hidden_band()) options.hidden_band_px = proto.hidden_band();
   if (!proto.device().empty() && proto.device() != "cpu") {
     return absl::InvalidArgumentError(
         absl::StrCat("options.device: '", proto.device(),

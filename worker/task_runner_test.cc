@@ -281,6 +281,44 @@ TEST_F(TaskRunner, BadOptionsNameTheField) {
       << status;
 }
 
+// The tuning fields reach the reconstruction's options; unset ones keep the
+// defaults; out of range ones are refused naming the field.
+TEST(ReconOptionsFromProto, TuningFieldsMapOntoTheOptions) {
+  pb::ReconstructionOptions proto;
+  absl::StatusOr<ReconOptions> options = ReconOptionsFromProto(proto);
+  ASSERT_TRUE(options.ok()) << options.status();
+  const ReconOptions defaults;
+  EXPECT_EQ(options->refinement.iterations, defaults.refinement.iterations);
+  EXPECT_EQ(options->decoder.tangent_sigma, defaults.decoder.tangent_sigma);
+  EXPECT_EQ(options->decoder.low_pass, defaults.decoder.low_pass);
+  EXPECT_EQ(options->hidden_band_px, defaults.hidden_band_px);
+  EXPECT_TRUE(options->completion.ground_fill);
+  EXPECT_TRUE(options->completion.facades);
+
+  proto.set_refine(0);  // Set to 0 is not unset: no fit.
+  proto.set_splat_sigma(0.5);
+  proto.set_low_pass(0.3);
+  proto.set_hidden_band(0);
+  proto.set_no_ground_fill(true);
+  proto.set_no_facades(true);
+  options = ReconOptionsFromProto(proto);
+  ASSERT_TRUE(options.ok()) << options.status();
+  EXPECT_EQ(options->refinement.iterations, 0);
+  EXPECT_EQ(options->decoder.tangent_sigma, 0.5);
+  EXPECT_FLOAT_EQ(options->decoder.low_pass, 0.3f);
+  EXPECT_EQ(options->hidden_band_px, 0);
+  EXPECT_FALSE(options->completion.ground_fill);
+  EXPECT_FALSE(options->completion.facades);
+
+  proto.set_refine(25);
+  EXPECT_EQ(ReconOptionsFromProto(proto).status().message(),
+            "options.refine: must be in [0, 20] iterations, got 25");
+  proto.set_refine(4);
+  proto.set_splat_sigma(0.05);
+  EXPECT_EQ(ReconOptionsFromProto(proto).status().message(),
+            "options.splat_sigma: must be in (0.05, 4], got 0.05");
+}
+
 TEST_F(TaskRunner, ReconstructionStopsWhenCancelled) {
   const absl::Status status = Reconstruct(*work_, "cancelled", [] { return true; });
   EXPECT_EQ(status.code(), absl::StatusCode::kCancelled) << status;

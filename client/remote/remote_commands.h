@@ -27,8 +27,10 @@ absl::StatusOr<int> RunRemoteRender(RemoteContext& ctx, const std::vector<std::s
 absl::StatusOr<int> RunRemoteJobs(RemoteContext& ctx, const std::vector<std::string>& args);
 
 // The reconstruction flags of `scene create` and `render --clip`.
-inline const std::set<std::string> kReconValueFlags = {"model", "ns", "nd", "fusion", "device"};
-inline const std::set<std::string> kReconBoolFlags = {"no-lifespan"};
+inline const std::set<std::string> kReconValueFlags = {
+    "model", "ns", "nd", "fusion", "device", "refine", "splat-sigma", "low-pass", "hidden-band"};
+inline const std::set<std::string> kReconBoolFlags = {"no-lifespan", "no-ground-fill",
+                                                      "no-facades"};
 
 // Returns the ReconstructionOptions the flags of `cl` ask for
 // (remote_scene.cc); INVALID_ARGUMENT naming a bad flag.

@@ -36,7 +36,9 @@ constexpr char kUsage[] =
     "usage: pf --server ADDR render SCENE --cameras VIEWS.json [--out DIR --wait] "
     "[--outputs rgb,alpha,depth,features,instance,filled] [--chunk-frames N] [--request-id ID]\n"
     "       pf --server ADDR render --clip CLIP.json [--model M] [--ns N] [--nd N] [--fusion F] "
-    "[--no-lifespan] [--device D] --cameras VIEWS.json [--out DIR --wait] ...";
+    "[--no-lifespan] [--device D] [--refine N] [--splat-sigma S] [--low-pass PX2] "
+    "[--hidden-band PX] [--no-ground-fill] [--no-facades] --cameras VIEWS.json [--out DIR --wait] "
+    "...";
 
 // Reads VIEWS.json as pointforward.v1.RenderViews; errors name the file.
 absl::StatusOr<v1::RenderViews> LoadViews(const std::string& path) {

@@ -27,6 +27,7 @@
 #include "google/protobuf/empty.pb.h"
 #include "pointforward/v1/service.grpc.pb.h"
 #include "rpc/grpc_status.h"
+#include "worker/engine/recon/tuning_limits.h"
 
 namespace pf {
 
@@ -38,6 +39,9 @@ namespace {
 constexpr char kUsage[] =
     "usage: pf --server ADDR scene create CLIP.json|file:///abs/clip.json [--wait] [--model M] "
     "[--ns N] [--nd N] [--fusion F] [--no-lifespan] [--device D] [--request-id ID]\n"
+    "         [--refine N] [--splat-sigma S] [--low-pass PX2] [--hidden-band PX] "
+    "[--no-ground-fill] "
+    "[--no-facades]\n"
     "       pf --server ADDR scene get NAME | list [--page-size N] | delete NAME\n"
     "       pf --server ADDR scene export NAME --ply OUT.ply [--time-us T]";
 
@@ -229,6 +233,33 @@ absl::StatusOr<v1::ReconstructionOptions> ReconstructionOptionsFromFlags(const C
   if (nd < 0) return absl::InvalidArgumentError("--nd: must not be negative");
   options.set_ns(ns);
   options.set_nd(nd);
+  options.set_no_ground_fill(cl.Has("no-ground-fill"));
+  options.set_no_facades(cl.Has("no-facades"));
+  // Checked here as the local flags are, naming the flag; the server checks
+  // them again, naming the field.
+  auto checked = [](const TuningLimit& limit, double value) {
+    return CheckTuning(limit, value, limit.flag);
+  };
+  if (cl.Has("refine")) {
+    ASSIGN_OR_RETURN(const int64_t refine, cl.GetInt("refine", 0));
+    RETURN_IF_ERROR(checked(kRefineLimit, double(refine)));
+    options.set_refine(static_cast<int32_t>(refine));
+  }
+  if (cl.Has("hidden-band")) {
+    ASSIGN_OR_RETURN(const int64_t band, cl.GetInt("hidden-band", 0));
+    RETURN_IF_ERROR(checked(kHiddenBandLimit, double(band)));
+    options.set_hidden_band(static_cast<int32_t>(band));
+  }
+  if (cl.Has("splat-sigma")) {
+    ASSIGN_OR_RETURN(const double sigma, cl.GetDouble("splat-sigma", 0));
+    RETURN_IF_ERROR(checked(kSplatSigmaLimit, sigma));
+    options.set_splat_sigma(sigma);
+  }
+  if (cl.Has("low-pass")) {
+    ASSIGN_OR_RETURN(const double low_pass, cl.GetDouble("low-pass", 0));
+    RETURN_IF_ERROR(checked(kLowPassLimit, low_pass));
+    options.set_low_pass(low_pass);
+  }
   return options;
 }
 

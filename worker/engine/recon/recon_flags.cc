@@ -3,6 +3,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "common/status_macros.h"
+#include "worker/engine/recon/tuning_limits.h"
 
 namespace pf {
 
@@ -64,29 +65,20 @@ absl::StatusOr<ReconOptions> ReconOptionsFromFlags(const CommandLine& cl) {
   options.completion.ground_fill = !cl.Has("no-ground-fill");
   options.completion.facades = !cl.Has("no-facades");
   options.allow_outside_paths = cl.Has("allow-outside-paths");
+  auto check = [](const TuningLimit& limit, double value) {
+    return CheckTuning(limit, value, limit.flag);
+  };
   ASSIGN_OR_RETURN(options.decoder.tangent_sigma,
                    cl.GetDouble("splat-sigma", options.decoder.tangent_sigma));
-  if (!(options.decoder.tangent_sigma > 0.05 && options.decoder.tangent_sigma <= 4)) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("--splat-sigma: must be in (0.05, 4], got ", cl.Get("splat-sigma")));
-  }
+  RETURN_IF_ERROR(check(kSplatSigmaLimit, options.decoder.tangent_sigma));
   ASSIGN_OR_RETURN(const double low_pass, cl.GetDouble("low-pass", options.decoder.low_pass));
-  if (!(low_pass >= 0 && low_pass <= kMaxLowPass)) {
-    return absl::InvalidArgumentError(absl::StrCat("--low-pass: must be in [0, ", kMaxLowPass,
-                                                   "] pixels^2, got ", cl.Get("low-pass")));
-  }
+  RETURN_IF_ERROR(check(kLowPassLimit, low_pass));
   options.decoder.low_pass = static_cast<float>(low_pass);
   ASSIGN_OR_RETURN(const int64_t refine, cl.GetInt("refine", options.refinement.iterations));
-  if (refine < 0 || refine > 20) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("--refine: must be in [0, 20] iterations, got ", cl.Get("refine")));
-  }
+  RETURN_IF_ERROR(check(kRefineLimit, double(refine)));
   options.refinement.iterations = static_cast<int>(refine);
   ASSIGN_OR_RETURN(const int64_t band, cl.GetInt("hidden-band", options.hidden_band_px));
-  if (band < 0 || band > 256) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("--hidden-band: must be in [0, 256] pixels, got ", cl.Get("hidden-band")));
-  }
+  RETURN_IF_ERROR(check(kHiddenBandLimit, double(band)));
   options.hidden_band_px = static_cast<int>(band);
   ASSIGN_OR_RETURN(options.device, ParseComputeDevice(cl.Get("device", "cpu"), "--device"));
   RETURN_IF_ERROR(CheckComputeDevice(options.device, "--device"));

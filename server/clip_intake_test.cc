@@ -1,0 +1,87 @@
+// Tests of the server's checks of ReconstructionOptions and of the scene
+// cache key they enter.
+#include "server/clip_intake.h"
+
+#include <gtest/gtest.h>
+
+#include <set>
+#include <string>
+
+#include "pointforward/v1/resources.pb.h"
+
+namespace pf {
+namespace {
+
+namespace v1 = pointforward::v1;
+
+TEST(NormalizeOptions, FillsDefaultsAndRefusesTuningOutOfRangeNamingTheField) {
+  absl::StatusOr<v1::ReconstructionOptions> out = NormalizeOptions({});
+  ASSERT_TRUE(out.ok()) << out.status();
+  EXPECT_EQ(out->model(), "analytic");
+  EXPECT_EQ(out->fusion(), "softmax");
+  EXPECT_FALSE(out->has_refine());  // Unset stays unset: the worker's default.
+
+  v1::ReconstructionOptions options;
+  options.set_refine(0);
+  options.set_splat_sigma(4);
+  options.set_low_pass(0);
+  options.set_hidden_band(256);
+  out = NormalizeOptions(options);
+  ASSERT_TRUE(out.ok()) << out.status();
+  EXPECT_TRUE(out->has_refine());
+  EXPECT_EQ(out->refine(), 0);
+
+  struct Bad {
+    void (*set)(v1::ReconstructionOptions*);
+    const char* message;
+  };
+  const Bad bad[] = {
+      {[](v1::ReconstructionOptions* o) { o->set_refine(-1); },
+       "options.refine: must be in [0, 20] iterations, got -1"},
+      {[](v1::ReconstructionOptions* o) { o->set_splat_sigma(0.01); },
+       "options.splat_sigma: must be in (0.05, 4], got 0.01"},
+      {[](v1::ReconstructionOptions* o) { o->set_low_pass(4.5); },
+       "options.low_pass: must be in [0, 4] pixels^2, got 4.5"},
+      {[](v1::ReconstructionOptions* o) { o->set_hidden_band(300); },
+       "options.hidden_band: must be in [0, 256] pixels, got 300"},
+  };
+  for (const Bad& b : bad) {
+    v1::ReconstructionOptions o;
+    b.set(&o);
+    const absl::Status status = NormalizeOptions(o).status();
+    EXPECT_EQ(status.code(), absl::StatusCode::kInvalidArgument) << b.message;
+    EXPECT_EQ(status.message(), b.message);
+  }
+}
+
+TEST(SceneCacheKey, TuningValuesThatAreSetMakeAnotherScene) {
+  v1::UploadedClip clip;
+  clip.mutable_manifest()->set_sha256("abc");
+  const v1::ReconstructionOptions defaults = *NormalizeOptions({});
+  const std::string key = SceneCacheKey(clip, defaults);
+  EXPECT_EQ(key.size(), 64u);
+  v1::ReconstructionOptions same = defaults;
+  same.set_no_ground_fill(false);  // The default, written out.
+  EXPECT_EQ(SceneCacheKey(clip, same), key);
+
+  v1::ReconstructionOptions low_pass = defaults;
+  low_pass.set_low_pass(0.3);
+  v1::ReconstructionOptions near = defaults;
+  near.set_low_pass(0.30000001);
+  v1::ReconstructionOptions facades = defaults;
+  facades.set_no_facades(true);
+  v1::ReconstructionOptions refine = defaults;
+  refine.set_refine(4);
+  v1::ReconstructionOptions band = defaults;
+  band.set_hidden_band(4);  // Same number, another field.
+  const std::set<std::string> keys = {key,
+                                      SceneCacheKey(clip, low_pass),
+                                      SceneCacheKey(clip, near),
+                                      SceneCacheKey(clip, facades),
+                                      SceneCacheKey(clip, refine),
+                                      SceneCacheKey(clip, band)};
+  EXPECT_EQ(keys.size(), 6u);
+}
+
+}  // namespace
+}  // namespace pf
