@@ -276,9 +276,12 @@ std::string SceneCacheKey(const v1::UploadedClip& clip, const v1::Reconstruction
   // The tuning values enter the key only when set, so the keys of scenes
   // made with the defaults stay as they were.
   if (options.has_refine()) field("refine", absl::StrCat(options.refine()));
-  // Doubles exactly (hexadecimal), so nearby values are different scenes.
+  // Values exactly (hexadecimal) as the worker uses them: the splat size a
+  // double, the low-pass a float (GaussianScene::low_pass).
   if (options.has_splat_sigma()) field("splat_sigma", absl::StrFormat("%a", options.splat_sigma()));
-  if (options.has_low_pass()) field("low_pass", absl::StrFormat("%a", options.low_pass()));
+  if (options.has_low_pass()) {
+    field("low_pass", absl::StrFormat("%a", double(static_cast<float>(options.low_pass()))));
+  }
   if (options.has_hidden_band()) field("hidden_band", absl::StrCat(options.hidden_band()));
   if (options.no_ground_fill()) field("ground_fill", "off");
   if (options.no_facades()) field("facades", "off");

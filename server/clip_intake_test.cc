@@ -67,7 +67,12 @@ TEST(SceneCacheKey, TuningValuesThatAreSetMakeAnotherScene) {
   v1::ReconstructionOptions low_pass = defaults;
   low_pass.set_low_pass(0.3);
   v1::ReconstructionOptions near = defaults;
-  near.set_low_pass(0.30000001);
+  near.set_low_pass(0.31);
+  // The worker keeps the low-pass as a float: what rounds to the same float
+  // is the same scene.
+  v1::ReconstructionOptions same_float = defaults;
+  same_float.set_low_pass(0.3 + 1e-12);
+  EXPECT_EQ(SceneCacheKey(clip, same_float), SceneCacheKey(clip, low_pass));
   v1::ReconstructionOptions facades = defaults;
   facades.set_no_facades(true);
   v1::ReconstructionOptions refine = defaults;

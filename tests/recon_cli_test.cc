@@ -304,7 +304,7 @@ TEST_F(ReconCli, AnEgoMaskKeepsTheHoodOutOfTheSceneAndTheFigures) {
   }
   ASSERT_EQ(fronts, 6);
   // Over the pixels above the hood the front frames are about as good as
-  // without one (measured 24.79 against 25.47 dB: the hood hid some road);
+  // without one (measured 25.04 against 25.47 dB: the hood hid some road);
   // the hood in the figures, or painted on the road, costs far more (the
   // unmasked clip: 12.0 dB).
   EXPECT_GT(front / fronts, plain_front / fronts - 1.5);

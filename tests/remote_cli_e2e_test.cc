@@ -404,12 +404,14 @@ TEST_F(RemoteCliE2e, AnEgoMaskIsUploadedAndHonouredByTheWorker) {
 }
 
 // The tuning flags of local pf reconstruct reach the worker: the remote
-// scene made with --low-pass 2 --refine 0 --hidden-band 0 is the embedded
-// one made with the same flags, and another scene than the default one;
-// a value out of range is refused by the client naming the flag.
+// scene made with --low-pass 2 --refine 0 --hidden-band 0 --splat-sigma 0.5
+// is the embedded one made with the same flags, and another scene than the
+// default one; a value out of range is refused by the client naming the
+// flag. (--no-ground-fill and --no-facades change nothing on a clip with
+// depth maps; ReconOptionsFromProto's test covers them.)
 TEST_F(RemoteCliE2e, TuningFlagsReachTheWorkerAndMakeAnotherScene) {
-  const std::vector<std::string> tuning = {"--low-pass",    "2", "--refine", "0",
-                                           "--hidden-band", "0"};
+  const std::vector<std::string> tuning = {"--low-pass",    "2", "--refine",      "0",
+                                           "--hidden-band", "0", "--splat-sigma", "0.5"};
   const std::string embedded = EmbeddedPly(Clip(), tuning, "tuned");
 
   StartServer();

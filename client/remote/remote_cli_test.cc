@@ -70,6 +70,26 @@ TEST(RemoteCli, MissingViewsFileIsExitTwoBeforeConnecting) {
   EXPECT_FALSE(std::filesystem::exists(dir + "/d"));
 }
 
+// How a server scene was reconstructed is settled: reconstruction flags with
+// `render SCENE` are refused (they are for `render --clip`), before anything
+// else is read or the server is called.
+TEST(RemoteCli, ReconstructionFlagsWithAServerSceneAreRefused) {
+  const std::string dir = testing::MakeTempDir("remote_cli");
+  for (const std::vector<std::string> flag : {std::vector<std::string>{"--low-pass", "0.3"},
+                                              {"--model", "pixel-aligned"},
+                                              {"--no-facades"}}) {
+    std::vector<std::string> argv = {BinPath("pf"), "--server",  kNoServer,          "render",
+                                     "scenes/s1",   "--cameras", dir + "/views.json"};
+    argv.insert(argv.end(), flag.begin(), flag.end());
+    const CommandResult result = RunCommand(argv);
+    EXPECT_EQ(result.exit_code, 2) << result.err;
+    EXPECT_NE(result.err.find(flag[0] + ": a reconstruction flag, only for render --clip; "
+                                        "scenes/s1 is reconstructed already"),
+              std::string::npos)
+        << result.err;
+  }
+}
+
 TEST(RemoteCli, MalformedViewsFileIsExitTwoNamingIt) {
   const std::string dir = testing::MakeTempDir("remote_cli");
   const std::string views = dir + "/views.json";

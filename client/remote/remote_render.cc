@@ -113,6 +113,18 @@ absl::StatusOr<int> RunRemoteRender(RemoteContext& ctx, const std::vector<std::s
     return absl::InvalidArgumentError("--wait needs --out DIR to download the outputs into");
   }
   ASSIGN_OR_RETURN(const RenderTarget target, TargetFromFlags(cl));
+  if (!target.scene.empty()) {
+    // A scene exists already: how it was reconstructed is settled.
+    for (const std::set<std::string>* flags : {&kReconValueFlags, &kReconBoolFlags}) {
+      for (const std::string& flag : *flags) {
+        if (cl.Has(flag)) {
+          return absl::InvalidArgumentError(absl::StrCat(
+              "--", flag, ": a reconstruction flag, only for render --clip; ", target.scene,
+              " is reconstructed already (its options are in scene get)"));
+        }
+      }
+    }
+  }
   v1::CreateRenderJobRequest request;
   ASSIGN_OR_RETURN(*request.mutable_views(), LoadViews(cl.Get("cameras")));
   for (const std::string& output : cl.GetList("outputs")) request.add_outputs(output);

@@ -33,8 +33,10 @@ struct ContextView {
   ImageF rgb;    // [H, W, 3] in [0, 1].
   ImageF depth;  // [H, W, 1] metres along z, 0 unknown; empty (width 0) when the frame has none.
   // [H, W] 1 on the ego vehicle's body (Camera.ego_mask), 0 elsewhere; empty
-  // when the camera has no mask. Such pixels are never lifted, observe
-  // nothing in fusion, are left out of the colour fit and of eval's figures.
+  // when the camera has no mask. Such pixels are never lifted; they neither
+  // see nor see past anything, in sampling's visibility tests and in fusion
+  // (nor give colour to its bilinear samples); they are left out of the far
+  // layer's radius, the colour fit and eval's figures.
   std::vector<uint8_t> ego;
 
   bool is_ego(size_t pixel) const { return !ego.empty() && ego[pixel] != 0; }

@@ -53,8 +53,7 @@ nlohmann::ordered_json MeanJson(const MeanMetrics& mean) {
 // Measures `buffers` against `truth_rgb` (and `truth_depth` when it has
 // pixels); `dynamic_mask` selects the pixels of dynamicPsnr (none: left out).
 // Pixels where `ego` (empty: none) is set are the ego vehicle's body: left
-// out of every figure (SSIM, whose windows need whole images, sees them
-// equal to the truth).
+// out of every figure (SSIM: the windows centred on them).
 FrameMetrics Measure(const ImageF& truth_rgb, const ImageF& truth_depth,
                      const RenderBuffers& buffers, std::vector<uint8_t> dynamic_mask,
                      const std::vector<uint8_t>& ego, ImageF* render) {
@@ -72,16 +71,7 @@ FrameMetrics Measure(const ImageF& truth_rgb, const ImageF& truth_depth,
     }
   }
   m.psnr = Psnr(truth_rgb, *render, scene_pixels).value_or(0.0);
-  if (m.ego_pixels == 0) {
-    m.ssim = Ssim(truth_rgb, *render).value_or(0.0);
-  } else {
-    ImageF same_on_ego = *render;
-    for (size_t i = 0; i < pixels; ++i) {
-      if (ego[i] == 0) continue;
-      for (int c = 0; c < 3; ++c) same_on_ego.pixels[3 * i + c] = truth_rgb.pixels[3 * i + c];
-    }
-    m.ssim = Ssim(truth_rgb, same_on_ego).value_or(0.0);
-  }
+  m.ssim = Ssim(truth_rgb, *render, scene_pixels).value_or(0.0);
   if (truth_depth.width > 0) {
     ImageF depth(buffers.width, buffers.height, 1);
     depth.pixels = buffers.depth;

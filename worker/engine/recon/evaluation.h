@@ -23,7 +23,7 @@
 // alpha < 0.5, which show black (regions no context view saw). Means
 // are over the frames that have the figure; a figure no frame has is null.
 // A camera with an ego mask (Camera.ego_mask) has its masked pixels left
-// out of every figure of its frames (SSIM sees them equal to the truth;
+// out of every figure of its frames (SSIM: the windows centred on them;
 // holeFraction is over the other pixels) and their count as "egoPixels".
 //
 // Extra views (`pf eval --views VIEWS.json --truth DIR`, ExtraViews below):

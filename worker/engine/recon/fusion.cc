@@ -11,28 +11,41 @@
 namespace pf {
 namespace {
 
-// Bilinear colour of continuous pixel (u, v), pixel centres at +0.5.
-void SampleRgb(const ImageF& image, double u, double v, float out[3]) {
+// Bilinear colour of continuous pixel (u, v) of `view`, pixel centres at
+// +0.5. Pixels on the ego body get no weight (the others' weights are
+// renormalised); the pixel (u, v) lies in, never on the body here, has at
+// least a quarter of it.
+void SampleRgb(const ContextView& view, double u, double v, float out[3]) {
+  const ImageF& image = view.rgb;
   const double x = std::clamp(u - 0.5, 0.0, double(image.width - 1));
   const double y = std::clamp(v - 0.5, 0.0, double(image.height - 1));
   const int x0 = static_cast<int>(x), y0 = static_cast<int>(y);
   const int x1 = std::min(x0 + 1, image.width - 1), y1 = std::min(y0 + 1, image.height - 1);
   const float fx = float(x - x0), fy = float(y - y0);
+  const int xs[4] = {x0, x1, x0, x1}, ys[4] = {y0, y0, y1, y1};
+  float w[4] = {(1 - fx) * (1 - fy), fx * (1 - fy), (1 - fx) * fy, fx * fy};
+  float sum = 0;
+  for (int k = 0; k < 4; ++k) {
+    if (view.is_ego(static_cast<size_t>(ys[k]) * image.width + xs[k])) w[k] = 0;
+    sum += w[k];
+  }
   for (int c = 0; c < 3; ++c) {
-    const float top = image.at(x0, y0, c) * (1 - fx) + image.at(x1, y0, c) * fx;
-    const float bottom = image.at(x0, y1, c) * (1 - fx) + image.at(x1, y1, c) * fx;
-    out[c] = top * (1 - fy) + bottom * fy;
+    float value = 0;
+    for (int k = 0; k < 4; ++k) value += w[k] * image.at(xs[k], ys[k], c);
+    out[c] = view.ego.empty() ? value : value / std::max(sum, 1e-12f);
   }
 }
 
 // True when every pixel of the 3x3 neighbourhood of (x, y) sees further than
-// `limit` (or is far layer while the query is not).
-bool SeesPast(const ViewDepth& depth, int x, int y, float limit) {
+// `limit` (or is far layer while the query is not). A pixel on the ego body
+// sees nothing past it.
+bool SeesPast(const ContextView& view, const ViewDepth& depth, int x, int y, float limit) {
   for (int dy = -1; dy <= 1; ++dy) {
     for (int dx = -1; dx <= 1; ++dx) {
       const int xx = std::clamp(x + dx, 0, depth.width - 1);
       const int yy = std::clamp(y + dy, 0, depth.height - 1);
       const size_t j = static_cast<size_t>(yy) * depth.width + xx;
+      if (view.is_ego(j)) return false;
       if (!depth.is_far(j) && depth.depth[j] <= limit) return false;
     }
   }
@@ -111,7 +124,7 @@ FusedQueries FuseQueries(const QuerySet& queries, const std::vector<FusionView>&
             observes = fv.depth->is_far(j);
           } else {
             d = fv.depth->is_far(j) ? -inf : (z - fv.depth->depth[j]) / z;
-            if (d < -tol && SeesPast(*fv.depth, x, y, z * (1 + tol))) ++contradicted;
+            if (d < -tol && SeesPast(*fv.view, *fv.depth, x, y, z * (1 + tol))) ++contradicted;
             observes = std::abs(d) <= tol;
           }
         }
@@ -139,7 +152,7 @@ FusedQueries FuseQueries(const QuerySet& queries, const std::vector<FusionView>&
           w *= ratio * ratio;
         }
         float c[3];
-        SampleRgb(fv.view->rgb, u, vv, c);
+        SampleRgb(*fv.view, u, vv, c);
         for (int ch = 0; ch < 3; ++ch) rgb[ch] += w * c[ch];
         sum_w += w;
       }

@@ -107,6 +107,41 @@ TEST(Fusion, NoQueryIsSeenThroughTheEgoBody) {
   EXPECT_EQ(FuseQueries(OneQuery(), {source.fusion(), hood.fusion()}, {}, {}).observations[0], 2);
 }
 
+// The colour is sampled bilinearly: the query lands at pixel (8.0, 6.0),
+// between pixels 7 and 8 in x and 5 and 6 in y. Column 7 of the second view
+// is the ego body, painted magenta: it gets no weight, and the view gives
+// the colour of column 8 (green), not a blend.
+TEST(Fusion, TheEgoBodyGivesNoColourToABilinearSample) {
+  const FlatView source(1, 0, 0, 10);
+  FlatView hood(0, 1, 0, 10);
+  hood.view.ego.assign(kW * kH, 0);
+  for (int y = 0; y < kH; ++y) {
+    hood.view.ego[y * kW + 7] = 1;
+    hood.view.rgb.at(7, y, 0) = hood.view.rgb.at(7, y, 2) = 1;
+    hood.view.rgb.at(7, y, 1) = 0;
+  }
+  FusionOptions options;
+  options.weights = FusionWeights::kPlainAverage;
+  const FusedQueries f = FuseQueries(OneQuery(), {source.fusion(), hood.fusion()}, {}, options);
+  EXPECT_EQ(f.observations[0], 2);
+  EXPECT_NEAR(f.rgb[0], 0.5, 1e-6);  // Red from the source, green from the hood view.
+  EXPECT_NEAR(f.rgb[1], 0.5, 1e-6);
+  EXPECT_NEAR(f.rgb[2], 0.0, 1e-6);  // No magenta.
+}
+
+// A view that sees 10 m past the query contradicts it, unless the ego body
+// is in the 3x3 neighbourhood of its pixel: the body hides what is beyond.
+TEST(Fusion, TheEgoBodyNextToThePixelSeesNothingPast) {
+  const FlatView source(1, 0, 0, 10);
+  FlatView through(0, 0, 1, 20);
+  EXPECT_NEAR(FuseQueries(OneQuery(), {source.fusion(), through.fusion()}, {}, {}).agreement[0],
+              0.5f, 1e-6);
+  through.view.ego.assign(kW * kH, 0);
+  through.view.ego[7 * kW + 9] = 1;  // Diagonal neighbour of pixel (8, 6).
+  EXPECT_NEAR(FuseQueries(OneQuery(), {source.fusion(), through.fusion()}, {}, {}).agreement[0],
+              1.f, 1e-6);
+}
+
 TEST(Fusion, SeeingPastAPointShortensItsLifespan) {
   const FlatView source(1, 0, 0, 10, 0);
   const FlatView later_same(1, 0, 0, 10, 300000);

@@ -27,7 +27,8 @@ std::optional<double> Psnr(const ImageF& truth, const ImageF& test,
   return std::min(kMaxPsnr, 10.0 * std::log10(1.0 / mse));
 }
 
-std::optional<double> Ssim(const ImageF& truth, const ImageF& test) {
+std::optional<double> Ssim(const ImageF& truth, const ImageF& test,
+                           const std::vector<uint8_t>& mask) {
   constexpr int kRadius = 5;  // 11 x 11 window.
   constexpr double kSigma = 1.5, kC1 = 0.01 * 0.01, kC2 = 0.03 * 0.03;
   const int w = truth.width, h = truth.height;
@@ -40,6 +41,14 @@ std::optional<double> Ssim(const ImageF& truth, const ImageF& test) {
   }
   for (double& k : kernel) k /= total;
   const int out_w = w - 2 * kRadius, out_h = h - 2 * kRadius;
+  // Window (x, y) is centred on pixel (x + kRadius, y + kRadius).
+  auto counted = [&](int x, int y) {
+    return mask.empty() || mask[static_cast<size_t>(y + kRadius) * w + x + kRadius] != 0;
+  };
+  int64_t windows = 0;
+  for (int y = 0; y < out_h; ++y)
+    for (int x = 0; x < out_w; ++x) windows += counted(x, y);
+  if (windows == 0) return std::nullopt;
   double ssim_sum = 0;
   for (int c = 0; c < 3; ++c) {
     // Separable blur of x, y, x^2, y^2, xy: horizontal pass then vertical.
@@ -66,6 +75,7 @@ std::optional<double> Ssim(const ImageF& truth, const ImageF& test) {
       for (int64_t y = y0; y < y1; ++y) {
         double sum = 0;
         for (int x = 0; x < out_w; ++x) {
+          if (!counted(x, int(y))) continue;
           double acc[5] = {0, 0, 0, 0, 0};
           for (int k = 0; k <= 2 * kRadius; ++k)
             for (int m = 0; m < 5; ++m)
@@ -81,7 +91,7 @@ std::optional<double> Ssim(const ImageF& truth, const ImageF& test) {
     });
     double channel = 0;
     for (double s : per_row) channel += s;
-    ssim_sum += channel / (double(out_w) * out_h);
+    ssim_sum += channel / double(windows);
   }
   return ssim_sum / 3.0;
 }

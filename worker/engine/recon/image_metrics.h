@@ -26,9 +26,12 @@ inline constexpr double kMaxPsnr = 100.0;
 std::optional<double> Psnr(const ImageF& truth, const ImageF& test,
                            const std::vector<uint8_t>& mask = {});
 
-// Returns the mean SSIM of `test` against `truth` (same size, 3 channels).
-// Images smaller than the window give nullopt.
-std::optional<double> Ssim(const ImageF& truth, const ImageF& test);
+// Returns the mean SSIM of `test` against `truth` (same size, 3 channels)
+// over the windows centred on pixels where `mask` is non-zero (all when
+// `mask` is empty). Images smaller than the window, or no window selected,
+// give nullopt.
+std::optional<double> Ssim(const ImageF& truth, const ImageF& test,
+                           const std::vector<uint8_t>& mask = {});
 
 // Returns the root mean square of (test - truth) over pixels where truth is
 // > 0 and finite, and the count through `pixels`; nullopt when there is none.

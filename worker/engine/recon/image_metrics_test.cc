@@ -39,6 +39,27 @@ TEST(ImageMetrics, SsimOfConstantImagesMatchesTheFormula) {
   EXPECT_FALSE(Ssim(Constant(8, 8, 0), Constant(8, 8, 0)).has_value());
 }
 
+// With a mask, only the windows centred on selected pixels count: the left
+// half of `b` is a's 0.5 and the right half 0.6, and a mask of the left
+// half's columns 0-9 keeps only windows (11 wide) that lie within the
+// left half, which match exactly.
+TEST(ImageMetrics, SsimOverTheWindowsCentredOnMaskedPixels) {
+  const ImageF a = Constant(32, 32, 0.5f);
+  ImageF b = a;
+  for (int y = 0; y < 32; ++y)
+    for (int x = 16; x < 32; ++x)
+      for (int c = 0; c < 3; ++c) b.at(x, y, c) = 0.6f;
+  std::vector<uint8_t> left(32 * 32, 0);
+  for (int y = 0; y < 32; ++y)
+    for (int x = 0; x < 10; ++x) left[y * 32 + x] = 1;
+  EXPECT_NEAR(*Ssim(a, b, left), 1.0, 1e-9);
+  EXPECT_LT(*Ssim(a, b), 0.999);
+  // Centres within 5 pixels of the border have no window.
+  std::vector<uint8_t> border(32 * 32, 0);
+  border[0] = 1;
+  EXPECT_FALSE(Ssim(a, b, border).has_value());
+}
+
 TEST(ImageMetrics, SsimDropsWithNoiseButNotWithIdenticalStructure) {
   ImageF a(40, 40, 3), noisy(40, 40, 3);
   for (int y = 0; y < 40; ++y)

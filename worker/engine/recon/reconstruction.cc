@@ -119,7 +119,10 @@ absl::StatusOr<ReconResult> ReconstructInputs(const ReconInputs& inputs,
     stats.facade_pixels = ExtendFacades(views, from_lidar, grounds, &measured);
   }
   for (size_t v = 0; v < num_views; ++v) {
-    for (float d : measured[v].pixels) max_depths[v] = std::max(max_depths[v], d);
+    // The far layer lies beyond the scene, not beyond the ego body's depth.
+    for (size_t j = 0; j < measured[v].pixels.size(); ++j) {
+      if (!views[v].is_ego(j)) max_depths[v] = std::max(max_depths[v], measured[v].pixels[j]);
+    }
     stats.views_without_depth += max_depths[v] > 0.f ? 0 : 1;
   }
   const FarLayer far = FarLayerFor(views, max_depths);

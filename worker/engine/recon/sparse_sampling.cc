@@ -172,6 +172,8 @@ bool FinerViewSees(const Vec3& p, double footprint, size_t self, double ratio,
     const int px = static_cast<int>(std::floor(x)), py = static_cast<int>(std::floor(y));
     if (px < 0 || py < 0 || px >= views[u].depth->width || py >= views[u].depth->height) continue;
     const size_t j = static_cast<size_t>(py) * views[u].depth->width + px;
+    // An ego-body pixel shows the body, not the point.
+    if (views[u].view->is_ego(j)) continue;
     if (views[u].depth->is_far(j) || (*views[u].owners)[j] != 0) continue;
     if (std::abs(views[u].depth->depth[j] - pc.z) <= 0.03 * pc.z) return true;
   }
@@ -194,7 +196,7 @@ bool OtherViewSeesOrPasses(const Vec3& p, bool far, size_t self,
     const int px = static_cast<int>(std::floor(x)), py = static_cast<int>(std::floor(y));
     if (px < 0 || py < 0 || px >= views[u].depth->width || py >= views[u].depth->height) continue;
     const size_t j = static_cast<size_t>(py) * views[u].depth->width + px;
-    if ((*views[u].owners)[j] != 0) continue;
+    if ((*views[u].owners)[j] != 0 || views[u].view->is_ego(j)) continue;
     if (views[u].depth->is_far(j) || (!far && views[u].depth->depth[j] >= 0.97 * pc.z)) {
       return true;
     }

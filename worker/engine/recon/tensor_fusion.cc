@@ -62,15 +62,17 @@ DeviceView UploadView(const FusionView& view, const at::Device& device) {
   // SeesPast of fusion.cc: every pixel of the 3x3 neighbourhood (clamped to
   // the image) is far or deeper than the limit, i.e. the least non-far depth
   // there is. The min-pool runs on a replicate-padded map (= clamping).
-  const Tensor non_far = out.depth.masked_fill(out.far, std::numeric_limits<float>::infinity());
+  // An ego-body pixel blocks the view (SeesPast): depth 0 there.
+  Tensor non_far = out.depth.masked_fill(out.far, std::numeric_limits<float>::infinity());
+  if (!view.view->ego.empty()) {
+    out.ego = ToDevice(view.view->ego, at::kByte, at::kByte, device).ne(0);
+    non_far = non_far.masked_fill(out.ego, 0.f);
+  }
   const Tensor padded =
       at::replication_pad2d(non_far.view({1, 1, depth.height, depth.width}), {1, 1, 1, 1});
   out.nearest = at::max_pool2d(padded.neg(), {3, 3}, {1, 1}).neg().reshape({-1});
   if (view.mask != nullptr && !view.mask->empty()) {
     out.mask = ToDevice(*view.mask, at::kByte, at::kByte, device).ne(0);
-  }
-  if (!view.view->ego.empty()) {
-    out.ego = ToDevice(view.view->ego, at::kByte, at::kByte, device).ne(0);
   }
   return out;
 }
@@ -142,7 +144,7 @@ void Project(const CameraModel& camera, const Tensor& x, const Tensor& y, const 
 
 // Bilinear colours [B, 3] float of continuous pixels (u, v) [B] float64 of a
 // [H * W, 3] image, as SampleRgb of fusion.cc (pixel centres at +0.5,
-// clamped to the image).
+// clamped to the image; ego-body pixels weigh nothing).
 Tensor SampleRgb(const DeviceView& view, const Tensor& u, const Tensor& v) {
   const Tensor x = (u - 0.5).clamp(0.0, view.width - 1);
   const Tensor y = (v - 0.5).clamp(0.0, view.height - 1);
@@ -152,12 +154,19 @@ Tensor SampleRgb(const DeviceView& view, const Tensor& u, const Tensor& v) {
   const Tensor ix0 = x0.to(at::kLong), iy0 = y0.to(at::kLong);
   const Tensor ix1 = (ix0 + 1).clamp_max(view.width - 1);
   const Tensor iy1 = (iy0 + 1).clamp_max(view.height - 1);
-  auto at_pixel = [&](const Tensor& ix, const Tensor& iy) {
-    return view.rgb.index_select(0, iy * view.width + ix);
-  };
-  const Tensor top = at_pixel(ix0, iy0) * (1 - fx) + at_pixel(ix1, iy0) * fx;
-  const Tensor bottom = at_pixel(ix0, iy1) * (1 - fx) + at_pixel(ix1, iy1) * fx;
-  return top * (1 - fy) + bottom * fy;
+  const Tensor corners[4] = {iy0 * view.width + ix0, iy0 * view.width + ix1, iy1 * view.width + ix0,
+                             iy1 * view.width + ix1};
+  Tensor weights[4] = {(1 - fx) * (1 - fy), fx * (1 - fy), (1 - fx) * fy, fx * fy};
+  Tensor sum = at::zeros_like(fx);
+  for (int k = 0; k < 4; ++k) {
+    if (view.ego.defined()) {
+      weights[k] = weights[k].masked_fill(view.ego.take(corners[k]).unsqueeze(1), 0.f);
+    }
+    sum = sum + weights[k];
+  }
+  Tensor rgb = at::zeros({fx.size(0), 3}, view.rgb.options());
+  for (int k = 0; k < 4; ++k) rgb = rgb + view.rgb.index_select(0, corners[k]) * weights[k];
+  return view.ego.defined() ? rgb / sum.clamp_min(1e-12f) : rgb;
 }
 
 // Fuses queries [begin, end) into `out`. Static queries are moved into each

@@ -210,22 +210,27 @@ TEST(TensorFusion, MatchesTheCxxKernelOnARandomSceneForEveryWeighting) {
   }
 }
 
+// A 16 x 12 view from the origin along +z (fx = fy = 10, centre (8, 6)) of
+// one colour at one depth.
+TestView FlatView(float depth, const float (&colour)[3]) {
+  TestView t;
+  t.view.camera = CameraModel(16, 12, 10, 10, 8, 6);
+  t.view.rgb = ImageF(16, 12, 3);
+  for (int y = 0; y < 12; ++y)
+    for (int x = 0; x < 16; ++x)
+      for (int c = 0; c < 3; ++c) t.view.rgb.at(x, y, c) = colour[c];
+  t.depth = {16, 12, std::vector<float>(16 * 12, depth), std::vector<uint8_t>(16 * 12, 0)};
+  return t;
+}
+
 TEST(TensorFusion, WeightsPreferTheConsistentViewAsComputedByHand) {
   // One query at (0, 0, 10), seen by four views from the origin: the source,
   // two within the tolerance (d = 0.005 and 0.025) and one occluded.
   const float depths[4] = {10.f, 10.05f, 10.25f, 5.f};
   const float colours[4][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {1, 1, 1}};
-  std::vector<TestView> views(4);
+  std::vector<TestView> views;
   std::vector<FusionView> fusion_views;
-  for (int v = 0; v < 4; ++v) {
-    views[v].view.camera = CameraModel(16, 12, 10, 10, 8, 6);
-    views[v].view.rgb = ImageF(16, 12, 3);
-    for (int y = 0; y < 12; ++y)
-      for (int x = 0; x < 16; ++x)
-        for (int c = 0; c < 3; ++c) views[v].view.rgb.at(x, y, c) = colours[v][c];
-    views[v].depth = {16, 12, std::vector<float>(16 * 12, depths[v]),
-                      std::vector<uint8_t>(16 * 12, 0)};
-  }
+  for (int v = 0; v < 4; ++v) views.push_back(FlatView(depths[v], colours[v]));
   for (const TestView& view : views) fusion_views.push_back(view.fusion());
   const QuerySet q = testing::OneQueryTenMetresAhead();
   absl::StatusOr<FusedQueries> f =
@@ -239,6 +244,30 @@ TEST(TensorFusion, WeightsPreferTheConsistentViewAsComputedByHand) {
   EXPECT_EQ(f->observations[0], 3);
   EXPECT_FLOAT_EQ(f->agreement[0], 1.f);
   EXPECT_TRUE(std::isinf(f->lifespans[0]));
+}
+
+// As Fusion.TheEgoBodyGivesNoColourToABilinearSample: column 7 of the second
+// view is the (magenta) ego body; the bilinear sample at (8.0, 6.0) gives
+// the green of column 8.
+TEST(TensorFusion, TheEgoBodyGivesNoColourToABilinearSample) {
+  std::vector<TestView> views = {FlatView(10.f, {1, 0, 0}), FlatView(10.f, {0, 1, 0})};
+  std::vector<FusionView> fusion_views;
+  views[1].view.ego.assign(16 * 12, 0);
+  for (int y = 0; y < 12; ++y) {
+    views[1].view.ego[y * 16 + 7] = 1;
+    views[1].view.rgb.at(7, y, 0) = views[1].view.rgb.at(7, y, 2) = 1;
+    views[1].view.rgb.at(7, y, 1) = 0;
+  }
+  for (const TestView& view : views) fusion_views.push_back(view.fusion());
+  FusionOptions options;
+  options.weights = FusionWeights::kPlainAverage;
+  absl::StatusOr<FusedQueries> f = FuseQueriesOnDevice(testing::OneQueryTenMetresAhead(),
+                                                       fusion_views, {}, options, ComputeDevice{});
+  ASSERT_TRUE(f.ok()) << f.status();
+  EXPECT_EQ(f->observations[0], 2);
+  EXPECT_NEAR(f->rgb[0], 0.5, 1e-6);
+  EXPECT_NEAR(f->rgb[1], 0.5, 1e-6);
+  EXPECT_NEAR(f->rgb[2], 0.0, 1e-6);
 }
 
 TEST(TensorFusion, ARefusedDeviceIsAnErrorNotACrash) {
