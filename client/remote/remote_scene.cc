@@ -237,27 +237,24 @@ absl::StatusOr<v1::ReconstructionOptions> ReconstructionOptionsFromFlags(const C
   options.set_no_facades(cl.Has("no-facades"));
   // Checked here as the local flags are, naming the flag; the server checks
   // them again, naming the field.
-  auto checked = [](const TuningLimit& limit, double value) {
-    return CheckTuning(limit, value, limit.flag);
-  };
   if (cl.Has("refine")) {
     ASSIGN_OR_RETURN(const int64_t refine, cl.GetInt("refine", 0));
-    RETURN_IF_ERROR(checked(kRefineLimit, double(refine)));
+    RETURN_IF_ERROR(CheckTuning(kRefineLimit, double(refine)));
     options.set_refine(static_cast<int32_t>(refine));
   }
   if (cl.Has("hidden-band")) {
     ASSIGN_OR_RETURN(const int64_t band, cl.GetInt("hidden-band", 0));
-    RETURN_IF_ERROR(checked(kHiddenBandLimit, double(band)));
+    RETURN_IF_ERROR(CheckTuning(kHiddenBandLimit, double(band)));
     options.set_hidden_band(static_cast<int32_t>(band));
   }
   if (cl.Has("splat-sigma")) {
     ASSIGN_OR_RETURN(const double sigma, cl.GetDouble("splat-sigma", 0));
-    RETURN_IF_ERROR(checked(kSplatSigmaLimit, sigma));
+    RETURN_IF_ERROR(CheckTuning(kSplatSigmaLimit, sigma));
     options.set_splat_sigma(sigma);
   }
   if (cl.Has("low-pass")) {
     ASSIGN_OR_RETURN(const double low_pass, cl.GetDouble("low-pass", 0));
-    RETURN_IF_ERROR(checked(kLowPassLimit, low_pass));
+    RETURN_IF_ERROR(CheckTuning(kLowPassLimit, low_pass));
     options.set_low_pass(low_pass);
   }
   return options;

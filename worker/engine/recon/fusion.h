@@ -11,9 +11,11 @@
 //                                   pixel in a 3x3 neighbourhood): evidence
 //                                   that the point was not there at t_i.
 // Static queries are zeroed in views whose dynamic mask covers the pixel
-// (except their own source view); every query is, under every weighting, in
-// views whose pixel is on the ego vehicle's body (ContextView::ego). Far-layer queries agree with
-// far-layer pixels and are occluded by anything else.
+// (except their own source view). Every query, under every weighting, is
+// zeroed in a view whose pixel is on the ego vehicle's body
+// (ContextView::ego); body pixels give no colour to the bilinear sample and
+// block the 3x3 "sees past" test. Far-layer queries agree with far-layer
+// pixels and are occluded by anything else.
 //
 // Weights are a softmax over the observing views of -|d_i| / tau, each
 // also scaled by (z_source / z_i)^2 when resolution_weighting is on (a view

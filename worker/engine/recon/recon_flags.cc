@@ -65,20 +65,17 @@ absl::StatusOr<ReconOptions> ReconOptionsFromFlags(const CommandLine& cl) {
   options.completion.ground_fill = !cl.Has("no-ground-fill");
   options.completion.facades = !cl.Has("no-facades");
   options.allow_outside_paths = cl.Has("allow-outside-paths");
-  auto check = [](const TuningLimit& limit, double value) {
-    return CheckTuning(limit, value, limit.flag);
-  };
   ASSIGN_OR_RETURN(options.decoder.tangent_sigma,
                    cl.GetDouble("splat-sigma", options.decoder.tangent_sigma));
-  RETURN_IF_ERROR(check(kSplatSigmaLimit, options.decoder.tangent_sigma));
+  RETURN_IF_ERROR(CheckTuning(kSplatSigmaLimit, options.decoder.tangent_sigma));
   ASSIGN_OR_RETURN(const double low_pass, cl.GetDouble("low-pass", options.decoder.low_pass));
-  RETURN_IF_ERROR(check(kLowPassLimit, low_pass));
+  RETURN_IF_ERROR(CheckTuning(kLowPassLimit, low_pass));
   options.decoder.low_pass = static_cast<float>(low_pass);
   ASSIGN_OR_RETURN(const int64_t refine, cl.GetInt("refine", options.refinement.iterations));
-  RETURN_IF_ERROR(check(kRefineLimit, double(refine)));
+  RETURN_IF_ERROR(CheckTuning(kRefineLimit, double(refine)));
   options.refinement.iterations = static_cast<int>(refine);
   ASSIGN_OR_RETURN(const int64_t band, cl.GetInt("hidden-band", options.hidden_band_px));
-  RETURN_IF_ERROR(check(kHiddenBandLimit, double(band)));
+  RETURN_IF_ERROR(CheckTuning(kHiddenBandLimit, double(band)));
   options.hidden_band_px = static_cast<int>(band);
   ASSIGN_OR_RETURN(options.device, ParseComputeDevice(cl.Get("device", "cpu"), "--device"));
   RETURN_IF_ERROR(CheckComputeDevice(options.device, "--device"));

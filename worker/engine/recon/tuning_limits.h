@@ -3,7 +3,7 @@
 // ReconstructionOptions (server/clip_intake.h, worker/task_runner.h).
 // Header-only: the server checks requests without linking the engine.
 //
-//   RETURN_IF_ERROR(CheckTuning(kRefineLimit, value, kRefineLimit.flag));
+//   RETURN_IF_ERROR(CheckTuning(kRefineLimit, value));  // "--refine: must be ..."
 #ifndef POINTFORWARD_WORKER_ENGINE_RECON_TUNING_LIMITS_H_
 #define POINTFORWARD_WORKER_ENGINE_RECON_TUNING_LIMITS_H_
 
@@ -41,11 +41,13 @@ inline std::string TuningProblem(const TuningLimit& limit, double value) {
 }
 
 // Returns INVALID_ARGUMENT "`name`: must be in ..." unless `value` is within
-// `limit`.
-inline absl::Status CheckTuning(const TuningLimit& limit, double value, const std::string& name) {
+// `limit`; `name` is the flag (limit.flag) unless given.
+inline absl::Status CheckTuning(const TuningLimit& limit, double value,
+                                const std::string& name = "") {
   const std::string problem = TuningProblem(limit, value);
   if (problem.empty()) return absl::OkStatus();
-  return absl::InvalidArgumentError(absl::StrCat(name, ": ", problem));
+  return absl::InvalidArgumentError(
+      absl::StrCat(name.empty() ? std::string(limit.flag) : name, ": ", problem));
 }
 
 // Checks the tuning fields that are set in a ReconstructionOptions message
