@@ -18,16 +18,27 @@ constexpr double kFarDistance = 1e4;
 // this for the facade's direction to be known.
 constexpr double kMinFacadeSpread = 0.03;
 
+// Whether the 3x3 patch around (x, y) lies in `view`'s image and off its
+// ego body.
+bool PatchUsable(const ContextView& view, int x, int y) {
+  if (x < 1 || y < 1 || x >= view.width() - 1 || y >= view.height() - 1) return false;
+  if (view.ego.empty()) return true;
+  for (int dy = -1; dy <= 1; ++dy)
+    for (int dx = -1; dx <= 1; ++dx)
+      if (view.is_ego(static_cast<size_t>(y + dy) * view.width() + (x + dx))) return false;
+  return true;
+}
+
 // Mean absolute difference between the 3x3 RGB patches of `a` around
-// (ax, ay) and of `b` around (bx, by); -1 when a patch leaves its image.
-double PatchCost(const ImageF& a, int ax, int ay, const ImageF& b, int bx, int by) {
-  if (ax < 1 || ay < 1 || ax >= a.width - 1 || ay >= a.height - 1) return -1;
-  if (bx < 1 || by < 1 || bx >= b.width - 1 || by >= b.height - 1) return -1;
+// (ax, ay) and of `b` around (bx, by); -1 when a patch leaves its image or
+// touches its view's ego body (the body says nothing of the scene).
+double PatchCost(const ContextView& a, int ax, int ay, const ContextView& b, int bx, int by) {
+  if (!PatchUsable(a, ax, ay) || !PatchUsable(b, bx, by)) return -1;
   double sum = 0;
   for (int dy = -1; dy <= 1; ++dy)
     for (int dx = -1; dx <= 1; ++dx)
       for (int c = 0; c < 3; ++c)
-        sum += std::abs(a.at(ax + dx, ay + dy, c) - b.at(bx + dx, by + dy, c));
+        sum += std::abs(a.rgb.at(ax + dx, ay + dy, c) - b.rgb.at(bx + dx, by + dy, c));
   return sum / 27;
 }
 
@@ -195,8 +206,8 @@ int64_t ExtendFacades(const std::vector<ContextView>& views, const std::vector<b
                 !PixelOf(other, partner_from_world[k], far, &fx, &fy)) {
               continue;
             }
-            const double cp = PatchCost(view.rgb, x, y, other.rgb, px, py);
-            const double cf = PatchCost(view.rgb, x, y, other.rgb, fx, fy);
+            const double cp = PatchCost(view, x, y, other, px, py);
+            const double cf = PatchCost(view, x, y, other, fx, fy);
             if (cp < 0 || cf < 0) continue;
             cost_plane += cp;
             cost_far += cf;

@@ -44,7 +44,8 @@ struct FacadeOptions {
 // that column's facade explains better than the far layer (see above), up
 // to the last such pixel of the column. Returns how many pixels it set, in
 // all views. Views are checked against the `partners` other views nearest
-// to them whose cameras are at least `min_baseline` away.
+// to them whose cameras are at least `min_baseline` away; a colour patch
+// that touches a view's ego body (ContextView::ego) is no evidence.
 int64_t ExtendFacades(const std::vector<ContextView>& views, const std::vector<bool>& extend,
                       const std::vector<GroundPlane>& grounds, std::vector<ImageF>* measured,
                       const FacadeOptions& options = {});

@@ -147,5 +147,25 @@ TEST(FacadeDepth, AFlatSkylineWithoutAWallIsLeftAlone) {
   EXPECT_EQ(ExtendFacades(street.views, {true, false}, street.grounds, &street.measured), 0);
 }
 
+TEST(FacadeDepth, APartnersEgoBodyIsNoEvidence) {
+  // The second view's right half is its ego body (say a glossy hood that
+  // mirrors the front): columns of the first view whose plane points land
+  // there have no other view to check them and stay unknown; the others
+  // are continued as without a mask.
+  Street street = StreetWithLidarFrom(50);
+  ContextView& partner = street.views[1];
+  partner.ego.assign(static_cast<size_t>(partner.width()) * partner.height(), 0);
+  for (int y = 0; y < partner.height(); ++y)
+    for (int x = 80; x < partner.width(); ++x) partner.ego[y * partner.width() + x] = 1;
+  std::vector<ImageF> extended = street.measured;
+  ExtendFacades(street.views, {true, false}, street.grounds, &extended);
+  for (int y = 25; y < 50; ++y) {
+    // Partner columns x + 16.7 +- 1 (the patch) reach the body from x = 62.
+    for (int x = 2; x < 55; ++x)
+      EXPECT_NEAR(extended[0].at(x, y), TrueDepth(street.views[0], x, y), 0.05) << x << "," << y;
+    for (int x = 66; x < 160; ++x) EXPECT_EQ(extended[0].at(x, y), 0.f) << x << "," << y;
+  }
+}
+
 }  // namespace
 }  // namespace pf
