@@ -208,52 +208,6 @@ bool OtherViewSeesOrPasses(const Vec3& p, bool far, size_t self,
 // surface is grazing and hides nothing (HiddenCandidate).
 constexpr double kMinHiddenFacing = 0.3;
 
-// How much deeper than pixel `from` the near side of the edge may be, and
-// how far its normal may turn (cosine), for `from` to count as the occluder
-// (OccludesBackground): a slanted car side spans some depth, the ground from
-// a metre ahead to the horizon far more.
-constexpr double kMaxOccluderSpread = 1.5;
-constexpr double kMinOccluderCos = 0.7;
-// The least relative jump between neighbouring pixels that OccludesBackground
-// takes for an occlusion edge: on a low-resolution view the road near the
-// horizon recedes by over 10 % a row.
-constexpr double kMinOccluderJump = 0.5;
-
-// Returns true if pixel `from` is part of a surface that hides pixel `to`:
-// walking the image segment from `from` to `to`, the first pair of
-// neighbouring pixels whose depth jumps by more than `min_jump` (relative)
-// is reached on `from`'s own surface (depth within kMaxOccluderSpread of
-// `from`'s, normals within kMinOccluderCos of its normal all the way). A
-// surface that only recedes (the ground up to a wall, or to the horizon) or
-// meets the occluder without a jump (the ground under a car) hides nothing
-// of what lies beyond.
-bool OccludesBackground(const ViewDepth& depth, const LiftedView& lifted, size_t from, size_t to,
-                        double min_jump) {
-  const int w = depth.width;
-  const int x0 = static_cast<int>(from % w), y0 = static_cast<int>(from / w);
-  const int x1 = static_cast<int>(to % w), y1 = static_cast<int>(to / w);
-  const int steps = std::max(std::abs(x1 - x0), std::abs(y1 - y0));
-  const Vec3 n0{lifted.normals[3 * from], lifted.normals[3 * from + 1],
-                lifted.normals[3 * from + 2]};
-  size_t previous = from;
-  for (int k = 1; k <= steps; ++k) {
-    const int x = x0 + static_cast<int>(std::lround(double(x1 - x0) * k / steps));
-    const int y = y0 + static_cast<int>(std::lround(double(y1 - y0) * k / steps));
-    const size_t pixel = static_cast<size_t>(y) * w + x;
-    if (depth.depth[pixel] > (1 + min_jump) * depth.depth[previous]) {
-      return depth.depth[previous] <= kMaxOccluderSpread * depth.depth[from];
-    }
-    const Vec3 n{lifted.normals[3 * pixel], lifted.normals[3 * pixel + 1],
-                 lifted.normals[3 * pixel + 2]};
-    if (depth.depth[pixel] > kMaxOccluderSpread * depth.depth[from] ||
-        Dot(n, n0) < kMinOccluderCos) {
-      return false;
-    }
-    previous = pixel;
-  }
-  return false;
-}
-
 // Which way is up, and how low the scene goes: hidden queries (on surfaces
 // nobody saw) are kept above the floor, the 1st percentile of the height of
 // every measured point (not far layer) of the views, less 0.5 m; up is the
@@ -313,17 +267,19 @@ HiddenFloor FindHiddenFloor(const std::vector<SamplingView>& views) {
 // where the plane of the background pixel's surface (its point and normal)
 // meets it, or at the background's range when that plane does not give a
 // point behind `i`; at the far layer's range for a far background. False
-// when there is none: no background, a background that is not static, one
-// whose plane continues through `i` itself (a slanted surface, not an
-// occlusion), a pixel `i` whose own surface the ray meets at a grazing
-// angle or that is not the occluder (OccludesBackground): such a surface
-// (the road toward the horizon, or up to a wall) recedes into what lies
-// beyond it rather than hiding it, and a query behind it would sit below the
-// ground; sky behind a ray that points below the horizontal plane; and a
-// point below the floor (HiddenFloor).
+// when there is none: a pixel `i` on the far layer, no background, a
+// background that is not static, one whose plane continues through `i`
+// itself (a slanted surface, not an occlusion), a pixel `i` whose own
+// surface the ray meets at a grazing angle, sky behind a ray that points
+// below the horizontal plane, and a point below the floor (HiddenFloor).
+// Any depth edge deeper than `min_jump` counts as an occlusion: a surface
+// that only recedes (the road up to a wall) is not told from an occluder,
+// and the query behind it lies under that surface, above the floor, hidden
+// wherever the surface was seen and filling a hole where it was not
+// (docs/QUALITY.md, "Hidden queries behind small depth edges").
 bool HiddenCandidate(const SamplingView& sv, int v, size_t i, int32_t source, double min_jump,
                      double focal, double stride, const HiddenFloor& floor, Candidate* out) {
-  if (source < 0 || !sv.lifted->valid[i]) return false;
+  if (source < 0 || !sv.lifted->valid[i] || sv.depth->is_far(i)) return false;
   const size_t j = static_cast<size_t>(source);
   if (!sv.lifted->valid[j] || (*sv.owners)[j] != 0) return false;
   const Vec3 origin = sv.view->world_from_camera.translation;
@@ -337,8 +293,6 @@ bool HiddenCandidate(const SamplingView& sv, int v, size_t i, int32_t source, do
   const Vec3 n_i{sv.lifted->normals[3 * i], sv.lifted->normals[3 * i + 1],
                  sv.lifted->normals[3 * i + 2]};
   if (std::abs(Dot(ray, n_i)) < kMinHiddenFacing) return false;
-  if (!OccludesBackground(*sv.depth, *sv.lifted, i, j, std::max(min_jump, kMinOccluderJump)))
-    return false;
   double range = range_j;
   if (sv.depth->is_far(j)) {
     // The sky lies above the horizontal plane: below it, what a near

@@ -30,12 +30,10 @@
 // like the background pixel next to the edge; it is marked `hidden`, taken
 // on a coarser grid (it copies one colour: no detail to sample), and dropped
 // when another view sees the point (that view samples it) or sees past it
-// (the point would float in free space). Only an occluder hides anything: a
-// surface seen at a grazing angle, or one that recedes to the edge (the road
-// up to a wall or to the horizon), gets no hidden query; nor do sky
-// directions below the horizontal, or points below the scene's floor (the
-// 1st percentile of measured heights less 0.5 m, "up" from the surfaces that
-// face up).
+// (the point would float in free space). A surface seen at a grazing angle
+// gets no hidden query; nor do sky directions below the horizontal, or
+// points below the scene's floor (the 1st percentile of measured heights
+// less 0.5 m, "up" from the surfaces that face up).
 //
 // Dense mode (the pixel-aligned model): every valid pixel is a query (and
 // one pixel of the band in behind_stride^2 gets its hidden query).
