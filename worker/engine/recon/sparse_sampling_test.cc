@@ -151,7 +151,9 @@ TEST(SparseSampling, HiddenQueriesContinueTheBackgroundBehindAnEdge) {
 // A level camera 1.5 m above flat ground under the sky: the road recedes to
 // the horizon, where the sky (far layer) begins. Nothing there occludes
 // anything, so no hidden query: neither sky on the road's rays (it would sit
-// deep underground) nor ground continued behind nearer ground.
+// deep underground) nor ground continued behind nearer ground, nor road
+// behind the sky (the road at the horizon lies beyond the sky's 500 m, but
+// the far layer hides nothing).
 TEST(SparseSampling, RecedingGroundUnderTheSkyHidesNothing) {
   PlaneView road(192, 144, Rigid{});
   for (int y = 0; y < 144; ++y)
