@@ -67,7 +67,7 @@ commands:
   reconstruct CLIP.json --out SCENE [--model analytic|pixel-aligned] [--ns N --nd N]
         [--fusion softmax|average|no-depth] [--no-lifespan] [--refine N] [--splat-sigma S]
         [--low-pass PX2] [--hidden-band PX] [--no-ground-fill] [--no-facades] [--device cpu|cuda[:N]]
-        [--allow-outside-paths]
+        [--colour gradients|flat] [--allow-outside-paths]
         check the clip as validate does, build a Gaussian scene from its CONTEXT frames
   eval CLIP.json --out DIR [--model ...] [same flags as reconstruct]
        [--views VIEWS.json --truth DIR2] [--lane-shift D1,D2,... --lane-shift-time-us T]
@@ -94,7 +94,7 @@ the token in PF_TOKEN):
          [--device D] [TUNING] --cameras VIEWS.json [--out DIR --wait] [--outputs LIST]
         submit a render job (of a clip: reconstructed first unless cached);
         TUNING: [--refine N] [--splat-sigma S] [--low-pass PX2] [--hidden-band PX]
-        [--no-ground-fill] [--no-facades], as pf reconstruct's (unset: the worker's
+        [--no-ground-fill] [--no-facades] [--colour gradients|flat], as pf reconstruct's (unset: the worker's
         defaults; a scene made with other values is another scene);
         --wait waits and downloads every output file into DIR
   jobs list [--kind reconstruct|render] | jobs get ID | jobs cancel ID

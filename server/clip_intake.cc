@@ -285,6 +285,7 @@ std::string SceneCacheKey(const v1::UploadedClip& clip, const v1::Reconstruction
   if (options.has_hidden_band()) field("hidden_band", absl::StrCat(options.hidden_band()));
   if (options.no_ground_fill()) field("ground_fill", "off");
   if (options.no_facades()) field("facades", "off");
+  if (!options.colour().empty()) field("colour", options.colour());
   return hash.FinishHex();
 }
 

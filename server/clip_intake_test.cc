@@ -44,6 +44,8 @@ TEST(NormalizeOptions, FillsDefaultsAndRefusesTuningOutOfRangeNamingTheField) {
        "options.low_pass: must be in [0, 4] pixels^2, got 4.5"},
       {[](v1::ReconstructionOptions* o) { o->set_hidden_band(300); },
        "options.hidden_band: must be in [0, 256] pixels, got 300"},
+      {[](v1::ReconstructionOptions* o) { o->set_colour("sh"); },
+       "options.colour: unknown colour model 'sh' (expected gradients or flat)"},
   };
   for (const Bad& b : bad) {
     v1::ReconstructionOptions o;
@@ -79,13 +81,19 @@ TEST(SceneCacheKey, TuningValuesThatAreSetMakeAnotherScene) {
   refine.set_refine(4);
   v1::ReconstructionOptions band = defaults;
   band.set_hidden_band(4);  // Same number, another field.
+  v1::ReconstructionOptions flat = defaults;
+  flat.set_colour("flat");
+  v1::ReconstructionOptions gradients = defaults;
+  gradients.set_colour("gradients");  // The analytic default, but asked for: another key.
   const std::set<std::string> keys = {key,
                                       SceneCacheKey(clip, low_pass),
                                       SceneCacheKey(clip, near),
                                       SceneCacheKey(clip, facades),
                                       SceneCacheKey(clip, refine),
-                                      SceneCacheKey(clip, band)};
-  EXPECT_EQ(keys.size(), 6u);
+                                      SceneCacheKey(clip, band),
+                                      SceneCacheKey(clip, flat),
+                                      SceneCacheKey(clip, gradients)};
+  EXPECT_EQ(keys.size(), 8u);
 }
 
 }  // namespace

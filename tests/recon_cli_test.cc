@@ -379,18 +379,58 @@ TEST_F(ReconCli, TheScenesLowPassIsStoredAndReported) {
       << bad.err;
 }
 
+// Colour gradients (GaussianScene::colour_gradients): the analytic model's
+// colour fit gives each Gaussian a colour ramp across its disc by default,
+// stored in the scene file, reported as "colour"; --colour flat is one
+// colour per Gaussian, as before, and pixel-aligned stays flat unless asked.
+// On this clip 25.75 dB against 24.84 flat (docs/QUALITY.md has the
+// default-size clips: +0.9 dB).
+TEST_F(ReconCli, ColourGradientsAreFittedStoredAndWorthADecibel) {
+  const nlohmann::json textured = Report("analytic");
+  EXPECT_EQ(textured["colour"], "gradients");
+  EXPECT_EQ(Report("pixel-aligned")["colour"], "flat");
+  const std::string out = *dir_ + "/eval_flat";
+  CommandResult result = RunCommand({Pf(), "eval", Clip(), "--out", out, "--colour", "flat"});
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  const nlohmann::json flat = ReadJsonFile(out + "/report.json");
+  EXPECT_EQ(flat["colour"], "flat");
+  EXPECT_EQ(flat["gaussians"], textured["gaussians"]);
+  EXPECT_GT(textured["mean"]["psnr"].get<double>(), flat["mean"]["psnr"].get<double>() + 0.5);
+  EXPECT_GT(textured["mean"]["ssim"].get<double>(), flat["mean"]["ssim"].get<double>());
+
+  const GaussianScene with = ReconstructWith({});
+  ASSERT_EQ(with.colour_gradients.size(), 6 * with.size());
+  const size_t sloped = std::count_if(with.colour_gradients.begin(), with.colour_gradients.end(),
+                                      [](float g) { return std::abs(g) > 0.01f; });
+  EXPECT_GT(sloped, with.colour_gradients.size() / 10);
+  EXPECT_FALSE(ReconstructWith({"--colour", "flat"}).has_colour_gradients());
+  EXPECT_TRUE(ReconstructWith({"--model", "pixel-aligned", "--colour", "gradients"})
+                  .has_colour_gradients());
+  result = RunCommand({Pf(), "scene", "info", *dir_ + "/with_flags.pfscene"});
+  EXPECT_NE(result.out.find("colour:       gradients"), std::string::npos) << result.out;
+
+  const CommandResult bad =
+      RunCommand({Pf(), "reconstruct", Clip(), "--out", *dir_ + "/x", "--colour", "sh"});
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_NE(bad.err.find("--colour: unknown colour model 'sh' (expected gradients or flat)"),
+            std::string::npos)
+      << bad.err;
+}
+
 // The clip with its CONTEXT frames' depth maps left out: depth from the
 // synth LiDAR (32 beams, -25 to +10 degrees), which misses the road next to
 // the car and the buildings' upper floors. The ground plane fitted to the
 // sweep fills the road and puts the road between rings at its own depth
 // (view_depth.h); facades continue up to the roofs where the other views
 // agree (facade_depth.h); --no-ground-fill and --no-facades are the
-// ablations. Measured on this clip (docs/QUALITY.md): PSNR 22.10 dB with
-// neither, 22.86 with the ground plane, 23.00 with both; depth RMSE 39.5 m
-// without facades, 29.4 with them. (The sanitizer builds synthesise a
-// slightly different clip, floating point being compiled differently: there
-// 21.90, 22.63 and 22.73 dB, 40.0 and 30.1 m. The share of holes is too
-// fragile to check: 0.74 -> 0.22 % here, 0.86 -> 1.16 % there.)
+// ablations. Measured on this clip (docs/QUALITY.md): PSNR 23.23 dB with
+// neither, 23.56 with the ground plane, 23.86 with both; depth RMSE 39.3 m
+// without facades, 29.4 with them. The colour gradients narrow the ground
+// plane's lead (flat colours, --colour flat: 22.44, 22.98, 23.21 dB), hence
+// the 0.2 dB bound. (The sanitizer builds synthesise a slightly different
+// clip, floating point being compiled differently: there, before the
+// gradients, 21.90, 22.63 and 22.73 dB, 40.0 and 30.1 m. The share of holes
+// is too fragile to check: 0.74 -> 0.22 % here, 0.86 -> 1.16 % there.)
 TEST_F(ReconCli, LidarOnlyDepthGainsFromTheGroundPlaneAndTheFacades) {
   nlohmann::json clip = ReadJsonFile(Clip());
   for (nlohmann::json& frame : clip["frames"]) {
@@ -419,7 +459,7 @@ TEST_F(ReconCli, LidarOnlyDepthGainsFromTheGroundPlaneAndTheFacades) {
   EXPECT_GT(both["facadePixels"].get<int64_t>(), 1000);
   EXPECT_EQ(ground["facadePixels"].get<int64_t>(), 0);
   // The ground plane: the road at its own depth, so sharper.
-  EXPECT_GT(ground["mean"]["psnr"].get<double>(), neither["mean"]["psnr"].get<double>() + 0.4);
+  EXPECT_GT(ground["mean"]["psnr"].get<double>(), neither["mean"]["psnr"].get<double>() + 0.2);
   EXPECT_GT(ground["mean"]["ssim"].get<double>(), neither["mean"]["ssim"].get<double>() + 0.02);
   // Facades: the upper floors at their depth instead of the far layer.
   EXPECT_LT(both["mean"]["depthRmse"].get<double>(),

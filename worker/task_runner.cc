@@ -190,6 +190,7 @@ absl::StatusOr<ReconOptions> ReconOptionsFromProto(const pb::ReconstructionOptio
   if (proto.has_splat_sigma()) options.decoder.tangent_sigma = proto.splat_sigma();
   if (proto.has_low_pass()) options.decoder.low_pass = static_cast<float>(proto.low_pass());
   if (proto.has_hidden_band()) options.hidden_band_px = proto.hidden_band();
+  if (!proto.colour().empty()) options.colour_gradients = proto.colour() == "gradients";
   if (!proto.device().empty() && proto.device() != "cpu") {
     return absl::InvalidArgumentError(
         absl::StrCat("options.device: '", proto.device(),

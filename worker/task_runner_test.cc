@@ -294,6 +294,27 @@ TEST(ReconOptionsFromProto, TuningFieldsMapOntoTheOptions) {
   EXPECT_EQ(options->hidden_band_px, defaults.hidden_band_px);
   EXPECT_TRUE(options->completion.ground_fill);
   EXPECT_TRUE(options->completion.facades);
+  EXPECT_FALSE(options->colour_gradients.has_value());  // The model's default.
+  EXPECT_TRUE(ColourGradientsFor(*options));
+
+  proto.set_colour("flat");
+  options = ReconOptionsFromProto(proto);
+  ASSERT_TRUE(options.ok()) << options.status();
+  EXPECT_EQ(options->colour_gradients, std::optional<bool>(false));
+  proto.set_colour("gradients");
+  proto.set_model("pixel-aligned");
+  options = ReconOptionsFromProto(proto);
+  ASSERT_TRUE(options.ok()) << options.status();
+  EXPECT_TRUE(ColourGradientsFor(*options));
+  proto.set_colour("");
+  options = ReconOptionsFromProto(proto);
+  ASSERT_TRUE(options.ok()) << options.status();
+  EXPECT_FALSE(ColourGradientsFor(*options));  // Pixel-aligned's default.
+  proto.set_model("");
+  proto.set_colour("stripes");
+  EXPECT_EQ(ReconOptionsFromProto(proto).status().message(),
+            "options.colour: unknown colour model 'stripes' (expected gradients or flat)");
+  proto.set_colour("");
 
   proto.set_refine(0);  // Set to 0 is not unset: no fit.
   proto.set_splat_sigma(0.5);

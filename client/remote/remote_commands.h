@@ -28,7 +28,8 @@ absl::StatusOr<int> RunRemoteJobs(RemoteContext& ctx, const std::vector<std::str
 
 // The reconstruction flags of `scene create` and `render --clip`.
 inline const std::set<std::string> kReconValueFlags = {
-    "model", "ns", "nd", "fusion", "device", "refine", "splat-sigma", "low-pass", "hidden-band"};
+    "model",  "ns",          "nd",       "fusion",      "device",
+    "refine", "splat-sigma", "low-pass", "hidden-band", "colour"};
 inline const std::set<std::string> kReconBoolFlags = {"no-lifespan", "no-ground-fill",
                                                       "no-facades"};
 

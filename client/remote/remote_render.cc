@@ -37,7 +37,8 @@ constexpr char kUsage[] =
     "[--outputs rgb,alpha,depth,features,instance,filled] [--chunk-frames N] [--request-id ID]\n"
     "       pf --server ADDR render --clip CLIP.json [--model M] [--ns N] [--nd N] [--fusion F] "
     "[--no-lifespan] [--device D] [--refine N] [--splat-sigma S] [--low-pass PX2] "
-    "[--hidden-band PX] [--no-ground-fill] [--no-facades] --cameras VIEWS.json [--out DIR --wait] "
+    "[--hidden-band PX] [--no-ground-fill] [--no-facades] [--colour gradients|flat] --cameras "
+    "VIEWS.json [--out DIR --wait] "
     "...";
 
 // Reads VIEWS.json as pointforward.v1.RenderViews; errors name the file.

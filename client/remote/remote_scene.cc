@@ -41,7 +41,7 @@ constexpr char kUsage[] =
     "[--ns N] [--nd N] [--fusion F] [--no-lifespan] [--device D] [--request-id ID]\n"
     "         [--refine N] [--splat-sigma S] [--low-pass PX2] [--hidden-band PX] "
     "[--no-ground-fill] "
-    "[--no-facades]\n"
+    "[--no-facades] [--colour gradients|flat]\n"
     "       pf --server ADDR scene get NAME | list [--page-size N] | delete NAME\n"
     "       pf --server ADDR scene export NAME --ply OUT.ply [--time-us T]";
 
@@ -235,6 +235,10 @@ absl::StatusOr<v1::ReconstructionOptions> ReconstructionOptionsFromFlags(const C
   options.set_nd(nd);
   options.set_no_ground_fill(cl.Has("no-ground-fill"));
   options.set_no_facades(cl.Has("no-facades"));
+  if (cl.Has("colour")) {
+    RETURN_IF_ERROR(ParseColourModel(cl.Get("colour"), "--colour").status());
+    options.set_colour(cl.Get("colour"));
+  }
   // Checked here as the local flags are, naming the flag; the server checks
   // them again, naming the field.
   if (cl.Has("refine")) {

@@ -43,13 +43,38 @@ struct ViewScratch {
   std::vector<float> local_out;
 };
 
+// The fit's unknowns per Gaussian: per RGB channel the colour, and with
+// colour gradients also (g_u, g_v): [N, 3, K], K = 1 or 3.
+struct Layout {
+  int k = 1;
+  int per_gaussian() const { return 3 * k; }
+  int channel(size_t j) const { return static_cast<int>(j % (3 * k)) / k; }
+};
+
+// image = A x and out += A^T r for the fit's unknowns: flat colours, or
+// colours with gradients (then the weights carry local coordinates).
+void Apply(const CompositingWeights& a, const float* x, float* image) {
+  if (a.coords.empty()) {
+    Composite(a, x, 3, image);
+  } else {
+    CompositeTextured(a, x, image);
+  }
+}
+void ApplyTransposed(const CompositingWeights& a, const float* r, float* out) {
+  if (a.coords.empty()) {
+    AccumulateTransposed(a, r, 3, out);
+  } else {
+    AccumulateTransposedTextured(a, r, out);
+  }
+}
+
 // Sum of squares of the masked residual image - A x of one view (x already
 // gathered into scratch->local_in), per channel; leaves the masked residual
 // in scratch->pixels.
 Channels Residual(const FitView& view, ViewScratch* scratch) {
   const size_t num_pixels = view.fitted.size();
   scratch->pixels.resize(3 * num_pixels);
-  Composite(view.a, scratch->local_in.data(), 3, scratch->pixels.data());
+  Apply(view.a, scratch->local_in.data(), scratch->pixels.data());
   Channels sum{0, 0, 0};
   for (size_t p = 0; p < num_pixels; ++p) {
     for (int c = 0; c < 3; ++c) {
@@ -63,35 +88,39 @@ Channels Residual(const FitView& view, ViewScratch* scratch) {
 
 // Copies the entries of `global` ([N, 3], scene order) that `view` sees into
 // scratch->local_in (local order).
-void Gather(const FitView& view, const std::vector<float>& global, ViewScratch* scratch) {
+void Gather(const FitView& view, const Layout& layout, const std::vector<float>& global,
+            ViewScratch* scratch) {
   const size_t m = view.a.gaussians.size();
-  scratch->local_in.resize(3 * m);
+  const int per = layout.per_gaussian();
+  scratch->local_in.resize(per * m);
   for (size_t k = 0; k < m; ++k)
-    for (int c = 0; c < 3; ++c)
-      scratch->local_in[3 * k + c] = global[3 * size_t(view.a.gaussians[k]) + c];
+    for (int c = 0; c < per; ++c)
+      scratch->local_in[per * k + c] = global[per * size_t(view.a.gaussians[k]) + c];
 }
 
 // Adds every view's local_out into `global` (views in order, so the sums do
 // not depend on thread timing).
-void Scatter(const std::vector<FitView>& views, const std::vector<ViewScratch>& scratch,
-             std::vector<float>* global) {
+void Scatter(const std::vector<FitView>& views, const Layout& layout,
+             const std::vector<ViewScratch>& scratch, std::vector<float>* global) {
+  const int per = layout.per_gaussian();
   for (size_t v = 0; v < views.size(); ++v) {
     const std::vector<uint32_t>& ids = views[v].a.gaussians;
     const std::vector<float>& local = scratch[v].local_out;
     DefaultThreadPool().ParallelFor(0, static_cast<int64_t>(ids.size()), 16384,
                                     [&](int64_t b, int64_t e) {
                                       for (int64_t k = b; k < e; ++k)
-                                        for (int c = 0; c < 3; ++c)
-                                          (*global)[3 * size_t(ids[k]) + c] += local[3 * k + c];
+                                        for (int c = 0; c < per; ++c)
+                                          (*global)[per * size_t(ids[k]) + c] += local[per * k + c];
                                     });
   }
 }
 
-// Per-channel dot product of two [N, 3] arrays.
-Channels Dot(const std::vector<float>& x, const std::vector<float>& y) {
+// Per-channel dot product of two [N, 3, K] arrays.
+Channels Dot(const Layout& layout, const std::vector<float>& x, const std::vector<float>& y) {
   Channels sum{0, 0, 0};
-  for (size_t i = 0; i < x.size(); i += 3)
-    for (int c = 0; c < 3; ++c) sum[c] += double(x[i + c]) * y[i + c];
+  const int per = layout.per_gaussian();
+  for (size_t i = 0; i < x.size(); i += per)
+    for (int j = 0; j < per; ++j) sum[j / layout.k] += double(x[i + j]) * y[i + j];
   return sum;
 }
 
@@ -105,11 +134,13 @@ absl::StatusOr<RefinementStats> RefineColours(const std::vector<ContextView>& vi
         "RefineColours: the scene's colour must be its first three feature channels (no SH)");
   }
   if (options.iterations < 0 || !(options.prior_weight > 0) || !(options.min_alpha >= 0) ||
-      options.max_pairs <= 0) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("RefineColours: iterations ", options.iterations,
-                     " must be >= 0, prior_weight ", options.prior_weight, " > 0, min_alpha ",
-                     options.min_alpha, " >= 0 and max_pairs ", options.max_pairs, " > 0"));
+      options.max_pairs <= 0 || !(options.gradient_prior_weight > 0) ||
+      !(options.max_gradient >= 0)) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "RefineColours: iterations ", options.iterations, " must be >= 0, prior_weight ",
+        options.prior_weight, " > 0, min_alpha ", options.min_alpha, " >= 0, max_pairs ",
+        options.max_pairs, " > 0, gradient_prior_weight ", options.gradient_prior_weight,
+        " > 0 and max_gradient ", options.max_gradient, " >= 0"));
   }
   RefinementStats stats;
   if (options.iterations == 0 || views.empty()) return stats;
@@ -138,15 +169,16 @@ absl::StatusOr<RefinementStats> RefineColours(const std::vector<ContextView>& vi
       const ContextView& view = views[v];
       WeightOptions weight_options;
       weight_options.min_weight = options.min_weight;
+      weight_options.local_coords = options.colour_gradients;
       absl::StatusOr<CompositingWeights> a = ComputeCompositingWeights(
           *scene, {view.camera, view.world_from_camera}, view.timestamp_us, weight_options);
       if (!a.ok()) {
         errors[v] = a.status();
         continue;
       }
-      if (recorded_pairs.fetch_add(static_cast<int64_t>(a->entries())) +
-              static_cast<int64_t>(a->entries()) >
-          options.max_pairs) {
+      // A pair with local coordinates takes twice the memory.
+      const int64_t cost = static_cast<int64_t>(a->entries()) * (options.colour_gradients ? 2 : 1);
+      if (recorded_pairs.fetch_add(cost) + cost > options.max_pairs) {
         over_budget = true;
         break;
       }
@@ -173,20 +205,25 @@ absl::StatusOr<RefinementStats> RefineColours(const std::vector<ContextView>& vi
   // the prior enters only through Lambda below). for_views runs
   // `body(view, scratch)` for every view in parallel, then adds the views'
   // local_out into `out` (zeroed first) unless it is null.
-  std::vector<float> x(3 * n);
+  // With colour gradients the unknowns are [N, 3, 3] (colour, g_u, g_v per
+  // channel), the gradients starting (and centred) at 0.
+  const Layout layout{options.colour_gradients ? 3 : 1};
+  const int per = layout.per_gaussian();
+  const int kk = layout.k;
+  std::vector<float> x(per * n, 0.f);
   for (size_t i = 0; i < n; ++i)
-    for (int c = 0; c < 3; ++c) x[3 * i + c] = scene->features[i * stride + c];
+    for (int c = 0; c < 3; ++c) x[per * i + kk * c] = scene->features[i * stride + c];
   std::vector<ViewScratch> scratch(views.size());
   auto for_views = [&](const auto& body, std::vector<float>* out) {
     DefaultThreadPool().ParallelFor(0, num_views, 1, [&](int64_t b, int64_t e) {
       for (int64_t v = b; v < e; ++v) {
-        scratch[v].local_out.assign(3 * fit[v].a.gaussians.size(), 0.f);
+        scratch[v].local_out.assign(per * fit[v].a.gaussians.size(), 0.f);
         body(fit[v], &scratch[v]);
       }
     });
     if (out == nullptr) return;
-    out->assign(3 * n, 0.f);
-    Scatter(fit, scratch, out);
+    out->assign(per * n, 0.f);
+    Scatter(fit, layout, scratch, out);
   };
   std::vector<Channels> view_sums(views.size());
 
@@ -195,9 +232,9 @@ absl::StatusOr<RefinementStats> RefineColours(const std::vector<ContextView>& vi
   std::vector<float> r, diag;
   for_views(
       [&](const FitView& view, ViewScratch* s) {
-        Gather(view, x, s);
+        Gather(view, layout, x, s);
         view_sums[&view - fit.data()] = Residual(view, s);
-        AccumulateTransposed(view.a, s->pixels.data(), 3, s->local_out.data());
+        ApplyTransposed(view.a, s->pixels.data(), s->local_out.data());
       },
       &r);
   auto total_rmse = [&]() {
@@ -212,8 +249,16 @@ absl::StatusOr<RefinementStats> RefineColours(const std::vector<ContextView>& vi
         for (size_t p = 0; p < view.fitted.size(); ++p) {
           if (!view.fitted[p]) continue;
           for (uint64_t k = a.pixel_begin[p]; k < a.pixel_begin[p] + a.pixel_count[p]; ++k) {
-            const float w2 = a.weights[k] * a.weights[k];
-            for (int c = 0; c < 3; ++c) s->local_out[3 * size_t(a.local[k]) + c] += w2;
+            const float w = a.weights[k];
+            float* d = &s->local_out[per * size_t(a.local[k])];
+            for (int c = 0; c < 3; ++c) d[kk * c] += w * w;
+            if (kk == 3) {
+              const float wu = w * a.coords[2 * k], wv = w * a.coords[2 * k + 1];
+              for (int c = 0; c < 3; ++c) {
+                d[3 * c + 1] += wu * wu;
+                d[3 * c + 2] += wv * wv;
+              }
+            }
           }
         }
       },
@@ -224,63 +269,81 @@ absl::StatusOr<RefinementStats> RefineColours(const std::vector<ContextView>& vi
   // Hidden Gaussians (agreement channel 0: no context view observes them)
   // keep their colour: the little weight they get where the surface in front
   // is not quite opaque would only let them absorb its residuals.
+  // The gradients' prior pulls them to 0 (flat), relative in the same way.
   const float lambda = static_cast<float>(options.prior_weight);
+  const float lambda_gradient = static_cast<float>(options.gradient_prior_weight);
   const bool has_agreement = options.keep_hidden && stride > kAgreementChannel;
-  std::vector<float> prior(3 * n);
-  for (size_t i = 0; i < 3 * n; ++i) {
-    const bool hidden =
-        has_agreement && scene->features[(i / 3) * stride + kAgreementChannel] <= 0.f;
-    prior[i] = (hidden ? kHiddenPrior : lambda) * (diag[i] + kPriorFloor);
-    diag[i] += prior[i];
+  std::vector<float> prior(per * n);
+  for (size_t j = 0; j < per * n; ++j) {
+    const size_t i = j / per;
+    const bool hidden = has_agreement && scene->features[i * stride + kAgreementChannel] <= 0.f;
+    const bool gradient = (j % per) % kk != 0;
+    prior[j] = (hidden     ? kHiddenPrior
+                : gradient ? lambda_gradient
+                           : lambda) *
+               (diag[j] + kPriorFloor);
+    diag[j] += prior[j];
   }
 
   // Preconditioned conjugate gradients, the three channels side by side.
-  std::vector<float> z(3 * n), p(3 * n), q;
-  for (size_t i = 0; i < 3 * n; ++i) z[i] = r[i] / diag[i];
+  std::vector<float> z(per * n), p(per * n), q;
+  for (size_t i = 0; i < per * n; ++i) z[i] = r[i] / diag[i];
   p = z;
-  Channels rz = Dot(r, z);
+  Channels rz = Dot(layout, r, z);
   for (int iteration = 0; iteration < options.iterations; ++iteration) {
     // q = (A^T M A + Lambda) p.
     for_views(
         [&](const FitView& view, ViewScratch* s) {
-          Gather(view, p, s);
+          Gather(view, layout, p, s);
           const size_t num_pixels = view.fitted.size();
           s->pixels.resize(3 * num_pixels);
-          Composite(view.a, s->local_in.data(), 3, s->pixels.data());
+          Apply(view.a, s->local_in.data(), s->pixels.data());
           for (size_t px = 0; px < num_pixels; ++px)
             if (!view.fitted[px])
               s->pixels[3 * px] = s->pixels[3 * px + 1] = s->pixels[3 * px + 2] = 0.f;
-          AccumulateTransposed(view.a, s->pixels.data(), 3, s->local_out.data());
+          ApplyTransposed(view.a, s->pixels.data(), s->local_out.data());
         },
         &q);
-    for (size_t i = 0; i < 3 * n; ++i) q[i] += prior[i] * p[i];
-    const Channels pq = Dot(p, q);
+    for (size_t i = 0; i < per * n; ++i) q[i] += prior[i] * p[i];
+    const Channels pq = Dot(layout, p, q);
     float step[3];
     for (int c = 0; c < 3; ++c) step[c] = pq[c] > 0 ? static_cast<float>(rz[c] / pq[c]) : 0.f;
-    for (size_t i = 0; i < 3 * n; i += 3) {
-      for (int c = 0; c < 3; ++c) {
-        x[i + c] += step[c] * p[i + c];
-        r[i + c] -= step[c] * q[i + c];
-        z[i + c] = r[i + c] / diag[i + c];
+    for (size_t i = 0; i < per * n; i += per) {
+      for (int j = 0; j < per; ++j) {
+        const float a = step[j / kk];
+        x[i + j] += a * p[i + j];
+        r[i + j] -= a * q[i + j];
+        z[i + j] = r[i + j] / diag[i + j];
       }
     }
-    const Channels rz_next = Dot(r, z);
+    const Channels rz_next = Dot(layout, r, z);
     float beta[3];
     for (int c = 0; c < 3; ++c) beta[c] = rz[c] > 0 ? static_cast<float>(rz_next[c] / rz[c]) : 0.f;
-    for (size_t i = 0; i < 3 * n; i += 3)
-      for (int c = 0; c < 3; ++c) p[i + c] = z[i + c] + beta[c] * p[i + c];
+    for (size_t i = 0; i < per * n; i += per)
+      for (int j = 0; j < per; ++j) p[i + j] = z[i + j] + beta[j / kk] * p[i + j];
     rz = rz_next;
   }
 
+  // Gradients are fitted here or not at all (flat colours drop old ones).
+  if (options.colour_gradients) {
+    scene->colour_gradients.assign(6 * n, 0.f);
+  } else {
+    scene->colour_gradients.clear();
+  }
   for (size_t i = 0; i < n; ++i) {
     for (int c = 0; c < 3; ++c) {
-      x[3 * i + c] = std::clamp(x[3 * i + c], options.min_colour, options.max_colour);
-      scene->features[i * stride + c] = x[3 * i + c];
+      float* xc = &x[per * i + kk * c];
+      xc[0] = std::clamp(xc[0], options.min_colour, options.max_colour);
+      scene->features[i * stride + c] = xc[0];
+      for (int g = 1; g < kk; ++g) {
+        xc[g] = std::clamp(xc[g], -options.max_gradient, options.max_gradient);
+        scene->colour_gradients[6 * i + 2 * c + g - 1] = xc[g];
+      }
     }
   }
   for_views(
       [&](const FitView& view, ViewScratch* s) {
-        Gather(view, x, s);
+        Gather(view, layout, x, s);
         view_sums[&view - fit.data()] = Residual(view, s);
       },
       nullptr);

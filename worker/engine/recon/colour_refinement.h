@@ -53,6 +53,13 @@ struct RefinementOptions {
   float min_weight = 1.f / 255.f;
   float min_colour = -0.5f;  // Colours are kept in [min_colour, max_colour].
   float max_colour = 1.5f;
+  // Fit a colour gradient across each Gaussian as well
+  // (GaussianScene::colour_gradients): three unknowns per channel instead of
+  // one, pulled to 0 by gradient_prior_weight relative to their own data
+  // weight, kept in [-max_gradient, max_gradient] per std-dev.
+  bool colour_gradients = true;
+  double gradient_prior_weight = 0.25;
+  float max_gradient = 1.f;
   // Memory bound: the fit holds every view's weights at once, 8 bytes per
   // (pixel, Gaussian) pair. A clip whose context views need more pairs than
   // this (1.6 GB; the default synth clip needs 75 M for analytic, 157 M for

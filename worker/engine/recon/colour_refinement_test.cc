@@ -187,6 +187,7 @@ TEST(ColourRefinement, RecoversTheColoursAContextImageWasRenderedFrom) {
   options.iterations = 40;
   options.prior_weight = 1e-4;
   options.min_alpha = 0;
+  options.colour_gradients = false;
   absl::StatusOr<RefinementStats> stats = RefineColours({view}, options, &scene);
   ASSERT_TRUE(stats.ok()) << stats.status();
   double max_error = 0;
@@ -199,6 +200,66 @@ TEST(ColourRefinement, RecoversTheColoursAContextImageWasRenderedFrom) {
   EXPECT_LT(max_error, 0.02);
   EXPECT_GT(stats->rmse_before, 0.1);
   EXPECT_LT(stats->rmse_after, 0.002);
+  EXPECT_FALSE(scene.has_colour_gradients());
+}
+
+TEST(ColourRefinement, FitsColourGradientsAFlatFitCannot) {
+  // Discs 4 px apart with a colour ramp across each (random gradients); the
+  // context image is their render. From grey, the fit with gradients finds
+  // colours and gradients close to the truth and explains the image; flat
+  // colours cannot (each disc shows one colour where the image ramps).
+  const int w = 40, h = 30;
+  const ContextView geometry = UniformView(w, h, 40, 0.f);
+  GaussianScene truth = EmptyScene();
+  truth.low_pass = 0.1f;
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(0.3, 0.7), g(-0.15, 0.15);
+  for (int y = 0; y < h; y += 4) {
+    for (int x = 0; x < w; x += 4) {
+      const Vec3 at{(x + 2 - w / 2.0) / 40 * 10, (y + 2 - h / 2.0) / 40 * 10, 10};
+      AddGaussian(&truth, at, 0.5, 0.95, {u(rng), u(rng), u(rng)});
+      const size_t i = truth.size() - 1;
+      truth.log_scales[3 * i + 2] = std::log(0.01f);  // Flat discs facing the camera.
+    }
+  }
+  truth.colour_gradients.resize(6 * truth.size());
+  for (float& v : truth.colour_gradients) v = static_cast<float>(g(rng));
+  RenderOptions render_options;
+  render_options.features = false;
+  absl::StatusOr<RenderBuffers> render =
+      Render(truth, {geometry.camera, geometry.world_from_camera}, 0, {}, render_options);
+  ASSERT_TRUE(render.ok()) << render.status();
+  ContextView view = geometry;
+  view.rgb.pixels = render->rgb;
+
+  GaussianScene start = truth;
+  start.colour_gradients.clear();
+  for (size_t i = 0; i < start.size(); ++i)
+    for (int c = 0; c < 3; ++c) start.features[i * kReconChannels + c] = 0.5f;
+  RefinementOptions options;
+  options.iterations = 60;
+  options.prior_weight = 1e-4;
+  options.gradient_prior_weight = 1e-4;
+  options.min_alpha = 0;
+  GaussianScene textured = start;
+  absl::StatusOr<RefinementStats> with = RefineColours({view}, options, &textured);
+  ASSERT_TRUE(with.ok()) << with.status();
+  options.colour_gradients = false;
+  GaussianScene flat = start;
+  absl::StatusOr<RefinementStats> without = RefineColours({view}, options, &flat);
+  ASSERT_TRUE(without.ok()) << without.status();
+
+  ASSERT_TRUE(textured.has_colour_gradients());
+  double max_gradient_error = 0;
+  for (size_t k = 0; k < truth.colour_gradients.size(); ++k) {
+    max_gradient_error =
+        std::max(max_gradient_error,
+                 double(std::abs(textured.colour_gradients[k] - truth.colour_gradients[k])));
+  }
+  EXPECT_LT(max_gradient_error, 0.02);
+  EXPECT_LT(with->rmse_after, 0.002);
+  EXPECT_GT(without->rmse_after, 5 * with->rmse_after);
+  EXPECT_FALSE(flat.has_colour_gradients());
 }
 
 TEST(ColourRefinement, OverThePairBudgetTheColoursStayAsDecoded) {
@@ -215,29 +276,37 @@ TEST(ColourRefinement, OverThePairBudgetTheColoursStayAsDecoded) {
     }
   }
   const std::vector<ContextView> views = {view, view};
-  RefinementOptions options;
-  options.min_alpha = 0;
-  GaussianScene unbounded = scene;
-  absl::StatusOr<RefinementStats> full = RefineColours(views, options, &unbounded);
-  ASSERT_TRUE(full.ok()) << full.status();
-  ASSERT_FALSE(full->skipped_over_budget);
-  ASSERT_GT(full->pairs, 0);
+  // A pair costs twice its memory with colour gradients: the budget counts it
+  // twice.
+  for (bool gradients : {false, true}) {
+    SCOPED_TRACE(gradients);
+    RefinementOptions options;
+    options.min_alpha = 0;
+    options.colour_gradients = gradients;
+    const int64_t per_pair = gradients ? 2 : 1;
+    GaussianScene unbounded = scene;
+    absl::StatusOr<RefinementStats> full = RefineColours(views, options, &unbounded);
+    ASSERT_TRUE(full.ok()) << full.status();
+    ASSERT_FALSE(full->skipped_over_budget);
+    ASSERT_GT(full->pairs, 0);
 
-  GaussianScene over = scene;
-  options.max_pairs = full->pairs - 1;
-  absl::StatusOr<RefinementStats> skipped = RefineColours(views, options, &over);
-  ASSERT_TRUE(skipped.ok()) << skipped.status();
-  EXPECT_TRUE(skipped->skipped_over_budget);
-  EXPECT_EQ(over.features, scene.features);
+    GaussianScene over = scene;
+    options.max_pairs = per_pair * full->pairs - 1;
+    absl::StatusOr<RefinementStats> skipped = RefineColours(views, options, &over);
+    ASSERT_TRUE(skipped.ok()) << skipped.status();
+    EXPECT_TRUE(skipped->skipped_over_budget);
+    EXPECT_EQ(over.features, scene.features);
 
-  GaussianScene at_budget = scene;
-  options.max_pairs = full->pairs;
-  absl::StatusOr<RefinementStats> fitted = RefineColours(views, options, &at_budget);
-  ASSERT_TRUE(fitted.ok()) << fitted.status();
-  EXPECT_FALSE(fitted->skipped_over_budget);
-  EXPECT_EQ(fitted->pairs, full->pairs);
-  EXPECT_NE(at_budget.features, scene.features);      // Pulled towards the 0.8 grey image.
-  EXPECT_EQ(at_budget.features, unbounded.features);  // The same fit as without a budget.
+    GaussianScene at_budget = scene;
+    options.max_pairs = per_pair * full->pairs;
+    absl::StatusOr<RefinementStats> fitted = RefineColours(views, options, &at_budget);
+    ASSERT_TRUE(fitted.ok()) << fitted.status();
+    EXPECT_FALSE(fitted->skipped_over_budget);
+    EXPECT_EQ(fitted->pairs, full->pairs);
+    EXPECT_NE(at_budget.features, scene.features);      // Pulled towards the 0.8 grey image.
+    EXPECT_EQ(at_budget.features, unbounded.features);  // The same fit as without a budget.
+    EXPECT_EQ(at_budget.colour_gradients, unbounded.colour_gradients);
+  }
 }
 
 TEST(ColourRefinement, RejectsBadOptionsAndScenes) {
@@ -253,6 +322,10 @@ TEST(ColourRefinement, RejectsBadOptionsAndScenes) {
   wrong.rgb = ImageF(3, 4, 3);
   EXPECT_EQ(RefineColours({wrong}, options, &scene).status().code(),
             absl::StatusCode::kInvalidArgument);
+  options.gradient_prior_weight = 0;
+  EXPECT_EQ(RefineColours({view}, options, &scene).status().code(),
+            absl::StatusCode::kInvalidArgument);
+  options = RefinementOptions();
   scene.sh_degree = 0;
   EXPECT_EQ(RefineColours({view}, options, &scene).status().code(),
             absl::StatusCode::kInvalidArgument);

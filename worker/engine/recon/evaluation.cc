@@ -386,6 +386,7 @@ std::string EvalReportJson(const EvalReport& report) {
   j["splatSigma"] = report.options.decoder.tangent_sigma;
   j["lowPass"] = report.options.decoder.low_pass;
   j["refineIterations"] = report.options.refinement.iterations;
+  j["colour"] = ColourGradientsFor(report.options) ? "gradients" : "flat";
   j["staticGaussians"] = report.stats.static_gaussians;
   j["dynamicGaussians"] = report.stats.dynamic_gaussians;
   j["farGaussians"] = report.stats.far_gaussians;

@@ -8,8 +8,9 @@
 namespace pf {
 
 const std::set<std::string>& ReconValueFlags() {
-  static const std::set<std::string> flags = {
-      "model", "ns", "nd", "fusion", "device", "refine", "hidden-band", "splat-sigma", "low-pass"};
+  static const std::set<std::string> flags = {"model",    "ns",     "nd",          "fusion",
+                                              "device",   "refine", "hidden-band", "splat-sigma",
+                                              "low-pass", "colour"};
   return flags;
 }
 
@@ -77,6 +78,9 @@ absl::StatusOr<ReconOptions> ReconOptionsFromFlags(const CommandLine& cl) {
   ASSIGN_OR_RETURN(const int64_t band, cl.GetInt("hidden-band", options.hidden_band_px));
   RETURN_IF_ERROR(CheckTuning(kHiddenBandLimit, double(band)));
   options.hidden_band_px = static_cast<int>(band);
+  if (cl.Has("colour")) {
+    ASSIGN_OR_RETURN(options.colour_gradients, ParseColourModel(cl.Get("colour"), "--colour"));
+  }
   ASSIGN_OR_RETURN(options.device, ParseComputeDevice(cl.Get("device", "cpu"), "--device"));
   RETURN_IF_ERROR(CheckComputeDevice(options.device, "--device"));
   return options;

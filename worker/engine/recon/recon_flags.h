@@ -16,6 +16,9 @@
 //                                    (default 0.1; 0.3 is the 3DGS one)
 //   --hidden-band PX                 hidden queries behind depth edges within PX
 //                                    pixels (sparse_sampling.h; default 64, 0: none)
+//   --colour gradients|flat          a colour gradient across each Gaussian or one
+//                                    colour (colour_refinement.h; default gradients
+//                                    for analytic, flat for pixel-aligned)
 //   --device cpu|cuda[:N]              where fusion's tensor work runs (compute_device.h)
 //   --allow-outside-paths            accept manifest paths that are absolute or leave
 //                                    the clip's directory (as pf validate does)

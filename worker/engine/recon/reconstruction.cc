@@ -207,8 +207,10 @@ absl::StatusOr<ReconResult> ReconstructInputs(const ReconInputs& inputs,
 
   // 7. Colour refinement against the context images.
   if (options.refinement.iterations > 0) {
+    RefinementOptions refinement = options.refinement;
+    refinement.colour_gradients = ColourGradientsFor(options);
     ASSIGN_OR_RETURN(const RefinementStats refined,
-                     RefineColours(views, options.refinement, &result.scene));
+                     RefineColours(views, refinement, &result.scene));
     if (refined.skipped_over_budget) {
       clock.Done("refine", absl::StrCat(" (skipped: the context views need more than ",
                                         options.refinement.max_pairs,
@@ -221,6 +223,10 @@ absl::StatusOr<ReconResult> ReconstructInputs(const ReconInputs& inputs,
   }
   stats.total_seconds = clock.Total();
   return result;
+}
+
+bool ColourGradientsFor(const ReconOptions& options) {
+  return options.colour_gradients.value_or(options.model == ReconModel::kAnalytic);
 }
 
 absl::StatusOr<ReconResult> Reconstruct(const LoadedClip& loaded, const ReconOptions& options) {

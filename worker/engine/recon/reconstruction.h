@@ -18,6 +18,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -50,6 +51,13 @@ struct ReconOptions {
   FusionOptions fusion;
   DecoderOptions decoder;
   RefinementOptions refinement;  // iterations = 0: no refinement.
+  // Whether the colour fit gives each Gaussian a colour gradient
+  // (GaussianScene::colour_gradients); unset: the model's default, on for
+  // analytic, off for pixel-aligned (one Gaussian per pixel has no room
+  // for a gradient inside its pixel, and the gradients would double the
+  // memory of its fit, pushing it over refinement.max_pairs).
+  // refinement.colour_gradients is overwritten with the result.
+  std::optional<bool> colour_gradients;
   CompletionOptions completion;
   int far_stride = 3;
   bool skip_covered = true;
@@ -103,6 +111,10 @@ absl::StatusOr<ReconInputs> LoadReconInputs(const LoadedClip& loaded, bool allow
 // cannot use.
 absl::StatusOr<ReconResult> ReconstructInputs(const ReconInputs& inputs,
                                               const ReconOptions& options);
+
+// Returns whether the colour fit of `options` gives the Gaussians colour
+// gradients (ReconOptions::colour_gradients, else the model's default).
+bool ColourGradientsFor(const ReconOptions& options);
 
 // LoadReconInputs then ReconstructInputs; the load is the first stage.
 absl::StatusOr<ReconResult> Reconstruct(const LoadedClip& loaded, const ReconOptions& options);

@@ -10,6 +10,7 @@
 #include <string>
 
 #include "absl/status/status.h"
+#include "absl/status/statusor.h"
 #include "absl/strings/str_cat.h"
 #include "worker/engine/render/gaussian_scene.h"
 
@@ -50,9 +51,20 @@ inline absl::Status CheckTuning(const TuningLimit& limit, double value,
       absl::StrCat(name.empty() ? std::string(limit.flag) : name, ": ", problem));
 }
 
+// Parses a colour model as --colour and ReconstructionOptions.colour spell
+// it: "gradients" (true) or "flat" (false); INVALID_ARGUMENT naming `name`
+// otherwise.
+inline absl::StatusOr<bool> ParseColourModel(const std::string& value, const std::string& name) {
+  if (value == "gradients") return true;
+  if (value == "flat") return false;
+  return absl::InvalidArgumentError(
+      absl::StrCat(name, ": unknown colour model '", value, "' (expected gradients or flat)"));
+}
+
 // Checks the tuning fields that are set in a ReconstructionOptions message
 // (a template so that this header needs no generated code), naming the
-// field: "options.refine: must be in [0, 20] iterations, got 25".
+// field: "options.refine: must be in [0, 20] iterations, got 25"; the colour
+// model must be empty, "gradients" or "flat".
 template <typename ReconstructionOptions>
 absl::Status CheckTuningFields(const ReconstructionOptions& options) {
   auto check = [](const TuningLimit& limit, bool set, double value) {
@@ -65,6 +77,9 @@ absl::Status CheckTuningFields(const ReconstructionOptions& options) {
   if (status.ok()) status = check(kLowPassLimit, options.has_low_pass(), options.low_pass());
   if (status.ok())
     status = check(kHiddenBandLimit, options.has_hidden_band(), options.hidden_band());
+  if (status.ok() && !options.colour().empty()) {
+    status = ParseColourModel(options.colour(), "options.colour").status();
+  }
   return status;
 }
 

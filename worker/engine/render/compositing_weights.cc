@@ -135,6 +135,7 @@ absl::StatusOr<CompositingWeights> ComputeCompositingWeights(const GaussianScene
     uint32_t gaussian;  // Depth rank.
     float weight;
     uint8_t pixel;
+    float u, v;  // Local coordinates (options.local_coords).
   };
   std::vector<Entry> tile_entries;
   float trans[kTile * kTile];
@@ -177,7 +178,8 @@ absl::StatusOr<CompositingWeights> ComputeCompositingWeights(const GaussianScene
             if (!(alpha >= kMinAlpha)) continue;
             const float weight = alpha * tp;
             if (weight >= options.min_weight) {
-              tile_entries.push_back({i, weight, static_cast<uint8_t>(p)});
+              tile_entries.push_back({i, weight, static_cast<uint8_t>(p), g.ux * dx + g.uy * dy,
+                                      g.vx * dx + g.vy * dy});
             }
             trans[p] = tp * (1.f - alpha);
             active -= trans[p] < kMinTransmittance;
@@ -202,10 +204,15 @@ absl::StatusOr<CompositingWeights> ComputeCompositingWeights(const GaussianScene
       }
       ranked.resize(start);
       out.weights.resize(start);
+      if (options.local_coords) out.coords.resize(2 * start);
       for (const Entry& e : tile_entries) {
         const uint64_t slot = cursor[e.pixel]++;
         ranked[slot] = e.gaussian;
         out.weights[slot] = e.weight;
+        if (options.local_coords) {
+          out.coords[2 * slot] = e.u;
+          out.coords[2 * slot + 1] = e.v;
+        }
       }
     }
   }
@@ -261,6 +268,38 @@ void AccumulateTransposedImpl(const CompositingWeights& a, const float* residual
 }
 
 }  // namespace
+
+void CompositeTextured(const CompositingWeights& a, const float* params, float* image) {
+  const size_t pixels = a.pixel_begin.size();
+  for (size_t p = 0; p < pixels; ++p) {
+    float* dst = image + p * 3;
+    dst[0] = dst[1] = dst[2] = 0.f;
+    const uint64_t begin = a.pixel_begin[p], end = begin + a.pixel_count[p];
+    for (uint64_t e = begin; e < end; ++e) {
+      const float w = a.weights[e], wu = w * a.coords[2 * e], wv = w * a.coords[2 * e + 1];
+      const float* src = params + static_cast<size_t>(a.local[e]) * 9;
+      for (int c = 0; c < 3; ++c)
+        dst[c] += w * src[3 * c] + wu * src[3 * c + 1] + wv * src[3 * c + 2];
+    }
+  }
+}
+
+void AccumulateTransposedTextured(const CompositingWeights& a, const float* residual, float* out) {
+  const size_t pixels = a.pixel_begin.size();
+  for (size_t p = 0; p < pixels; ++p) {
+    const float* r = residual + p * 3;
+    const uint64_t begin = a.pixel_begin[p], end = begin + a.pixel_count[p];
+    for (uint64_t e = begin; e < end; ++e) {
+      const float w = a.weights[e], wu = w * a.coords[2 * e], wv = w * a.coords[2 * e + 1];
+      float* dst = out + static_cast<size_t>(a.local[e]) * 9;
+      for (int c = 0; c < 3; ++c) {
+        dst[3 * c] += w * r[c];
+        dst[3 * c + 1] += wu * r[c];
+        dst[3 * c + 2] += wv * r[c];
+      }
+    }
+  }
+}
 
 void Composite(const CompositingWeights& a, const float* colours, int channels, float* image) {
   if (channels == 3) {

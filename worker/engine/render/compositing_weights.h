@@ -18,7 +18,8 @@
 // apply both without re-rendering. The forward rasterizer is not touched.
 //
 // Single-threaded per view (callers parallelise over views); memory is
-// 8 bytes per contributing (pixel, Gaussian) pair plus 16 per pixel.
+// 8 bytes per contributing (pixel, Gaussian) pair (16 with local
+// coordinates) plus 16 per pixel.
 #ifndef POINTFORWARD_WORKER_ENGINE_RENDER_COMPOSITING_WEIGHTS_H_
 #define POINTFORWARD_WORKER_ENGINE_RENDER_COMPOSITING_WEIGHTS_H_
 
@@ -45,6 +46,10 @@ struct CompositingWeights {
   std::vector<uint32_t> local;        // [E] index into `gaussians`
   std::vector<float> weights;         // [E] w_ip
   std::vector<float> alpha;           // [H * W] 1 - transmittance, as Render()'s alpha
+  // [E, 2] the expected local coordinates (u, v) of each entry's pixel on
+  // its Gaussian (GaussianScene::colour_gradients); empty unless
+  // WeightOptions::local_coords.
+  std::vector<float> coords;
 
   size_t entries() const { return weights.size(); }
 };
@@ -54,6 +59,8 @@ struct WeightOptions {
   // Entries with w_ip < min_weight are not recorded (they still attenuate
   // the Gaussians behind them, and count in `alpha`). 0 records A exactly.
   float min_weight = 0.f;
+  // Also record CompositingWeights::coords (8 more bytes per entry).
+  bool local_coords = false;
 };
 
 // Records A for `scene` seen through `camera` at scene time `timestamp_us`
@@ -72,6 +79,14 @@ void Composite(const CompositingWeights& a, const float* colours, int channels, 
 // [a.gaussians.size(), channels] in local order.
 void AccumulateTransposed(const CompositingWeights& a, const float* residual, int channels,
                           float* out);
+
+// The same two products for colours that vary across each Gaussian (the
+// render is linear in the centre colours and the gradients too): `params` and
+// `out` are [a.gaussians.size(), 3, 3], per RGB channel (colour, g_u, g_v) as
+// GaussianScene::colour_gradients; `image` and `residual` are [H * W, 3].
+// `a` must have coords.
+void CompositeTextured(const CompositingWeights& a, const float* params, float* image);
+void AccumulateTransposedTextured(const CompositingWeights& a, const float* residual, float* out);
 
 }  // namespace pf
 

@@ -7,7 +7,14 @@
 // to the world by the instance's box pose at t'.
 //
 // Colour comes from spherical harmonics when `sh_degree` >= 0 (scenes from
-// 3DGS tools), else from the first three feature channels.
+// 3DGS tools), else from the first three feature channels. Those may vary
+// linearly across a Gaussian (`colour_gradients`, reconstructed scenes): at
+// local coordinates (u, v) along the Gaussian's first two axes, in units of
+// its standard deviations, channel c is features[c] + g_cu u + g_cv v. A
+// pixel at screen offset d from the centre takes the expected (u, v) given
+// d, B^T Sigma^-1 d (B: the axes projected to the screen and scaled by the
+// std-devs, Sigma the 2D covariance with the low-pass), so a Gaussian seen
+// edge-on or much smaller than the low-pass blends to its centre colour.
 //
 // `low_pass` is the screen-space variance (pixels^2) the rasterizer adds to
 // every projected 2D covariance. It belongs to the scene because a scene's
@@ -63,14 +70,19 @@ struct GaussianScene {
   std::vector<float> times;           // [N] seconds since time_origin_us
   std::vector<float> lifespans;       // [N] sigma in seconds; +inf: never fades
   std::vector<uint32_t> owners;       // [N] 0 background, k: instances[k-1]
+  // [N, 3, 2] (g_cu, g_cv) per colour channel; empty: flat colours. Only
+  // without SH.
+  std::vector<float> colour_gradients;
 
   std::vector<InstanceTrack> instances;
 
   size_t size() const { return opacity_logits.size(); }
   int sh_coeffs() const { return sh_degree < 0 ? 0 : (sh_degree + 1) * (sh_degree + 1); }
+  bool has_colour_gradients() const { return !colour_gradients.empty(); }
 
   // Resizes every per-Gaussian array to `n`, keeping existing entries; new
-  // ones are identity rotations, zero elsewhere, lifespan +inf, owner 0.
+  // ones are identity rotations, zero elsewhere, lifespan +inf, owner 0
+  // (colour gradients only when the scene has them).
   void Resize(size_t n);
 };
 
@@ -86,6 +98,7 @@ inline void GaussianScene::Resize(size_t n) {
   times.resize(n, 0.f);
   lifespans.resize(n, std::numeric_limits<float>::infinity());
   owners.resize(n, 0);
+  if (!colour_gradients.empty()) colour_gradients.resize(n * 6, 0.f);
 }
 
 }  // namespace pf

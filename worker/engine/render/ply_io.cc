@@ -43,6 +43,9 @@ std::vector<std::string> ExportProperties(const GaussianScene& scene, bool with_
     names.push_back("pf_time");
     names.push_back("pf_lifespan");
   }
+  if (scene.has_colour_gradients()) {
+    for (int g = 0; g < 6; ++g) names.push_back(absl::StrCat("pf_colour_gradient_", g));
+  }
   return names;
 }
 
@@ -457,6 +460,9 @@ absl::StatusOr<std::string> EncodePly(const GaussianScene& scene, const PlyExpor
       row[p++] = scene.times[i];
       row[p++] = scene.lifespans[i];
     }
+    if (scene.has_colour_gradients()) {
+      for (int g = 0; g < 6; ++g) row[p++] = scene.colour_gradients[6 * i + g];
+    }
     out.append(reinterpret_cast<const char*>(row.data()), stride * sizeof(float));
   }
   return out;
@@ -542,6 +548,17 @@ absl::StatusOr<GaussianScene> DecodePly(const std::string& bytes, const std::str
   }
   const int time_index = find("pf_time");
   const int lifespan_index = find("pf_lifespan");
+  // Our colour gradients (GaussianScene::colour_gradients), all six or none.
+  int gradient_index[6];
+  int gradients_found = 0;
+  for (int g = 0; g < 6; ++g) {
+    gradient_index[g] = find(absl::StrCat("pf_colour_gradient_", g));
+    gradients_found += gradient_index[g] >= 0;
+  }
+  if (gradients_found != 0 && gradients_found != 6) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        source, ": ", gradients_found, " of the 6 pf_colour_gradient_* properties (all or none)"));
+  }
 
   GaussianScene scene;
   std::optional<int> stored_degree;
@@ -552,6 +569,7 @@ absl::StatusOr<GaussianScene> DecodePly(const std::string& bytes, const std::str
   scene.num_channels = extra_features.empty() ? 3 : static_cast<int>(extra_features.size());
   const size_t n = vertex->count;
   scene.Resize(n);
+  if (gradients_found == 6 && degree < 0) scene.colour_gradients.assign(6 * n, 0.f);
   const int k = scene.sh_coeffs();
   const size_t stride = vertex->properties.size();
   const bool rgb_is_8bit = has_rgb && TypeSize(vertex->properties[rgb[0]].type) == 1;
@@ -588,6 +606,11 @@ absl::StatusOr<GaussianScene> DecodePly(const std::string& bytes, const std::str
     }
     if (time_index >= 0) scene.times[i] = static_cast<float>(row[time_index]);
     if (lifespan_index >= 0) scene.lifespans[i] = static_cast<float>(row[lifespan_index]);
+    if (scene.has_colour_gradients()) {
+      for (int g = 0; g < 6; ++g) {
+        scene.colour_gradients[6 * i + g] = static_cast<float>(row[gradient_index[g]]);
+      }
+    }
   }
   RETURN_IF_ERROR(StatusWithContext(ValidateScene(scene), source));
   return scene;

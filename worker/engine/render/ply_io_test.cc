@@ -187,10 +187,18 @@ TEST(PlyRoundTrip, FeatureSceneArraysMatchWithinFloatTolerance) {
 TEST(PlyRoundTrip, ExportImportRenderGivesIdenticalImages) {
   const RenderCamera camera = MakeCamera();
   const std::string dir = testing::MakeTempDir("ply_io");
-  for (const auto& [degree, channels] : {std::pair{-1, 3}, std::pair{3, 3}, std::pair{1, 8}}) {
+  for (const auto& [degree, channels] :
+       {std::pair{-1, 3}, std::pair{3, 3}, std::pair{1, 8}, std::pair{-1, 7}}) {
     SCOPED_TRACE(absl::StrCat("sh_degree ", degree, ", channels ", channels));
     GaussianScene scene = MakeScene(degree, channels);
     if (channels == 8) scene.low_pass = 0.1f;  // Renders differ unless it is kept.
+    if (channels == 7) {
+      // Colour gradients travel as pf_colour_gradient_0..5.
+      scene.colour_gradients.resize(6 * scene.size());
+      for (size_t k = 0; k < scene.colour_gradients.size(); ++k) {
+        scene.colour_gradients[k] = 0.05f * static_cast<float>(k % 9) - 0.2f;
+      }
+    }
     const std::string path = absl::StrCat(dir, "/scene_", degree, "_", channels, ".ply");
     ASSERT_TRUE(ExportPly(scene, path).ok());
     absl::StatusOr<GaussianScene> back = ImportPly(path);
@@ -205,6 +213,7 @@ TEST(PlyRoundTrip, ExportImportRenderGivesIdenticalImages) {
     ExpectNear(a->alpha, b->alpha, 0.f, "alpha");
     ExpectNear(a->depth, b->depth, 0.f, "depth");
     ExpectNear(a->features, b->features, 1e-5f, "features");
+    EXPECT_EQ(back->colour_gradients, scene.colour_gradients);
   }
 }
 
@@ -355,6 +364,16 @@ TEST(PlyImport, ErrorsNameTheProblem) {
     EXPECT_FALSE(status.ok());
     return std::string(status.message());
   };
+  EXPECT_NE(message("ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n"
+                    "property float y\nproperty float z\nproperty float scale_0\n"
+                    "property float scale_1\nproperty float scale_2\nproperty float rot_0\n"
+                    "property float rot_1\nproperty float rot_2\nproperty float rot_3\n"
+                    "property float opacity\nproperty float f_dc_0\nproperty float f_dc_1\n"
+                    "property float f_dc_2\nproperty float pf_colour_gradient_0\n"
+                    "property float pf_colour_gradient_1\nend_header\n"
+                    "0 0 1 -3 -3 -3 1 0 0 0 2 0 0 0 0.1 0.2\n")
+                .find("2 of the 6 pf_colour_gradient_* properties"),
+            std::string::npos);
   EXPECT_NE(message("plx\n").find("not a PLY file"), std::string::npos);
   EXPECT_NE(message("ply\nformat ascii 1.0\nelement vertex 1\n").find("no end_header"),
             std::string::npos);

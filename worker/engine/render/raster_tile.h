@@ -50,6 +50,11 @@ struct TileJob {
   int stride = 0;
   int count = 0;        // Feature channels accumulated into acc.
   bool sh_rgb = false;  // Also accumulate Projected::rgb into acc_rgb.
+  // [N, 6] screen-space colour gradients of the projected Gaussians
+  // (ScreenColourGradients in splat_projection.h), or null for flat colours:
+  // channels 0..2 then blend feat[c] + g[2c] dx + g[2c + 1] dy, (dx, dy) the
+  // pixel centre's offset from the Gaussian's.
+  const float* gradients = nullptr;
   // Tile-local buffers, filled by the kernel.
   float* transmittance = nullptr;  // [256]
   float* acc = nullptr;            // [count, kChannelStride]

@@ -116,7 +116,7 @@ inline typename Lanes<W>::I Ceil(typename Lanes<W>::F x) {
   return n - (__builtin_convertvector(n, F) < x);
 }
 
-template <int W, int kFixedCount>
+template <int W, int kFixedCount, bool kGradients>
 inline void CompositeTileLanes(TileJob* job) {
   constexpr float kMinusHalfLog2e = -0.72134752044448170f;  // exp(-d2/2) = 2^(d2 * this).
   using F = typename Lanes<W>::F;
@@ -157,6 +157,7 @@ inline void CompositeTileLanes(TileJob* job) {
     const uint32_t index = job->indices[k];
     const Projected& g = job->projected[index];
     const float* feat = job->features + static_cast<size_t>(index) * job->stride;
+    const float* grad = kGradients ? job->gradients + static_cast<size_t>(index) * 6 : nullptr;
     const float ca = g.ca, cb = g.cb, cc = g.cc;
     const float det = ca * cc - cb * cb;
     const float inv_ca = 1.f / ca;
@@ -212,7 +213,15 @@ inline void CompositeTileLanes(TileJob* job) {
         contributing += __builtin_popcount(blend_bits);
         F weight = alpha * t;
         weight = blend ? weight : F{};
-        for (int c = 0; c < count; ++c) {
+        int c = 0;
+        if constexpr (kGradients) {
+          for (; c < 3; ++c) {
+            float* a = acc + c * kChannelStride + p;
+            const F value = (feat[c] + grad[2 * c + 1] * dy) + grad[2 * c] * dx;
+            Store(a, Load<F>(a) + weight * value);
+          }
+        }
+        for (; c < count; ++c) {
           float* a = acc + c * kChannelStride + p;
           Store(a, Load<F>(a) + weight * feat[c]);
         }
@@ -239,16 +248,22 @@ inline void CompositeTileLanes(TileJob* job) {
   job->contributing = contributing;
 }
 
-// Dispatches on the channel count (3 is the common case, fixed at compile
-// time).
+// Dispatches on colour gradients and the channel count (3 is the common
+// case, fixed at compile time).
 template <int W>
 inline void CompositeTileFor(TileJob* job) {
-  if (job->count == 3) {
-    CompositeTileLanes<W, 3>(job);
+  if (job->gradients != nullptr) {
+    if (job->count == 3) {
+      CompositeTileLanes<W, 3, true>(job);
+    } else {
+      CompositeTileLanes<W, 0, true>(job);
+    }
+  } else if (job->count == 3) {
+    CompositeTileLanes<W, 3, false>(job);
   } else if (job->count == 32) {
-    CompositeTileLanes<W, 32>(job);
+    CompositeTileLanes<W, 32, false>(job);
   } else {
-    CompositeTileLanes<W, 0>(job);
+    CompositeTileLanes<W, 0, false>(job);
   }
 }
 

@@ -73,8 +73,11 @@ struct Frame : raster::ProjectionCamera {
   std::vector<uint8_t> owner_live;
 };
 
-// Projects Gaussian `i` into `out`; false when it cannot be seen.
-bool ProjectGaussian(const GaussianScene& scene, const Frame& frame, size_t i, Projected* out) {
+// Projects Gaussian `i` into `out` (and, for a scene with colour gradients,
+// its screen-space gradients into gradients[6 i, 6 i + 6)); false when it
+// cannot be seen.
+bool ProjectGaussian(const GaussianScene& scene, const Frame& frame, size_t i, Projected* out,
+                     float* gradients) {
   const uint32_t owner = scene.owners[i];
   if (!frame.owner_live[owner]) return false;
   const Transform& cam = frame.camera_from_owner[owner];
@@ -91,6 +94,7 @@ bool ProjectGaussian(const GaussianScene& scene, const Frame& frame, size_t i, P
   out->ext_y = g.ext_y;
   out->depth = g.depth;
   out->owner = owner;
+  if (gradients != nullptr) raster::ScreenColourGradients(scene, i, g, gradients + 6 * i);
   out->pad[0] = out->pad[1] = 0;
   out->rgb[0] = out->rgb[1] = out->rgb[2] = 0;
   if (scene.sh_degree >= 0) {
@@ -150,8 +154,8 @@ struct TileScratch {
 // pixels.
 void RenderTile(const Frame& frame, const Projected* projected, const uint32_t* indices,
                 size_t num_indices, int tx, int ty, const float* features, int stride, int count,
-                bool sh_rgb, const RenderOptions& options, RenderBuffers* out, int64_t* tested,
-                int64_t* contributing) {
+                bool sh_rgb, const float* gradients, const RenderOptions& options,
+                RenderBuffers* out, int64_t* tested, int64_t* contributing) {
   thread_local TileScratch s;
   constexpr int kPad = raster::kTilePadding;
   s.transmittance.resize(kTilePixels + kPad);
@@ -172,6 +176,7 @@ void RenderTile(const Frame& frame, const Projected* projected, const uint32_t* 
   job.stride = stride;
   job.count = count;
   job.sh_rgb = sh_rgb;
+  job.gradients = gradients;
   job.transmittance = s.transmittance.data();
   job.acc = s.acc.data();
   job.acc_rgb = s.acc_rgb.data();
@@ -251,6 +256,15 @@ absl::Status CheckRenderable(const GaussianScene& scene) {
         check("owners", scene.owners.size(), 1)}) {
     if (!s.ok()) return s;
   }
+  if (scene.has_colour_gradients()) {
+    if (absl::Status s = check("colour_gradients", scene.colour_gradients.size(), 6); !s.ok()) {
+      return s;
+    }
+    if (scene.sh_degree >= 0) {
+      return absl::InvalidArgumentError(
+          "scene.colour_gradients: only for scenes without SH (colour from the features)");
+    }
+  }
   for (size_t i = 0; i < n; ++i) {
     if (scene.owners[i] > scene.instances.size()) {
       return absl::InvalidArgumentError(absl::StrCat("scene.owners[", i, "]: ", scene.owners[i],
@@ -304,6 +318,7 @@ struct Workspace {
     int64_t visible = 0;
   };
   std::vector<Projected> projected;                 // [N]
+  std::vector<float> gradients;                     // [N, 6] screen colour gradients
   std::vector<std::vector<uint64_t>> visible_keys;  // Per projection chunk.
   std::vector<uint64_t> by_depth;                   // [visible]
   std::vector<uint64_t> radix_buffer;               // [visible]
@@ -395,6 +410,11 @@ absl::StatusOr<RenderBuffers> Render(const GaussianScene& scene, const RenderCam
   thread_local Workspace ws;
   if (ws.projected.size() < n) ws.projected.resize(n);
   Projected* projected = ws.projected.data();
+  float* gradients = nullptr;
+  if (scene.has_colour_gradients()) {
+    if (ws.gradients.size() < 6 * n) ws.gradients.resize(6 * n);
+    gradients = ws.gradients.data();
+  }
   const int64_t num_project_chunks = static_cast<int64_t>((n + kChunk - 1) / kChunk);
   std::vector<std::vector<uint64_t>>& visible_keys = ws.visible_keys;
   if (visible_keys.size() < static_cast<size_t>(num_project_chunks)) {
@@ -408,7 +428,7 @@ absl::StatusOr<RenderBuffers> Render(const GaussianScene& scene, const RenderCam
       keys.clear();
       keys.reserve(end - begin);
       for (size_t i = begin; i < end; ++i) {
-        if (!ProjectGaussian(scene, frame, i, &projected[i])) continue;
+        if (!ProjectGaussian(scene, frame, i, &projected[i], gradients)) continue;
         uint32_t depth_bits;
         std::memcpy(&depth_bits, &projected[i].depth, sizeof(depth_bits));
         keys.push_back((static_cast<uint64_t>(depth_bits) << 32) | i);
@@ -488,7 +508,7 @@ absl::StatusOr<RenderBuffers> Render(const GaussianScene& scene, const RenderCam
       const size_t size = tile_begin[t + 1] - tile_begin[t];
       const int tx = static_cast<int>(t % frame.tiles_x), ty = static_cast<int>(t / frame.tiles_x);
       RenderTile(frame, projected, begin, size, tx, ty, scene.features.data(), scene.num_channels,
-                 count, sh_rgb, options, &out, &tested[t], &contributing[t]);
+                 count, sh_rgb, gradients, options, &out, &tested[t], &contributing[t]);
     }
   });
   spdlog::debug("render: project {:.2f} ms, sort+bin {:.2f} ms ({} pairs), composite {:.2f} ms",

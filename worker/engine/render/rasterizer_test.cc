@@ -69,6 +69,7 @@ struct RandomSceneSpec {
   int channels = 5;
   bool instances = true;
   int sh_degree = -1;
+  bool colour_gradients = false;  // Random gradients in [-0.5, 0.5].
 };
 
 GaussianScene RandomScene(const RandomSceneSpec& spec, const RenderCamera& camera) {
@@ -134,6 +135,10 @@ GaussianScene RandomScene(const RandomSceneSpec& spec, const RenderCamera& camer
     scene.times[g] = static_cast<float>(uniform(0, 2));
     scene.lifespans[g] = uniform(0, 1) < 0.5 ? kInf : static_cast<float>(uniform(0, 1));
     scene.owners[g] = owner;
+  }
+  if (spec.colour_gradients) {
+    scene.colour_gradients.resize(6 * scene.size());
+    for (float& g : scene.colour_gradients) g = static_cast<float>(uniform(-0.5, 0.5));
   }
   return scene;
 }
@@ -233,6 +238,70 @@ TEST(Rasterizer, MatchesReferenceWithEditsAndDistortion) {
     SCOPED_TRACE(model);
     ExpectMatchesReference(scene, camera, scene.time_origin_us + 700'000, {remove, move});
   }
+}
+
+TEST(Rasterizer, ColourGradientsMatchReference) {
+  // Pinhole, OpenCV and fisheye cameras, moving and edited actors, features.
+  for (int model = 0; model < 3; ++model) {
+    RenderCamera camera = MovedCamera(96, 72);
+    if (model == 1) camera.model.SetOpenCv(-0.25, 0.08, 0.002, -0.001, 0.0);
+    if (model == 2) camera.model.SetFisheye(0.05, -0.01, 0.002, 0.0);
+    RandomSceneSpec spec;
+    spec.seed = 21 + model;
+    spec.count = 800;
+    spec.channels = model == 0 ? 3 : 7;
+    spec.colour_gradients = true;
+    GaussianScene scene = RandomScene(spec, camera);
+    scene.low_pass = 0.1f;
+    ActorEdit move;
+    move.kind = ActorEdit::Kind::kTrajectory;
+    move.instance_id = "actor1";
+    move.boxes = scene.instances[1].boxes;
+    for (TrackBox& box : move.boxes) box.center = box.center + Vec3{0.4, 0.1, 0};
+    SCOPED_TRACE(model);
+    ExpectMatchesReference(scene, camera, scene.time_origin_us + 700'000, {move});
+  }
+}
+
+TEST(Rasterizer, ColourGradientRampsAcrossAFacingDisc) {
+  // A disc facing the camera, its axes along the image's x and y, std-dev
+  // 8 px on screen, no low-pass: a pixel dx pixels right of the centre is
+  // at u = dx / 8, so red = 0.5 + 0.3 dx / 8 and green = 0.2 - 0.1 dy / 8.
+  const RenderCamera camera = SimpleCamera(64, 64, 64);
+  GaussianScene scene;
+  scene.low_pass = 0.f;
+  const double depth = 4.0, sigma = 8.0 * depth / 64;
+  const size_t i =
+      AddGaussian(&scene, PointAtPixel(32, 32, depth, camera), sigma, 0.98, {0.5f, 0.2f, 0.7f});
+  scene.log_scales[3 * i + 2] = static_cast<float>(std::log(sigma * 1e-3));  // A flat disc.
+  scene.colour_gradients = {0.3f, 0.f, 0.f, -0.1f, 0.f, 0.f};
+  absl::StatusOr<RenderBuffers> out = Render(scene, camera, 0, {});
+  ASSERT_TRUE(out.ok()) << out.status();
+  for (const auto& [x, y] :
+       std::vector<std::pair<int, int>>{{32, 32}, {40, 32}, {24, 36}, {35, 26}}) {
+    const size_t p = Pixel(*out, x, y);
+    const double dx = x - 32, dy = y - 32;  // The centre is pixel (32, 32)'s centre.
+    const double alpha = out->alpha[p];
+    ASSERT_GT(alpha, 0.3);
+    SCOPED_TRACE(::testing::Message() << x << "," << y);
+    EXPECT_NEAR(out->rgb[3 * p] / alpha, 0.5 + 0.3 * dx / 8, 2e-3);
+    EXPECT_NEAR(out->rgb[3 * p + 1] / alpha, 0.2 - 0.1 * dy / 8, 2e-3);
+    EXPECT_NEAR(out->rgb[3 * p + 2] / alpha, 0.7, 2e-3);
+    // The first three feature channels are the colour the RGB shows.
+    EXPECT_NEAR(out->features[3 * p], out->rgb[3 * p], 1e-6);
+  }
+  // Seen edge-on (the disc turned 90 degrees about y), the screen has no
+  // room along u: the expected u goes to 0 and the disc shows its centre
+  // colour, however large the gradient.
+  const Quat turn{std::cos(M_PI / 4), 0, std::sin(M_PI / 4), 0};
+  scene.rotations = {float(turn.w), float(turn.x), float(turn.y), float(turn.z)};
+  scene.low_pass = 0.3f;
+  scene.colour_gradients = {5.f, 0.f, 0.f, 0.f, 0.f, 0.f};
+  out = Render(scene, camera, 0, {});
+  ASSERT_TRUE(out.ok()) << out.status();
+  const size_t p = Pixel(*out, 32, 32);
+  ASSERT_GT(out->alpha[p], 0.3);
+  EXPECT_NEAR(out->rgb[3 * p] / out->alpha[p], 0.5, 0.02);
 }
 
 TEST(Rasterizer, OpaqueFrontGaussianHidesBack) {
@@ -633,6 +702,30 @@ TEST(Rasterizer, BaselineAndAvx2KernelsGiveTheSameBits) {
   EXPECT_EQ(fast->stats.pairs_contributing, base->stats.pairs_contributing);
 }
 
+TEST(Rasterizer, BaselineAndAvx2KernelsGiveTheSameBitsWithColourGradients) {
+  if (std::string(raster::TileKernelName()) != "avx2") {
+    GTEST_SKIP() << "this CPU runs the " << raster::TileKernelName()
+                 << " kernel: there is no AVX2 kernel to compare";
+  }
+  BenchScene bench = MakeBenchScene(20000, 200, 150, 7, 5);
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> u(-0.5f, 0.5f);
+  bench.scene.colour_gradients.resize(6 * bench.scene.size());
+  for (float& g : bench.scene.colour_gradients) g = u(rng);
+  absl::StatusOr<RenderBuffers> fast = Render(bench.scene, bench.camera, bench.timestamp_us, {});
+  raster::ForceBaselineKernelForTesting(true);
+  absl::StatusOr<RenderBuffers> base = Render(bench.scene, bench.camera, bench.timestamp_us, {});
+  raster::ForceBaselineKernelForTesting(false);
+  ASSERT_TRUE(fast.ok() && base.ok());
+  EXPECT_EQ(fast->features, base->features);
+  EXPECT_EQ(fast->rgb, base->rgb);
+  bench.scene.colour_gradients.clear();
+  absl::StatusOr<RenderBuffers> flat = Render(bench.scene, bench.camera, bench.timestamp_us, {});
+  ASSERT_TRUE(flat.ok());
+  EXPECT_NE(flat->rgb, fast->rgb);
+  EXPECT_EQ(flat->alpha, fast->alpha);  // Gradients change colour, not coverage.
+}
+
 TEST(Rasterizer, BenchSceneIsReproducibleAndCoversTheImage) {
   const BenchScene a = MakeBenchScene(20000, 160, 120, 4, 9);
   const BenchScene b = MakeBenchScene(20000, 160, 120, 4, 9);
@@ -708,6 +801,11 @@ TEST(Rasterizer, RejectsBadInput) {
   broken.owners[0] = 7;
   out = Render(broken, camera, 0, {});
   EXPECT_NE(std::string(out.status().message()).find("owners[0]"), std::string::npos);
+
+  broken = scene;
+  broken.colour_gradients.assign(6 * scene.size() - 1, 0.f);
+  out = Render(broken, camera, 0, {});
+  EXPECT_NE(std::string(out.status().message()).find("colour_gradients"), std::string::npos);
 }
 
 TEST(InstancePose, InterpolatesLinearCentreAndSlerpRotation) {

@@ -19,6 +19,7 @@ struct Splat {
   double depth = 0;
   float rgb[3] = {0, 0, 0};
   uint32_t owner = 0;
+  double axes[2][2] = {{0, 0}, {0, 0}};  // Screen images of the first two scaled axes (columns).
 };
 
 Rigid BoxPose(const TrackBox& box) { return {ToMatrix(box.rotation), box.center}; }
@@ -112,9 +113,12 @@ RenderBuffers ReferenceRender(const GaussianScene& scene, const RenderCamera& ca
       for (int c = 0; c < 3; ++c) jac[r][c] = d[r][0] * persp[0][c] + d[r][1] * persp[1][c];
     double b[2][3];
     Mul23(jac, m, b);
-    const double cxx = b[0][0] * b[0][0] + b[0][1] * b[0][1] + b[0][2] * b[0][2] + 0.3;
+    const double low_pass = scene.low_pass;
+    const double cxx = b[0][0] * b[0][0] + b[0][1] * b[0][1] + b[0][2] * b[0][2] + low_pass;
     const double cxy = b[0][0] * b[1][0] + b[0][1] * b[1][1] + b[0][2] * b[1][2];
-    const double cyy = b[1][0] * b[1][0] + b[1][1] * b[1][1] + b[1][2] * b[1][2] + 0.3;
+    const double cyy = b[1][0] * b[1][0] + b[1][1] * b[1][1] + b[1][2] * b[1][2] + low_pass;
+    for (int r = 0; r < 2; ++r)
+      for (int c = 0; c < 2; ++c) s.axes[r][c] = b[r][c];
     const double det = cxx * cyy - cxy * cxy;
     if (det <= 0) continue;
     s.conic[0] = cyy / det;
@@ -166,10 +170,27 @@ RenderBuffers ReferenceRender(const GaussianScene& scene, const RenderCamera& ca
         if (std::abs(alpha * 255.0 - 1.0) < 2e-5) close_call = true;
         if (alpha < 1.0 / 255.0) continue;
         const double w = alpha * transmittance;
-        for (int c = 0; c < nc; ++c) features[c] += w * scene.features[i * nc + c];
+        // Flat colour, or the centre colour plus the gradients at the
+        // expected local coordinates B^T Sigma^-1 d.
+        double colour[3];
         for (int c = 0; c < 3; ++c) {
-          rgb[c] += w * (scene.sh_degree >= 0 ? s.rgb[c] : scene.features[i * nc + c]);
+          colour[c] = scene.sh_degree >= 0 ? s.rgb[c] : scene.features[i * nc + c];
         }
+        if (scene.has_colour_gradients()) {
+          const double sx = s.conic[0] * dx + s.conic[1] * dy;
+          const double sy = s.conic[1] * dx + s.conic[2] * dy;
+          const double lu = s.axes[0][0] * sx + s.axes[1][0] * sy;
+          const double lv = s.axes[0][1] * sx + s.axes[1][1] * sy;
+          for (int c = 0; c < 3; ++c) {
+            colour[c] += scene.colour_gradients[6 * i + 2 * c] * lu +
+                         scene.colour_gradients[6 * i + 2 * c + 1] * lv;
+          }
+        }
+        const bool textured = scene.has_colour_gradients();
+        for (int c = 0; c < nc; ++c) {
+          features[c] += w * (textured && c < 3 ? colour[c] : scene.features[i * nc + c]);
+        }
+        for (int c = 0; c < 3; ++c) rgb[c] += w * colour[c];
         depth += w * s.depth;
         if (std::abs(w - best) <= 1e-5 * best && s.owner != best_owner) close_call = true;
         if (w > best) {

@@ -102,12 +102,14 @@ auto Arrays(SceneT& s) {
                                {"sh", s.sh.data(), static_cast<size_t>(3 * s.sh_coeffs())},
                                {"times", s.times.data(), 1},
                                {"lifespans", s.lifespans.data(), 1},
-                               {"owners", s.owners.data(), 1}};
+                               {"owners", s.owners.data(), 1},
+                               {"colour_gradients", s.colour_gradients.data(),
+                                s.colour_gradients.empty() ? size_t{0} : size_t{6}}};
 }
 
-size_t FloatsPerGaussian(int num_channels, int sh_coeffs) {
+size_t FloatsPerGaussian(int num_channels, int sh_coeffs, bool colour_gradients) {
   return 3 + 4 + 3 + 1 + static_cast<size_t>(num_channels) + 3 * static_cast<size_t>(sh_coeffs) +
-         1 + 1 + 1;
+         1 + 1 + 1 + (colour_gradients ? 6 : 0);
 }
 
 absl::Status CheckArraySize(const char* name, size_t actual, size_t expected) {
@@ -150,6 +152,14 @@ absl::Status ValidateScene(const GaussianScene& scene) {
   RETURN_IF_ERROR(CheckArraySize("times", scene.times.size(), n));
   RETURN_IF_ERROR(CheckArraySize("lifespans", scene.lifespans.size(), n));
   RETURN_IF_ERROR(CheckArraySize("owners", scene.owners.size(), n));
+  if (scene.has_colour_gradients()) {
+    RETURN_IF_ERROR(CheckArraySize("colour_gradients", scene.colour_gradients.size(), 6 * n));
+    if (scene.sh_degree >= 0) {
+      return absl::InvalidArgumentError(
+          "colour_gradients: only for scenes without SH (colour from the features)");
+    }
+    RETURN_IF_ERROR(CheckFinite("colour_gradients", scene.colour_gradients, 6));
+  }
   RETURN_IF_ERROR(CheckFinite("means", scene.means, 3));
   RETURN_IF_ERROR(CheckFinite("rotations", scene.rotations, 4));
   RETURN_IF_ERROR(CheckFinite("log_scales", scene.log_scales, 3));
@@ -199,6 +209,7 @@ absl::Status SaveScene(const GaussianScene& scene, const std::string& path,
   header.Put<int32_t>(scene.sh_degree);
   header.Put<int64_t>(scene.time_origin_us);
   header.Put<float>(scene.low_pass);
+  header.Put<uint32_t>(scene.has_colour_gradients() ? 1 : 0);
   header.Put<uint32_t>(static_cast<uint32_t>(scene.instances.size()));
   for (const InstanceTrack& track : scene.instances) {
     header.PutString(track.id);
@@ -315,6 +326,12 @@ absl::StatusOr<SceneFile> ReadSceneFile(const std::string& path) {
   // Version 1 has no low-pass: its scenes were fitted under the 3DGS one.
   scene.low_pass = kThreeDgsLowPass;
   if (version >= 2) RETURN_IF_ERROR(header.Get("low_pass", &scene.low_pass));
+  // Version 3 added colour gradients (0: flat colours, 1: [N, 3, 2]).
+  uint32_t colour_gradients = 0;
+  if (version >= 3) RETURN_IF_ERROR(header.Get("colour_gradients", &colour_gradients));
+  if (colour_gradients > 1) {
+    return invalid("header colour_gradients ", colour_gradients, " is neither 0 nor 1");
+  }
   if (num_channels < 1 || num_channels > kMaxChannels) {
     return invalid("header num_channels ", num_channels, " is outside [1, ", kMaxChannels, "]");
   }
@@ -367,7 +384,8 @@ absl::StatusOr<SceneFile> ReadSceneFile(const std::string& path) {
 
   // Sizes: the arrays and the checksum must fill the rest of the file exactly.
   const uint64_t available = file_size - kPrefixBytes - header_bytes;
-  const uint64_t bytes_per_gaussian = 4 * FloatsPerGaussian(num_channels, scene.sh_coeffs());
+  const uint64_t bytes_per_gaussian =
+      4 * FloatsPerGaussian(num_channels, scene.sh_coeffs(), colour_gradients != 0);
   if (num_gaussians > available / bytes_per_gaussian) {
     return invalid("truncated: header promises ", num_gaussians, " Gaussians (",
                    kPrefixBytes + header_bytes, " + ", num_gaussians, " x ", bytes_per_gaussian,
@@ -382,6 +400,7 @@ absl::StatusOr<SceneFile> ReadSceneFile(const std::string& path) {
 
   // Arrays, one read each.
   scene.Resize(num_gaussians);
+  if (colour_gradients != 0) scene.colour_gradients.assign(6 * num_gaussians, 0.f);
   for (const auto& array : Arrays(scene)) {
     const size_t bytes = array.per_gaussian * num_gaussians * 4;
     in.read(static_cast<char*>(array.data), static_cast<std::streamsize>(bytes));

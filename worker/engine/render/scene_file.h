@@ -24,7 +24,10 @@ namespace pf {
 inline constexpr char kSceneFileMagic[8] = {'P', 'F', 'S', 'C', 'E', 'N', 'E', '\0'};
 // The version this code writes, and the oldest it reads. Version 2 added the
 // scene's low-pass (GaussianScene::low_pass); version 1 files read as 0.3.
-inline constexpr uint32_t kSceneFileVersion = 2;
+// Version 3 added colour gradients (GaussianScene::colour_gradients): a flag
+// in the header after the low-pass, the array after the owners; older files
+// read with flat colours.
+inline constexpr uint32_t kSceneFileVersion = 3;
 inline constexpr uint32_t kOldestSceneFileVersion = 1;
 
 // A scene as stored: the Gaussians, free-form metadata (e.g. "model",
@@ -40,6 +43,7 @@ struct SceneFile {
 // Returns INVALID_ARGUMENT naming the array or field when `scene` is not
 // self-consistent: array sizes that do not match size(), num_channels outside
 // [1, 256], sh_degree outside [-1, 3], low_pass outside [0, kMaxLowPass],
+// colour gradients with SH or non-finite,
 // an owner beyond the instances, an
 // instance without boxes or with unsorted boxes, non-finite values in the
 // geometry arrays.

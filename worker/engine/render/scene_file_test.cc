@@ -63,6 +63,7 @@ void ExpectScenesEqual(const GaussianScene& a, const GaussianScene& b) {
   EXPECT_EQ(a.times, b.times);
   EXPECT_EQ(a.lifespans, b.lifespans);
   EXPECT_EQ(a.owners, b.owners);
+  EXPECT_EQ(a.colour_gradients, b.colour_gradients);
   ASSERT_EQ(a.instances.size(), b.instances.size());
   for (size_t k = 0; k < a.instances.size(); ++k) {
     EXPECT_EQ(a.instances[k].id, b.instances[k].id);
@@ -163,38 +164,93 @@ TEST_F(SceneFileTest, RejectsWrongMagic) {
 }
 
 TEST_F(SceneFileTest, RejectsWrongVersion) {
-  for (int version : {0, 3}) {
+  for (int version : {0, 4}) {
     const absl::Status status =
         LoadEdited([version](std::string& b) { b[8] = static_cast<char>(version); });
     EXPECT_EQ(status.code(), absl::StatusCode::kInvalidArgument);
     EXPECT_NE(status.message().find(absl::StrCat("unsupported scene file version ", version,
-                                                 " (this build reads versions 1 to 2)")),
+                                                 " (this build reads versions 1 to 3)")),
               absl::string_view::npos)
         << status;
   }
 }
 
-TEST_F(SceneFileTest, ReadsVersionOneFilesWithTheThreeDgsLowPass) {
-  // A version-1 file is a version-2 file without the low-pass in the header
-  // (a float32 after time_origin_us, at byte 16 + 8 + 4 + 4 + 8 = 40).
-  const GaussianScene scene = MakeScene();
-  ASSERT_TRUE(SaveScene(scene, path_, {{"model", "analytic"}}).ok());
-  std::string bytes = *ReadFileToString(path_);
-  float stored = 0;
-  std::memcpy(&stored, bytes.data() + 40, 4);
-  ASSERT_EQ(stored, 0.1f);
-  bytes.erase(40, 4);
-  const uint32_t version = 1;
+// Rewrites the file at `path` as an older version: drops `drop` header
+// bytes at `offset`, sets the version and header size, fixes the checksum.
+void RewriteAsVersion(const std::string& path, uint32_t version, size_t offset, size_t drop) {
+  std::string bytes = *ReadFileToString(path);
+  bytes.erase(offset, drop);
   uint32_t header_bytes = 0;
   std::memcpy(&header_bytes, bytes.data() + 12, 4);
-  header_bytes -= 4;
+  header_bytes -= static_cast<uint32_t>(drop);
   std::memcpy(bytes.data() + 8, &version, 4);
   std::memcpy(bytes.data() + 12, &header_bytes, 4);
   Sha256 hasher;
   hasher.Update(bytes.data(), bytes.size() - 32);
   const std::array<uint8_t, 32> digest = hasher.Finish();
   std::memcpy(bytes.data() + bytes.size() - 32, digest.data(), 32);
-  ASSERT_TRUE(WriteFileAtomic(path_, bytes).ok());
+  ASSERT_TRUE(WriteFileAtomic(path, bytes).ok());
+}
+
+TEST_F(SceneFileTest, RoundTripWithColourGradients) {
+  GaussianScene scene = MakeScene();
+  scene.sh_degree = -1;
+  scene.sh.clear();
+  scene.colour_gradients.resize(6 * scene.size());
+  for (size_t k = 0; k < scene.colour_gradients.size(); ++k) {
+    scene.colour_gradients[k] = 0.01f * static_cast<float>(k) - 0.2f;
+  }
+  ASSERT_TRUE(SaveScene(scene, path_).ok());
+  absl::StatusOr<SceneFile> loaded = ReadSceneFile(path_);
+  ASSERT_TRUE(loaded.ok()) << loaded.status();
+  EXPECT_EQ(loaded->version, 3u);
+  ExpectScenesEqual(scene, loaded->scene);
+  // 6 more floats per Gaussian than the same scene with flat colours.
+  const std::string flat_path = path_ + ".flat";
+  GaussianScene flat = scene;
+  flat.colour_gradients.clear();
+  ASSERT_TRUE(SaveScene(flat, flat_path).ok());
+  EXPECT_EQ(ReadFileToString(path_)->size(),
+            ReadFileToString(flat_path)->size() + 6 * 4 * scene.size());
+
+  // Bad gradients are named: with SH, the wrong size, not finite.
+  GaussianScene bad = scene;
+  bad.sh_degree = 0;
+  bad.sh.assign(3 * scene.size(), 0.f);
+  EXPECT_NE(SaveScene(bad, path_).message().find("colour_gradients"), absl::string_view::npos);
+  bad = scene;
+  bad.colour_gradients.pop_back();
+  EXPECT_NE(SaveScene(bad, path_).message().find("colour_gradients"), absl::string_view::npos);
+  bad = scene;
+  bad.colour_gradients[13] = std::numeric_limits<float>::infinity();
+  EXPECT_NE(SaveScene(bad, path_).message().find("colour_gradients[2]"), absl::string_view::npos);
+}
+
+TEST_F(SceneFileTest, ReadsVersionTwoFilesWithFlatColours) {
+  // A version-2 file is a version-3 file without the colour-gradient flag
+  // (a uint32 after the low-pass, at byte 44) and without gradients.
+  const GaussianScene scene = MakeScene();
+  ASSERT_TRUE(SaveScene(scene, path_, {{"model", "analytic"}}).ok());
+  uint32_t flag = 7;
+  std::memcpy(&flag, ReadFileToString(path_)->data() + 44, 4);
+  ASSERT_EQ(flag, 0u);
+  RewriteAsVersion(path_, 2, 44, 4);
+  absl::StatusOr<SceneFile> loaded = ReadSceneFile(path_);
+  ASSERT_TRUE(loaded.ok()) << loaded.status();
+  EXPECT_EQ(loaded->version, 2u);
+  ExpectScenesEqual(scene, loaded->scene);
+}
+
+TEST_F(SceneFileTest, ReadsVersionOneFilesWithTheThreeDgsLowPass) {
+  // A version-1 file is a version-2 file without the low-pass in the header
+  // (a float32 after time_origin_us, at byte 16 + 8 + 4 + 4 + 8 = 40), so a
+  // version-3 file without the low-pass and the colour-gradient flag.
+  const GaussianScene scene = MakeScene();
+  ASSERT_TRUE(SaveScene(scene, path_, {{"model", "analytic"}}).ok());
+  float stored = 0;
+  std::memcpy(&stored, ReadFileToString(path_)->data() + 40, 4);
+  ASSERT_EQ(stored, 0.1f);
+  RewriteAsVersion(path_, 1, 40, 8);
 
   absl::StatusOr<SceneFile> loaded = ReadSceneFile(path_);
   ASSERT_TRUE(loaded.ok()) << loaded.status();
@@ -266,13 +322,21 @@ TEST_F(SceneFileTest, RejectsHostileCountsWithoutAllocating) {
   EXPECT_NE(status.message().find("header of 4294967295 bytes"), absl::string_view::npos) << status;
 
   // num_instances follows num_gaussians, num_channels, sh_degree, time origin,
-  // low-pass.
+  // low-pass, colour-gradient flag.
   status = LoadEdited([](std::string& b) {
     const uint32_t huge = 0x7FFFFFFFu;
-    std::memcpy(b.data() + 16 + 8 + 4 + 4 + 8 + 4, &huge, 4);
+    std::memcpy(b.data() + 16 + 8 + 4 + 4 + 8 + 4 + 4, &huge, 4);
   });
   EXPECT_EQ(status.code(), absl::StatusCode::kInvalidArgument);
   EXPECT_NE(status.message().find("num_instances"), absl::string_view::npos) << status;
+
+  status = LoadEdited([](std::string& b) {
+    const uint32_t flag = 2;
+    std::memcpy(b.data() + 16 + 8 + 4 + 4 + 8 + 4, &flag, 4);
+  });
+  EXPECT_NE(status.message().find("header colour_gradients 2 is neither 0 nor 1"),
+            absl::string_view::npos)
+      << status;
 
   status = LoadEdited([](std::string& b) {
     const int32_t channels = 100000;

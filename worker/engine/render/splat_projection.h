@@ -77,7 +77,24 @@ struct SplatGeometry {
   float span_d2;     // d^2 bound of the row spans and tile tests.
   float ext_x, ext_y;
   float depth;  // Camera-frame z.
+  // The expected local coordinates (along the Gaussian's first two axes, in
+  // std-devs) of screen offset (dx, dy): u = ux dx + uy dy, v = vx dx + vy dy
+  // (B^T Sigma^-1 d; GaussianScene::colour_gradients).
+  float ux, uy, vx, vy;
 };
+
+// Writes the screen-space colour gradient of Gaussian `i` projected as `g`:
+// out[2c], out[2c + 1] = d channel c / d x, d y (pixels). The scene must
+// have colour gradients.
+inline void ScreenColourGradients(const GaussianScene& scene, size_t i, const SplatGeometry& g,
+                                  float* out) {
+  const float* grad = &scene.colour_gradients[6 * i];
+  for (int c = 0; c < 3; ++c) {
+    const float gu = grad[2 * c], gv = grad[2 * c + 1];
+    out[2 * c] = gu * g.ux + gv * g.vx;
+    out[2 * c + 1] = gu * g.uy + gv * g.vy;
+  }
+}
 
 // Projects Gaussian `i`, whose owner frame maps to the camera by `r`
 // (row-major 3x3) and `t`; false when it cannot be seen (faded out, behind
@@ -181,6 +198,10 @@ inline bool ProjectSplatGeometry(const GaussianScene& scene, size_t i,
   out->ext_x = ext_x;
   out->ext_y = ext_y;
   out->depth = pz;
+  out->ux = b00 * out->ca + b10 * out->cb;
+  out->uy = b00 * out->cb + b10 * out->cc;
+  out->vx = b01 * out->ca + b11 * out->cb;
+  out->vy = b01 * out->cb + b11 * out->cc;
   return true;
 }
 
