@@ -404,14 +404,16 @@ TEST_F(RemoteCliE2e, AnEgoMaskIsUploadedAndHonouredByTheWorker) {
 }
 
 // The tuning flags of local pf reconstruct reach the worker: the remote
-// scene made with --low-pass 2 --refine 0 --hidden-band 0 --splat-sigma 0.5
-// is the embedded one made with the same flags, and another scene than the
-// default one; a value out of range is refused by the client naming the
-// flag. (--no-ground-fill and --no-facades change nothing on a clip with
-// depth maps; ReconOptionsFromProto's test covers them.)
+// scene made with --low-pass 2 --refine 2 --hidden-band 0 --splat-sigma 0.5
+// --colour flat is the embedded one made with the same flags (a worker that
+// dropped --colour would fit gradients, which the PLY carries), and another
+// scene than the default one; a value out of range is refused by the client
+// naming the flag. (--no-ground-fill and --no-facades change nothing on a
+// clip with depth maps; ReconOptionsFromProto's test covers them.)
 TEST_F(RemoteCliE2e, TuningFlagsReachTheWorkerAndMakeAnotherScene) {
-  const std::vector<std::string> tuning = {"--low-pass",    "2", "--refine",      "0",
-                                           "--hidden-band", "0", "--splat-sigma", "0.5"};
+  const std::vector<std::string> tuning = {"--low-pass",    "2",   "--refine",      "2",
+                                           "--hidden-band", "0",   "--splat-sigma", "0.5",
+                                           "--colour",      "flat"};
   const std::string embedded = EmbeddedPly(Clip(), tuning, "tuned");
 
   StartServer();
@@ -420,6 +422,10 @@ TEST_F(RemoteCliE2e, TuningFlagsReachTheWorkerAndMakeAnotherScene) {
   EXPECT_EQ(bad.exit_code, 2);
   EXPECT_NE(bad.err.find("--refine: must be in [0, 20] iterations, got 25"), std::string::npos)
       << bad.err;
+  const CommandResult bad_colour = Remote({"scene", "create", Clip(), "--colour", "sh"});
+  EXPECT_EQ(bad_colour.exit_code, 2);
+  EXPECT_NE(bad_colour.err.find("--colour: unknown colour model 'sh'"), std::string::npos)
+      << bad_colour.err;
 
   const std::string scene = CreateScene(tuning);
   ASSERT_FALSE(scene.empty());
