@@ -19,7 +19,8 @@ int64_t SceneCache::EstimateBytes(const GaussianScene& scene) {
   int64_t bytes = VectorBytes(scene.means) + VectorBytes(scene.rotations) +
                   VectorBytes(scene.log_scales) + VectorBytes(scene.opacity_logits) +
                   VectorBytes(scene.features) + VectorBytes(scene.sh) + VectorBytes(scene.times) +
-                  VectorBytes(scene.lifespans) + VectorBytes(scene.owners);
+                  VectorBytes(scene.lifespans) + VectorBytes(scene.owners) +
+                  VectorBytes(scene.colour_gradients);
   for (const InstanceTrack& track : scene.instances) bytes += VectorBytes(track.boxes);
   return bytes;
 }

@@ -29,6 +29,9 @@ TEST(SceneCache, EstimateIsTheSumOfTheArrays) {
   GaussianScene with_track = SceneOf(10, "b").scene;
   with_track.instances.push_back({"car", "car", std::vector<TrackBox>(2)});
   EXPECT_EQ(SceneCache::EstimateBytes(with_track), 680 + 2 * int64_t(sizeof(TrackBox)));
+  GaussianScene textured = SceneOf(100, "c").scene;
+  textured.colour_gradients.resize(6 * 100);  // 24 more bytes per Gaussian.
+  EXPECT_EQ(SceneCache::EstimateBytes(textured), kBytesPer100 + 2400);
 }
 
 TEST(SceneCache, EvictsLeastRecentlyUsedFirst) {

@@ -162,6 +162,7 @@ absl::StatusOr<RefinementStats> RefineColours(const std::vector<ContextView>& vi
   std::vector<FitView> fit(views.size());
   std::vector<absl::Status> errors(views.size());
   std::atomic<int64_t> recorded_pairs{0};
+  std::atomic<int64_t> recorded_cost{0};  // Pairs, twice with colour gradients.
   std::atomic<bool> over_budget{false};
   DefaultThreadPool().ParallelFor(0, num_views, 1, [&](int64_t b, int64_t e) {
     for (int64_t v = b; v < e; ++v) {
@@ -177,8 +178,10 @@ absl::StatusOr<RefinementStats> RefineColours(const std::vector<ContextView>& vi
         continue;
       }
       // A pair with local coordinates takes twice the memory.
-      const int64_t cost = static_cast<int64_t>(a->entries()) * (options.colour_gradients ? 2 : 1);
-      if (recorded_pairs.fetch_add(cost) + cost > options.max_pairs) {
+      const int64_t pairs = static_cast<int64_t>(a->entries());
+      const int64_t cost = pairs * (options.colour_gradients ? 2 : 1);
+      recorded_pairs += pairs;
+      if (recorded_cost.fetch_add(cost) + cost > options.max_pairs) {
         over_budget = true;
         break;
       }
@@ -190,9 +193,19 @@ absl::StatusOr<RefinementStats> RefineColours(const std::vector<ContextView>& vi
     }
   });
   for (const absl::Status& error : errors) RETURN_IF_ERROR(error);
+  if (over_budget && options.colour_gradients) {
+    // Free what was recorded before recording again, flat.
+    std::vector<FitView>().swap(fit);
+    RefinementOptions flat = options;
+    flat.colour_gradients = false;
+    ASSIGN_OR_RETURN(stats, RefineColours(views, flat, scene));
+    stats.flat_fallback = true;
+    return stats;
+  }
   if (over_budget) {
     stats.pairs = recorded_pairs.load();
     stats.skipped_over_budget = true;
+    scene->colour_gradients.clear();
     return stats;
   }
   for (const FitView& view : fit) {
@@ -273,10 +286,13 @@ absl::StatusOr<RefinementStats> RefineColours(const std::vector<ContextView>& vi
   const float lambda = static_cast<float>(options.prior_weight);
   const float lambda_gradient = static_cast<float>(options.gradient_prior_weight);
   const bool has_agreement = options.keep_hidden && stride > kAgreementChannel;
+  auto hidden_gaussian = [&](size_t i) {
+    return has_agreement && scene->features[i * stride + kAgreementChannel] <= 0.f;
+  };
   std::vector<float> prior(per * n);
   for (size_t j = 0; j < per * n; ++j) {
     const size_t i = j / per;
-    const bool hidden = has_agreement && scene->features[i * stride + kAgreementChannel] <= 0.f;
+    const bool hidden = hidden_gaussian(i);
     const bool gradient = (j % per) % kk != 0;
     prior[j] = (hidden     ? kHiddenPrior
                 : gradient ? lambda_gradient
@@ -336,7 +352,9 @@ absl::StatusOr<RefinementStats> RefineColours(const std::vector<ContextView>& vi
       xc[0] = std::clamp(xc[0], options.min_colour, options.max_colour);
       scene->features[i * stride + c] = xc[0];
       for (int g = 1; g < kk; ++g) {
-        xc[g] = std::clamp(xc[g], -options.max_gradient, options.max_gradient);
+        // Hidden Gaussians stay flat (their prior only nearly pins them).
+        xc[g] = hidden_gaussian(i) ? 0.f
+                                   : std::clamp(xc[g], -options.max_gradient, options.max_gradient);
         scene->colour_gradients[6 * i + 2 * c + g - 1] = xc[g];
       }
     }

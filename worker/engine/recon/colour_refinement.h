@@ -61,12 +61,15 @@ struct RefinementOptions {
   double gradient_prior_weight = 0.25;
   float max_gradient = 1.f;
   // Memory bound: the fit holds every view's weights at once, 8 bytes per
-  // (pixel, Gaussian) pair. A clip whose context views need more pairs than
-  // this (1.6 GB; the default synth clip needs 75 M for analytic, 157 M for
-  // pixel-aligned; six 1936x1216 DGP cameras at two times pass it) keeps its
-  // decoded colours: the fit is skipped, never half-done, and RefinementStats
-  // says so, so that a worker inside its memory limit (8 GiB, half of it
-  // scene cache, in deploy/k8s) does not run out on large real clips.
+  // (pixel, Gaussian) pair, 16 with colour gradients (such a pair counts
+  // twice here). A clip whose context views need more than this (1.6 GB; the
+  // default synth clip needs 71 M pairs for analytic, 142 M units with
+  // gradients, 157 M for pixel-aligned; six 1936x1216 DGP cameras at two
+  // times pass it) keeps its decoded colours: the fit is skipped, never
+  // half-done, and RefinementStats says so, so that a worker inside its
+  // memory limit (8 GiB, half of it scene cache, in deploy/k8s) does not run
+  // out on large real clips. A fit with gradients over the bound is done
+  // flat instead, if that fits (RefinementStats::flat_fallback).
   int64_t max_pairs = 200'000'000;
 };
 
@@ -79,6 +82,10 @@ struct RefinementStats {
   // True when the views needed more than max_pairs pairs and the colours
   // were left as decoded (pairs is then the count when recording stopped).
   bool skipped_over_budget = false;
+  // True when colour gradients were asked for but their pairs passed
+  // max_pairs, so the colours were fitted flat (skipped_over_budget then
+  // says whether even that passed it).
+  bool flat_fallback = false;
 };
 
 // Refines the first three feature channels of `scene` in place against

@@ -276,37 +276,77 @@ TEST(ColourRefinement, OverThePairBudgetTheColoursStayAsDecoded) {
     }
   }
   const std::vector<ContextView> views = {view, view};
-  // A pair costs twice its memory with colour gradients: the budget counts it
-  // twice.
-  for (bool gradients : {false, true}) {
-    SCOPED_TRACE(gradients);
-    RefinementOptions options;
-    options.min_alpha = 0;
-    options.colour_gradients = gradients;
-    const int64_t per_pair = gradients ? 2 : 1;
-    GaussianScene unbounded = scene;
-    absl::StatusOr<RefinementStats> full = RefineColours(views, options, &unbounded);
-    ASSERT_TRUE(full.ok()) << full.status();
-    ASSERT_FALSE(full->skipped_over_budget);
-    ASSERT_GT(full->pairs, 0);
+  RefinementOptions options;
+  options.min_alpha = 0;
+  options.colour_gradients = false;  // GradientsOverThePairBudget... has them.
+  GaussianScene unbounded = scene;
+  absl::StatusOr<RefinementStats> full = RefineColours(views, options, &unbounded);
+  ASSERT_TRUE(full.ok()) << full.status();
+  ASSERT_FALSE(full->skipped_over_budget);
+  ASSERT_GT(full->pairs, 0);
 
-    GaussianScene over = scene;
-    options.max_pairs = per_pair * full->pairs - 1;
-    absl::StatusOr<RefinementStats> skipped = RefineColours(views, options, &over);
-    ASSERT_TRUE(skipped.ok()) << skipped.status();
-    EXPECT_TRUE(skipped->skipped_over_budget);
-    EXPECT_EQ(over.features, scene.features);
+  GaussianScene over = scene;
+  options.max_pairs = full->pairs - 1;
+  absl::StatusOr<RefinementStats> skipped = RefineColours(views, options, &over);
+  ASSERT_TRUE(skipped.ok()) << skipped.status();
+  EXPECT_TRUE(skipped->skipped_over_budget);
+  EXPECT_EQ(over.features, scene.features);
 
-    GaussianScene at_budget = scene;
-    options.max_pairs = per_pair * full->pairs;
-    absl::StatusOr<RefinementStats> fitted = RefineColours(views, options, &at_budget);
-    ASSERT_TRUE(fitted.ok()) << fitted.status();
-    EXPECT_FALSE(fitted->skipped_over_budget);
-    EXPECT_EQ(fitted->pairs, full->pairs);
-    EXPECT_NE(at_budget.features, scene.features);      // Pulled towards the 0.8 grey image.
-    EXPECT_EQ(at_budget.features, unbounded.features);  // The same fit as without a budget.
-    EXPECT_EQ(at_budget.colour_gradients, unbounded.colour_gradients);
+  GaussianScene at_budget = scene;
+  options.max_pairs = full->pairs;
+  absl::StatusOr<RefinementStats> fitted = RefineColours(views, options, &at_budget);
+  ASSERT_TRUE(fitted.ok()) << fitted.status();
+  EXPECT_FALSE(fitted->skipped_over_budget);
+  EXPECT_EQ(fitted->pairs, full->pairs);
+  EXPECT_NE(at_budget.features, scene.features);      // Pulled towards the 0.8 grey image.
+  EXPECT_EQ(at_budget.features, unbounded.features);  // The same fit as without a budget.
+}
+
+TEST(ColourRefinement, GradientsOverThePairBudgetFallBackToAFlatFit) {
+  // The wall again: with gradients a pair counts twice, so at a budget of
+  // exactly the flat fit's pairs the gradients do not fit and the colours
+  // are fitted flat, as a flat fit does them.
+  const int w = 40, h = 30;
+  ContextView view = UniformView(w, h, 40, 0.8f);
+  GaussianScene scene = EmptyScene();
+  for (int y = 0; y < h; y += 2) {
+    for (int x = 0; x < w; x += 2) {
+      const Vec3 at{(x + 1 - w / 2.0) / 40 * 10, (y + 1 - h / 2.0) / 40 * 10, 10};
+      AddGaussian(&scene, at, 0.3, 0.9, {0.5, 0.5, 0.5});
+    }
   }
+  RefinementOptions options;
+  options.min_alpha = 0;
+  options.colour_gradients = false;
+  GaussianScene flat = scene;
+  absl::StatusOr<RefinementStats> flat_stats = RefineColours({view}, options, &flat);
+  ASSERT_TRUE(flat_stats.ok()) << flat_stats.status();
+  options.colour_gradients = true;
+  options.max_pairs = flat_stats->pairs;
+  GaussianScene fallback = scene;
+  absl::StatusOr<RefinementStats> stats = RefineColours({view}, options, &fallback);
+  ASSERT_TRUE(stats.ok()) << stats.status();
+  EXPECT_TRUE(stats->flat_fallback);
+  EXPECT_FALSE(stats->skipped_over_budget);
+  EXPECT_EQ(stats->pairs, flat_stats->pairs);
+  EXPECT_FALSE(fallback.has_colour_gradients());
+  EXPECT_EQ(fallback.features, flat.features);
+  EXPECT_NE(fallback.features, scene.features);
+  // Twice the pairs: the gradients fit.
+  options.max_pairs = 2 * flat_stats->pairs;
+  GaussianScene textured = scene;
+  stats = RefineColours({view}, options, &textured);
+  ASSERT_TRUE(stats.ok()) << stats.status();
+  EXPECT_FALSE(stats->flat_fallback);
+  EXPECT_TRUE(textured.has_colour_gradients());
+  // One pair less than the flat fit needs and even that is skipped.
+  options.max_pairs = flat_stats->pairs - 1;
+  GaussianScene none = scene;
+  stats = RefineColours({view}, options, &none);
+  ASSERT_TRUE(stats.ok()) << stats.status();
+  EXPECT_TRUE(stats->flat_fallback);
+  EXPECT_TRUE(stats->skipped_over_budget);
+  EXPECT_EQ(none.features, scene.features);
 }
 
 TEST(ColourRefinement, RejectsBadOptionsAndScenes) {

@@ -386,7 +386,9 @@ std::string EvalReportJson(const EvalReport& report) {
   j["splatSigma"] = report.options.decoder.tangent_sigma;
   j["lowPass"] = report.options.decoder.low_pass;
   j["refineIterations"] = report.options.refinement.iterations;
-  j["colour"] = ColourGradientsFor(report.options) ? "gradients" : "flat";
+  // What the scene has, not what was asked: --refine 0, or a fit over the
+  // memory bound, leaves it flat.
+  j["colour"] = report.stats.colour_gradients ? "gradients" : "flat";
   j["staticGaussians"] = report.stats.static_gaussians;
   j["dynamicGaussians"] = report.stats.dynamic_gaussians;
   j["farGaussians"] = report.stats.far_gaussians;

@@ -211,16 +211,21 @@ absl::StatusOr<ReconResult> ReconstructInputs(const ReconInputs& inputs,
     refinement.colour_gradients = ColourGradientsFor(options);
     ASSIGN_OR_RETURN(const RefinementStats refined,
                      RefineColours(views, refinement, &result.scene));
+    const std::string fallback =
+        refined.flat_fallback ? "; flat colours: with gradients the pairs pass the memory bound"
+                              : "";
     if (refined.skipped_over_budget) {
       clock.Done("refine", absl::StrCat(" (skipped: the context views need more than ",
                                         options.refinement.max_pairs,
                                         " pixel-Gaussian pairs, the fit's memory bound; colours "
                                         "kept as decoded)"));
     } else {
-      clock.Done("refine", absl::StrCat(" (", refined.pairs, " pixel-Gaussian pairs, context RMSE ",
-                                        refined.rmse_before, " -> ", refined.rmse_after, ")"));
+      clock.Done("refine",
+                 absl::StrCat(" (", refined.pairs, " pixel-Gaussian pairs, context RMSE ",
+                              refined.rmse_before, " -> ", refined.rmse_after, fallback, ")"));
     }
   }
+  stats.colour_gradients = result.scene.has_colour_gradients();
   stats.total_seconds = clock.Total();
   return result;
 }

@@ -84,6 +84,9 @@ struct ReconStats {
   int64_t ground_pixels = 0;    // LiDAR views' pixels set by the ground fill (view_depth.h).
   int64_t facade_pixels = 0;    // LiDAR views' pixels set by facades (facade_depth.h).
   int views_without_depth = 0;  // No depth map, no LiDAR point: all far layer.
+  // The scene's colours carry gradients (the fit ran with them; a fit over
+  // the memory bound with them falls back to flat colours).
+  bool colour_gradients = false;
   std::vector<std::pair<std::string, double>> stage_seconds;  // In order.
   double total_seconds = 0;
 };

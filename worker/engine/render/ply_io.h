@@ -21,7 +21,9 @@
 //     Every Gaussian is written as background.
 //   - Our extras, which viewers ignore: properties pf_feature_0..N_c-1 when
 //     the features cannot be recovered from f_dc (SH present, or N_c != 3),
-//     pf_time and pf_lifespan when any lifespan is finite, and a header line
+//     pf_time and pf_lifespan when any lifespan is finite,
+//     pf_colour_gradient_0..5 when the scene has colour gradients (all six
+//     are needed on import), and a header line
 //     `comment pointforward time_origin_us=T sh_degree=D low_pass=S` so that
 //     our own import restores those fields (a PLY without it gets the 3DGS
 //     low-pass, 0.3, which is what other tools trained it under).

@@ -7,7 +7,9 @@
 // Time t' scales opacity by exp(-0.5 ((t' - t) / (sigma + 1))^2) and moves
 // instance Gaussians from canonical space by the instance's box at t'
 // (linear centre, slerp rotation between the two nearest boxes; before the
-// first box or after the last, the end box is held).
+// first box or after the last, the end box is held). A scene with colour
+// gradients shades its first three channels across each Gaussian
+// (GaussianScene::colour_gradients, splat_projection.h).
 #ifndef POINTFORWARD_WORKER_ENGINE_RENDER_RASTERIZER_H_
 #define POINTFORWARD_WORKER_ENGINE_RENDER_RASTERIZER_H_
 

@@ -264,9 +264,10 @@ TEST(Rasterizer, ColourGradientsMatchReference) {
 }
 
 TEST(Rasterizer, ColourGradientRampsAcrossAFacingDisc) {
-  // A disc facing the camera, its axes along the image's x and y, std-dev
-  // 8 px on screen, no low-pass: a pixel dx pixels right of the centre is
-  // at u = dx / 8, so red = 0.5 + 0.3 dx / 8 and green = 0.2 - 0.1 dy / 8.
+  // A disc facing the camera, std-dev 8 px on screen, no low-pass, turned by
+  // theta about the view axis: its first axis runs along (cos, sin) on the
+  // screen, so a pixel at offset (dx, dy) is at u = (cos dx + sin dy) / 8,
+  // v = (-sin dx + cos dy) / 8, and red = 0.5 + 0.3 u, green = 0.2 - 0.1 v.
   const RenderCamera camera = SimpleCamera(64, 64, 64);
   GaussianScene scene;
   scene.low_pass = 0.f;
@@ -275,21 +276,29 @@ TEST(Rasterizer, ColourGradientRampsAcrossAFacingDisc) {
       AddGaussian(&scene, PointAtPixel(32, 32, depth, camera), sigma, 0.98, {0.5f, 0.2f, 0.7f});
   scene.log_scales[3 * i + 2] = static_cast<float>(std::log(sigma * 1e-3));  // A flat disc.
   scene.colour_gradients = {0.3f, 0.f, 0.f, -0.1f, 0.f, 0.f};
-  absl::StatusOr<RenderBuffers> out = Render(scene, camera, 0, {});
-  ASSERT_TRUE(out.ok()) << out.status();
-  for (const auto& [x, y] :
-       std::vector<std::pair<int, int>>{{32, 32}, {40, 32}, {24, 36}, {35, 26}}) {
-    const size_t p = Pixel(*out, x, y);
-    const double dx = x - 32, dy = y - 32;  // The centre is pixel (32, 32)'s centre.
-    const double alpha = out->alpha[p];
-    ASSERT_GT(alpha, 0.3);
-    SCOPED_TRACE(::testing::Message() << x << "," << y);
-    EXPECT_NEAR(out->rgb[3 * p] / alpha, 0.5 + 0.3 * dx / 8, 2e-3);
-    EXPECT_NEAR(out->rgb[3 * p + 1] / alpha, 0.2 - 0.1 * dy / 8, 2e-3);
-    EXPECT_NEAR(out->rgb[3 * p + 2] / alpha, 0.7, 2e-3);
-    // The first three feature channels are the colour the RGB shows.
-    EXPECT_NEAR(out->features[3 * p], out->rgb[3 * p], 1e-6);
+  for (const double theta : {0.0, M_PI / 6}) {
+    SCOPED_TRACE(theta);
+    const Quat roll{std::cos(theta / 2), 0, 0, std::sin(theta / 2)};
+    scene.rotations = {float(roll.w), float(roll.x), float(roll.y), float(roll.z)};
+    absl::StatusOr<RenderBuffers> out = Render(scene, camera, 0, {});
+    ASSERT_TRUE(out.ok()) << out.status();
+    for (const auto& [x, y] :
+         std::vector<std::pair<int, int>>{{32, 32}, {40, 32}, {24, 36}, {35, 26}}) {
+      const size_t p = Pixel(*out, x, y);
+      const double dx = x - 32, dy = y - 32;  // The centre is pixel (32, 32)'s centre.
+      const double u = (std::cos(theta) * dx + std::sin(theta) * dy) / 8;
+      const double v = (-std::sin(theta) * dx + std::cos(theta) * dy) / 8;
+      const double alpha = out->alpha[p];
+      ASSERT_GT(alpha, 0.3);
+      SCOPED_TRACE(::testing::Message() << x << "," << y);
+      EXPECT_NEAR(out->rgb[3 * p] / alpha, 0.5 + 0.3 * u, 2e-3);
+      EXPECT_NEAR(out->rgb[3 * p + 1] / alpha, 0.2 - 0.1 * v, 2e-3);
+      EXPECT_NEAR(out->rgb[3 * p + 2] / alpha, 0.7, 2e-3);
+      // The first three feature channels are the colour the RGB shows.
+      EXPECT_NEAR(out->features[3 * p], out->rgb[3 * p], 1e-6);
+    }
   }
+  absl::StatusOr<RenderBuffers> out;
   // Seen edge-on (the disc turned 90 degrees about y), the screen has no
   // room along u: the expected u goes to 0 and the disc shows its centre
   // colour, however large the gradient.
