@@ -262,12 +262,9 @@ TEST(ColourRefinement, FitsColourGradientsAFlatFitCannot) {
   EXPECT_FALSE(flat.has_colour_gradients());
 }
 
-TEST(ColourRefinement, OverThePairBudgetTheColoursStayAsDecoded) {
-  // The wall of the test above, seen by two views: the fit needs every
-  // pair of both. One pair short of that, nothing is changed; at exactly
-  // that many, the fit runs.
-  const int w = 40, h = 30;
-  ContextView view = UniformView(w, h, 40, 0.8f);
+// A wall of grey discs 10 m away, one every 2 pixels of a w x h view with
+// focal length 40.
+GaussianScene GreyWall(int w, int h) {
   GaussianScene scene = EmptyScene();
   for (int y = 0; y < h; y += 2) {
     for (int x = 0; x < w; x += 2) {
@@ -275,6 +272,15 @@ TEST(ColourRefinement, OverThePairBudgetTheColoursStayAsDecoded) {
       AddGaussian(&scene, at, 0.3, 0.9, {0.5, 0.5, 0.5});
     }
   }
+  return scene;
+}
+
+TEST(ColourRefinement, OverThePairBudgetTheColoursStayAsDecoded) {
+  // The wall of the test above, seen by two views: the fit needs every
+  // pair of both. One pair short of that, nothing is changed; at exactly
+  // that many, the fit runs.
+  const ContextView view = UniformView(40, 30, 40, 0.8f);
+  const GaussianScene scene = GreyWall(40, 30);
   const std::vector<ContextView> views = {view, view};
   RefinementOptions options;
   options.min_alpha = 0;
@@ -306,15 +312,8 @@ TEST(ColourRefinement, GradientsOverThePairBudgetFallBackToAFlatFit) {
   // The wall again: with gradients a pair counts twice, so at a budget of
   // exactly the flat fit's pairs the gradients do not fit and the colours
   // are fitted flat, as a flat fit does them.
-  const int w = 40, h = 30;
-  ContextView view = UniformView(w, h, 40, 0.8f);
-  GaussianScene scene = EmptyScene();
-  for (int y = 0; y < h; y += 2) {
-    for (int x = 0; x < w; x += 2) {
-      const Vec3 at{(x + 1 - w / 2.0) / 40 * 10, (y + 1 - h / 2.0) / 40 * 10, 10};
-      AddGaussian(&scene, at, 0.3, 0.9, {0.5, 0.5, 0.5});
-    }
-  }
+  const ContextView view = UniformView(40, 30, 40, 0.8f);
+  const GaussianScene scene = GreyWall(40, 30);
   RefinementOptions options;
   options.min_alpha = 0;
   options.colour_gradients = false;
