@@ -48,7 +48,6 @@ struct ViewScratch {
 struct Layout {
   int k = 1;
   int per_gaussian() const { return 3 * k; }
-  int channel(size_t j) const { return static_cast<int>(j % (3 * k)) / k; }
 };
 
 // image = A x and out += A^T r for the fit's unknowns: flat colours, or
@@ -161,8 +160,9 @@ absl::StatusOr<RefinementStats> RefineColours(const std::vector<ContextView>& vi
   const int64_t num_views = static_cast<int64_t>(views.size());
   std::vector<FitView> fit(views.size());
   std::vector<absl::Status> errors(views.size());
-  std::atomic<int64_t> recorded_pairs{0};
-  std::atomic<int64_t> recorded_cost{0};  // Pairs, twice with colour gradients.
+  // Pairs recorded, each counted twice with colour gradients (a pair with
+  // local coordinates takes twice the memory).
+  std::atomic<int64_t> recorded_cost{0};
   std::atomic<bool> over_budget{false};
   DefaultThreadPool().ParallelFor(0, num_views, 1, [&](int64_t b, int64_t e) {
     for (int64_t v = b; v < e; ++v) {
@@ -177,10 +177,7 @@ absl::StatusOr<RefinementStats> RefineColours(const std::vector<ContextView>& vi
         errors[v] = a.status();
         continue;
       }
-      // A pair with local coordinates takes twice the memory.
-      const int64_t pairs = static_cast<int64_t>(a->entries());
-      const int64_t cost = pairs * (options.colour_gradients ? 2 : 1);
-      recorded_pairs += pairs;
+      const int64_t cost = static_cast<int64_t>(a->entries()) * (options.colour_gradients ? 2 : 1);
       if (recorded_cost.fetch_add(cost) + cost > options.max_pairs) {
         over_budget = true;
         break;
@@ -203,7 +200,7 @@ absl::StatusOr<RefinementStats> RefineColours(const std::vector<ContextView>& vi
     return stats;
   }
   if (over_budget) {
-    stats.pairs = recorded_pairs.load();
+    stats.pairs = recorded_cost.load();  // Flat here: one unit a pair.
     stats.skipped_over_budget = true;
     scene->colour_gradients.clear();
     return stats;

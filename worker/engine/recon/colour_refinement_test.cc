@@ -156,6 +156,19 @@ TEST(ColourRefinement, EgoBodyPixelsAreLeftOut) {
   EXPECT_EQ(stats->pixels, 1);
 }
 
+// Returns `geometry` with the render of `scene` through it as its image
+// (empty pixels, with a failure recorded, if the render fails).
+ContextView RenderedView(const GaussianScene& scene, const ContextView& geometry) {
+  RenderOptions render_options;
+  render_options.features = false;
+  absl::StatusOr<RenderBuffers> render =
+      Render(scene, {geometry.camera, geometry.world_from_camera}, 0, {}, render_options);
+  EXPECT_TRUE(render.ok()) << render.status();
+  ContextView view = geometry;
+  view.rgb.pixels = render.ok() ? render->rgb : std::vector<float>{};
+  return view;
+}
+
 TEST(ColourRefinement, RecoversTheColoursAContextImageWasRenderedFrom) {
   // A wall of overlapping discs 10 m away, random colours; the context image
   // is their render. Starting from grey, the fit must find the colours the
@@ -172,13 +185,8 @@ TEST(ColourRefinement, RecoversTheColoursAContextImageWasRenderedFrom) {
       AddGaussian(&truth, at, 0.3, 0.9, {u(rng), u(rng), u(rng)});
     }
   }
-  RenderOptions render_options;
-  render_options.features = false;
-  absl::StatusOr<RenderBuffers> render =
-      Render(truth, {geometry.camera, geometry.world_from_camera}, 0, {}, render_options);
-  ASSERT_TRUE(render.ok()) << render.status();
-  ContextView view = geometry;
-  view.rgb.pixels = render->rgb;
+  const ContextView view = RenderedView(truth, geometry);
+  ASSERT_FALSE(view.rgb.pixels.empty());
 
   GaussianScene scene = truth;
   for (size_t i = 0; i < scene.size(); ++i)
@@ -224,13 +232,8 @@ TEST(ColourRefinement, FitsColourGradientsAFlatFitCannot) {
   }
   truth.colour_gradients.resize(6 * truth.size());
   for (float& v : truth.colour_gradients) v = static_cast<float>(g(rng));
-  RenderOptions render_options;
-  render_options.features = false;
-  absl::StatusOr<RenderBuffers> render =
-      Render(truth, {geometry.camera, geometry.world_from_camera}, 0, {}, render_options);
-  ASSERT_TRUE(render.ok()) << render.status();
-  ContextView view = geometry;
-  view.rgb.pixels = render->rgb;
+  const ContextView view = RenderedView(truth, geometry);
+  ASSERT_FALSE(view.rgb.pixels.empty());
 
   GaussianScene start = truth;
   start.colour_gradients.clear();

@@ -178,8 +178,12 @@ absl::StatusOr<CompositingWeights> ComputeCompositingWeights(const GaussianScene
             if (!(alpha >= kMinAlpha)) continue;
             const float weight = alpha * tp;
             if (weight >= options.min_weight) {
-              tile_entries.push_back({i, weight, static_cast<uint8_t>(p), g.ux * dx + g.uy * dy,
-                                      g.vx * dx + g.vy * dy});
+              Entry entry{i, weight, static_cast<uint8_t>(p), 0.f, 0.f};
+              if (options.local_coords) {
+                entry.u = g.ux * dx + g.uy * dy;
+                entry.v = g.vx * dx + g.vy * dy;
+              }
+              tile_entries.push_back(entry);
             }
             trans[p] = tp * (1.f - alpha);
             active -= trans[p] < kMinTransmittance;

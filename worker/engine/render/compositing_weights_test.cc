@@ -159,26 +159,37 @@ TEST(CompositingWeights, ReproducesRenderOnRandomScenes) {
   ExpectMatchesRender(sharp, SimpleCamera(96, 64, 80), 0);
 }
 
+// Checks <A x, r> = <x, A^T r> for random x ([x_size]) and r ([r_size]),
+// `forward(x, out)` writing A x and `transpose(r, out)` adding A^T r.
+template <typename Forward, typename Transpose>
+void ExpectAdjoint(size_t x_size, size_t r_size, uint32_t seed, Forward forward,
+                   Transpose transpose) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> u(-1, 1);
+  std::vector<float> x(x_size), r(r_size);
+  for (float& v : x) v = u(rng);
+  for (float& v : r) v = u(rng);
+  std::vector<float> ax(r.size()), atr(x.size(), 0.f);
+  forward(x.data(), ax.data());
+  transpose(r.data(), atr.data());
+  double left = 0, right = 0, scale = 0;
+  for (size_t i = 0; i < r.size(); ++i) left += double(ax[i]) * r[i];
+  for (size_t i = 0; i < x.size(); ++i) right += double(x[i]) * atr[i];
+  for (size_t i = 0; i < x.size(); ++i) scale += std::abs(double(x[i]) * atr[i]);
+  ASSERT_GT(scale, 1.0);
+  EXPECT_NEAR(left, right, 1e-5 * scale);
+}
+
 TEST(CompositingWeights, TransposeIsTheAdjoint) {
-  // <A c, r> = <c, A^T r> for random c and r.
+  // <A c, r> = <c, A^T r> for random c and r, two channels.
   const GaussianScene scene = RandomScene(5, 800);
   absl::StatusOr<CompositingWeights> a =
       ComputeCompositingWeights(scene, SimpleCamera(64, 48, 60), 0);
   ASSERT_TRUE(a.ok()) << a.status();
-  std::mt19937 rng(1);
-  std::uniform_real_distribution<float> u(-1, 1);
-  std::vector<float> c(a->gaussians.size() * 2), r(64 * 48 * 2);
-  for (float& v : c) v = u(rng);
-  for (float& v : r) v = u(rng);
-  std::vector<float> ac(r.size()), atr(c.size(), 0.f);
-  Composite(*a, c.data(), 2, ac.data());
-  AccumulateTransposed(*a, r.data(), 2, atr.data());
-  double left = 0, right = 0, scale = 0;
-  for (size_t i = 0; i < r.size(); ++i) left += double(ac[i]) * r[i];
-  for (size_t i = 0; i < c.size(); ++i) right += double(c[i]) * atr[i];
-  for (size_t i = 0; i < c.size(); ++i) scale += std::abs(double(c[i]) * atr[i]);
-  ASSERT_GT(scale, 1.0);
-  EXPECT_NEAR(left, right, 1e-5 * scale);
+  ExpectAdjoint(
+      a->gaussians.size() * 2, 64 * 48 * 2, 1,
+      [&](const float* c, float* out) { Composite(*a, c, 2, out); },
+      [&](const float* r, float* out) { AccumulateTransposed(*a, r, 2, out); });
 }
 
 // Random colour gradients in [-0.5, 0.5] on every Gaussian of `scene`.
@@ -243,20 +254,10 @@ TEST(CompositingWeights, TexturedTransposeIsTheAdjoint) {
   absl::StatusOr<CompositingWeights> a =
       ComputeCompositingWeights(scene, SimpleCamera(64, 48, 60), 0, options);
   ASSERT_TRUE(a.ok()) << a.status();
-  std::mt19937 rng(2);
-  std::uniform_real_distribution<float> u(-1, 1);
-  std::vector<float> x(a->gaussians.size() * 9), r(64 * 48 * 3);
-  for (float& v : x) v = u(rng);
-  for (float& v : r) v = u(rng);
-  std::vector<float> ax(r.size()), atr(x.size(), 0.f);
-  CompositeTextured(*a, x.data(), ax.data());
-  AccumulateTransposedTextured(*a, r.data(), atr.data());
-  double left = 0, right = 0, scale = 0;
-  for (size_t i = 0; i < r.size(); ++i) left += double(ax[i]) * r[i];
-  for (size_t i = 0; i < x.size(); ++i) right += double(x[i]) * atr[i];
-  for (size_t i = 0; i < x.size(); ++i) scale += std::abs(double(x[i]) * atr[i]);
-  ASSERT_GT(scale, 1.0);
-  EXPECT_NEAR(left, right, 1e-5 * scale);
+  ExpectAdjoint(
+      a->gaussians.size() * 9, 64 * 48 * 3, 2,
+      [&](const float* x, float* out) { CompositeTextured(*a, x, out); },
+      [&](const float* r, float* out) { AccumulateTransposedTextured(*a, r, out); });
 }
 
 TEST(CompositingWeights, RejectsEmptyCameraAndBadScenes) {

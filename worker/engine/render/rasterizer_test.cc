@@ -219,33 +219,45 @@ INSTANTIATE_TEST_SUITE_P(RandomScenes, RasterizerReferenceTest,
                                            ReferenceCase{6, 3000, 160, 120, 3, -1},
                                            ReferenceCase{7, 500, 33, 17, 32, 2}));
 
+// MovedCamera(96, 72) as a pinhole (model 0), OpenCV (1) or fisheye (2)
+// camera.
+RenderCamera MovedCameraOfModel(int model) {
+  RenderCamera camera = MovedCamera(96, 72);
+  if (model == 1) camera.model.SetOpenCv(-0.25, 0.08, 0.002, -0.001, 0.0);
+  if (model == 2) camera.model.SetFisheye(0.05, -0.01, 0.002, 0.0);
+  return camera;
+}
+
+// A trajectory edit that moves RandomScene's "actor1" 0.4 m along x and
+// 0.1 m along y.
+ActorEdit MoveSecondActor(const GaussianScene& scene) {
+  ActorEdit move;
+  move.kind = ActorEdit::Kind::kTrajectory;
+  move.instance_id = "actor1";
+  move.boxes = scene.instances[1].boxes;
+  for (TrackBox& box : move.boxes) box.center = box.center + Vec3{0.4, 0.1, 0};
+  return move;
+}
+
 TEST(Rasterizer, MatchesReferenceWithEditsAndDistortion) {
   for (int model = 0; model < 3; ++model) {
-    RenderCamera camera = MovedCamera(96, 72);
-    if (model == 1) camera.model.SetOpenCv(-0.25, 0.08, 0.002, -0.001, 0.0);
-    if (model == 2) camera.model.SetFisheye(0.05, -0.01, 0.002, 0.0);
+    const RenderCamera camera = MovedCameraOfModel(model);
     RandomSceneSpec spec;
     spec.seed = 11 + model;
     spec.count = 800;
     GaussianScene scene = RandomScene(spec, camera);
     ActorEdit remove;
     remove.instance_id = "actor0";
-    ActorEdit move;
-    move.kind = ActorEdit::Kind::kTrajectory;
-    move.instance_id = "actor1";
-    move.boxes = scene.instances[1].boxes;
-    for (TrackBox& box : move.boxes) box.center = box.center + Vec3{0.4, 0.1, 0};
     SCOPED_TRACE(model);
-    ExpectMatchesReference(scene, camera, scene.time_origin_us + 700'000, {remove, move});
+    ExpectMatchesReference(scene, camera, scene.time_origin_us + 700'000,
+                           {remove, MoveSecondActor(scene)});
   }
 }
 
 TEST(Rasterizer, ColourGradientsMatchReference) {
   // Pinhole, OpenCV and fisheye cameras, moving and edited actors, features.
   for (int model = 0; model < 3; ++model) {
-    RenderCamera camera = MovedCamera(96, 72);
-    if (model == 1) camera.model.SetOpenCv(-0.25, 0.08, 0.002, -0.001, 0.0);
-    if (model == 2) camera.model.SetFisheye(0.05, -0.01, 0.002, 0.0);
+    const RenderCamera camera = MovedCameraOfModel(model);
     RandomSceneSpec spec;
     spec.seed = 21 + model;
     spec.count = 800;
@@ -253,13 +265,8 @@ TEST(Rasterizer, ColourGradientsMatchReference) {
     spec.colour_gradients = true;
     GaussianScene scene = RandomScene(spec, camera);
     scene.low_pass = 0.1f;
-    ActorEdit move;
-    move.kind = ActorEdit::Kind::kTrajectory;
-    move.instance_id = "actor1";
-    move.boxes = scene.instances[1].boxes;
-    for (TrackBox& box : move.boxes) box.center = box.center + Vec3{0.4, 0.1, 0};
     SCOPED_TRACE(model);
-    ExpectMatchesReference(scene, camera, scene.time_origin_us + 700'000, {move});
+    ExpectMatchesReference(scene, camera, scene.time_origin_us + 700'000, {MoveSecondActor(scene)});
   }
 }
 
