@@ -155,7 +155,7 @@ TEST_F(ReconCli, ReconstructWritesALoadableSceneAndASummary) {
 }
 
 // Hidden queries behind depth edges (agreement channel 0, at full opacity)
-// come within --hidden-band pixels of them (default 64); 0 turns them off,
+// come within --hidden-band pixels of them (default 256); 0 turns them off,
 // and a narrower band gives fewer (sparse_sampling_test.cc checks where
 // they go).
 TEST_F(ReconCli, HiddenBandSetsHowManyHiddenGaussiansThereAre) {

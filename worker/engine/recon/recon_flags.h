@@ -15,7 +15,7 @@
 //   --low-pass PX2                   the scene's screen-space low-pass, pixels^2
 //                                    (default 0.1; 0.3 is the 3DGS one)
 //   --hidden-band PX                 hidden queries behind depth edges within PX
-//                                    pixels (sparse_sampling.h; default 64, 0: none)
+//                                    pixels (sparse_sampling.h; default 256, 0: none)
 //   --colour gradients|flat          a colour gradient across each Gaussian or one
 //                                    colour (colour_refinement.h; default gradients
 //                                    for analytic, flat for pixel-aligned)

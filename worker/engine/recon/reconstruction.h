@@ -62,7 +62,7 @@ struct ReconOptions {
   int far_stride = 3;
   bool skip_covered = true;
   bool fill_static_budget = true;  // SamplingOptions::fill_static_budget.
-  int hidden_band_px = 64;         // SamplingOptions::behind_band_px (0: none).
+  int hidden_band_px = 256;        // SamplingOptions::behind_band_px (0: none).
   bool allow_outside_paths = false;
   // Where fusion's tensor work runs (compute_device.h); without LibTorch in
   // the build only the CPU, with the C++ kernel.

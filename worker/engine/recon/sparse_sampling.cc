@@ -2,6 +2,7 @@
 #include "worker/engine/recon/sparse_sampling.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 
@@ -19,10 +20,21 @@ struct Candidate {
   int pixel;
   Vec3 position;  // World or canonical.
   float footprint;
-  // A hidden query (behind the surface `pixel` sees): the pixel whose colour
-  // and normal it takes, and its z depth in the view; -1 for ordinary ones.
+  // A hidden query (behind the surface `pixel` sees): the pixel whose
+  // normal and layer it takes, and its z depth in the view; -1 for ordinary
+  // ones. Its colour is set later (HiddenColour).
   int source_pixel = -1;
   float depth = -1.f;
+};
+
+// The colour of hidden query `query` is BackgroundColour(view, pixel,
+// source, reach): found once the static queries are final (the first pass
+// is sampled again when the budget is refined) and for all of them at once.
+struct HiddenColour {
+  size_t query;
+  int view;
+  size_t pixel, source;
+  int reach;
 };
 
 // Returns a hash of three integers mapped to [0, 1).
@@ -317,6 +329,64 @@ bool HiddenCandidate(const SamplingView& sv, int v, size_t i, int32_t source, do
   return true;
 }
 
+// The colour of the hidden query behind pixel `i` with background pixel
+// `source`: that of the background nearest `i` in the image, so what
+// borders the occluder (a shop window's band, the kerb, the sky) goes on
+// into the strip it hides. The deepest pixel of a window (`source`) lies in
+// one of its corners, often a storey away: its colour drew streaks of wall
+// across shop fronts (docs/QUALITY.md, "Hidden queries take the nearest
+// background's colour"). Found by stepping from `i` in 8 directions up to
+// `reach` steps; background is a static pixel on `source`'s layer (far or
+// not) deeper than `i` by more than `min_jump`. The first background pixel
+// beside an edge mixes in the occluder (antialiasing), so the next two are
+// averaged where they are background too. `source`'s colour when no
+// direction meets the background.
+std::array<float, 3> BackgroundColour(const SamplingView& sv, size_t i, size_t source, int reach,
+                                      double min_jump) {
+  const ContextView& view = *sv.view;
+  const int w = view.width(), h = view.height();
+  const int x0 = static_cast<int>(i % w), y0 = static_cast<int>(i / w);
+  const bool far = sv.depth->is_far(source);
+  const double deeper = (1 + min_jump) * sv.depth->depth[i];
+  auto background = [&](int x, int y) {
+    if (x < 0 || y < 0 || x >= w || y >= h) return false;
+    const size_t q = static_cast<size_t>(y) * w + x;
+    return sv.lifted->valid[q] && (*sv.owners)[q] == 0 && !view.is_ego(q) &&
+           sv.depth->is_far(q) == far && (far || sv.depth->depth[q] > deeper);
+  };
+  constexpr int kDirections[8][2] = {{1, 0}, {-1, 0}, {0, 1},  {0, -1},
+                                     {1, 1}, {-1, 1}, {1, -1}, {-1, -1}};
+  // Each direction's first background pixel (past its antialiased edge),
+  // weighted by 1 / distance^2. The directions are stepped together, and
+  // stop at kBlendReach times the nearest one's distance: what lies further
+  // would weigh under 1/9 of it.
+  constexpr double kBlendReach = 3.0;
+  std::array<double, 3> sum{};
+  double weight = 0, limit = reach;
+  std::array<bool, 8> done{};
+  for (int k = 1; k <= reach; ++k) {
+    for (int d = 0; d < 8; ++d) {
+      const int dx = kDirections[d][0], dy = kDirections[d][1];
+      const double distance = (dx != 0 && dy != 0) ? k * std::sqrt(2.0) : double(k);
+      if (done[d] || distance > limit) continue;
+      int x = x0 + k * dx, y = y0 + k * dy;
+      if (!background(x, y)) continue;
+      done[d] = true;
+      if (weight == 0) limit = std::min(limit, kBlendReach * distance);
+      if (background(x + dx, y + dy)) x += dx, y += dy;
+      const double wd = 1.0 / (distance * distance);
+      for (int c = 0; c < 3; ++c) sum[c] += wd * view.rgb.at(x, y, c);
+      weight += wd;
+    }
+    if (k > limit) break;
+  }
+  if (weight == 0) {
+    const int x = static_cast<int>(source % w), y = static_cast<int>(source / w);
+    return {view.rgb.at(x, y, 0), view.rgb.at(x, y, 1), view.rgb.at(x, y, 2)};
+  }
+  return {float(sum[0] / weight), float(sum[1] / weight), float(sum[2] / weight)};
+}
+
 double StaticStride(const SamplingView& sv, const SamplingOptions& options) {
   if (options.dense) return 1.0;
   const double pixels = double(sv.view->width()) * sv.view->height();
@@ -324,10 +394,12 @@ double StaticStride(const SamplingView& sv, const SamplingOptions& options) {
 }
 
 // Appends the static queries of `views` to `out`, with every view's grid
-// cell side multiplied by `refine`, hidden ones kept above `floor`; returns
-// how many visible (not hidden) queries were added.
+// cell side multiplied by `refine`, hidden ones kept above `floor` and their
+// colours to find to `colours`; returns how many visible (not hidden)
+// queries were added.
 size_t SampleStatic(const std::vector<SamplingView>& views, const SamplingOptions& options,
-                    double refine, const HiddenFloor& floor, QuerySet* out) {
+                    double refine, const HiddenFloor& floor, QuerySet* out,
+                    std::vector<HiddenColour>* colours) {
   size_t visible = 0;
   const Rigid identity;
   std::vector<ViewResolution> resolution(views.size());
@@ -365,11 +437,12 @@ size_t SampleStatic(const std::vector<SamplingView>& views, const SamplingOption
         // The nearest background hidden behind this pixel, if no view sees it.
         Candidate hidden;
         bool has_hidden = false;
+        int hidden_radius = 0;
         const bool on_hidden_grid = cx % behind_stride == 0 && cy % behind_stride == 0;
-        for (const std::vector<int32_t>& sources : behind.sources) {
-          if (!on_hidden_grid) break;
-          has_hidden = HiddenCandidate(sv, static_cast<int>(v), i, sources[i],
+        for (size_t k = 0; on_hidden_grid && k < behind.sources.size(); ++k) {
+          has_hidden = HiddenCandidate(sv, static_cast<int>(v), i, behind.sources[k][i],
                                        options.behind_min_jump, focal, stride, floor, &hidden);
+          hidden_radius = behind.radii[k];
           if (has_hidden) break;
         }
         if (has_hidden) {
@@ -386,7 +459,13 @@ size_t SampleStatic(const std::vector<SamplingView>& views, const SamplingOption
             keep = !covered.contains(key);
             if (keep) new_keys.push_back(key);
           }
-          if (keep) Emit(hidden, sv, 0, identity, out);
+          if (keep) {
+            // The source lies within hidden_radius (Chebyshev): the nearest
+            // background within twice that.
+            colours->push_back({out->size(), static_cast<int>(v), i,
+                                static_cast<size_t>(hidden.source_pixel), 2 * hidden_radius + 1});
+            Emit(hidden, sv, 0, identity, out);
+          }
         }
         if (!sv.lifted->valid[i] || (*sv.owners)[i] != 0) continue;
         double footprint = sv.depth->depth[i] / focal * stride;
@@ -424,14 +503,25 @@ QuerySet SampleQueries(const std::vector<SamplingView>& views,
   // than V x N_s, once more on grids refined to make up the difference.
   // The floor depends on the views alone: found once for both passes.
   const HiddenFloor floor = options.behind_band_px > 0 ? FindHiddenFloor(views) : HiddenFloor{};
-  const size_t kept = SampleStatic(views, options, 1.0, floor, &out);
+  std::vector<HiddenColour> colours;
+  const size_t kept = SampleStatic(views, options, 1.0, floor, &out, &colours);
   const double budget =
       double(views.size()) * double(std::max<int64_t>(1, options.static_per_view));
   if (options.fill_static_budget && !options.dense && kept > 0 && kept < 0.95 * budget) {
     const double refine = std::max(options.min_refine, std::sqrt(double(kept) / budget));
     out = QuerySet();
-    SampleStatic(views, options, refine, floor, &out);
+    colours.clear();
+    SampleStatic(views, options, refine, floor, &out, &colours);
   }
+  DefaultThreadPool().ParallelFor(
+      0, static_cast<int64_t>(colours.size()), 256, [&](int64_t begin, int64_t end) {
+        for (int64_t k = begin; k < end; ++k) {
+          const HiddenColour& h = colours[static_cast<size_t>(k)];
+          const std::array<float, 3> rgb =
+              BackgroundColour(views[h.view], h.pixel, h.source, h.reach, options.behind_min_jump);
+          std::copy(rgb.begin(), rgb.end(), out.rgb.begin() + 3 * h.query);
+        }
+      });
 
   // Dynamic queries, instance by instance, in canonical frames.
   for (size_t k = 0; k < tracks.size(); ++k) {

@@ -27,7 +27,8 @@
 // the synth clip). So a sampled pixel near the near side of a depth edge
 // also gets a query where the background's surface (its plane) continues
 // behind it, or on the far layer when the background is the sky, coloured
-// like the background pixel next to the edge; it is marked `hidden`, taken
+// like the background nearest it in the image (a blend of the first
+// background pixel in each of 8 directions); it is marked `hidden`, taken
 // on a coarser grid (it copies one colour: no detail to sample), and dropped
 // when another view sees the point (that view samples it) or sees past it
 // (the point would float in free space). A surface seen at a grazing angle
@@ -74,7 +75,7 @@ struct SamplingOptions {
   // the background's colour, unless another view sees that point or past
   // it, or it would lie below the scene's floor (sparse_sampling.cc). < 1:
   // none.
-  int behind_band_px = 64;
+  int behind_band_px = 256;
   double behind_min_jump = 0.1;  // Relative depth jump that makes an occlusion edge.
   // Hidden queries take one cell in behind_stride^2 (behind far-layer
   // backgrounds: in k^2, k the smallest multiple of behind_stride >=

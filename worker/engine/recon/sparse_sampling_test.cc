@@ -109,6 +109,47 @@ PlaneView SquareInFront(float square_depth = 5.f) {
   return v;
 }
 
+// A hidden query takes the colour of the background nearest it: the wall
+// left of the square is red and right of it green, so the strip hidden
+// behind the square's left half goes on red and its right half green (the
+// deepest pixel of a window, the rule before, lies in one corner and gave
+// one colour to all of them). The wall's pixels around the square mix in
+// the square's colour (antialiasing, blue here) and are stepped over.
+TEST(SparseSampling, HiddenQueriesTakeTheNearestBackgroundColour) {
+  PlaneView front = SquareInFront();
+  for (int y = 0; y < 144; ++y)
+    for (int x = 0; x < 192; ++x) {
+      const bool square = x >= 80 && x < 112 && y >= 56 && y < 88;
+      const bool ring = !square && x >= 79 && x < 113 && y >= 55 && y < 89;
+      const bool wall = !square && !ring;
+      const float rgb[3] = {wall && x < 96 ? 1.f : 0.f, wall && x >= 96 ? 1.f : 0.f,
+                            wall ? 0.f : 1.f};
+      for (int c = 0; c < 3; ++c) front.view.rgb.at(x, y, c) = rgb[c];
+    }
+  SamplingOptions options;
+  options.static_per_view = 1728;
+  options.behind_band_px = 64;
+  options.fill_static_budget = false;
+  const QuerySet q = SampleQueries({front.sampling()}, {}, options);
+  int left = 0, right = 0;
+  for (size_t i = 0; i < q.size(); ++i) {
+    if (!q.is_hidden(i)) continue;
+    const int x = q.pixels[i] % 192;
+    const float red = q.rgb[3 * i], green = q.rgb[3 * i + 1];
+    EXPECT_FLOAT_EQ(q.rgb[3 * i + 2], 0.f) << x;  // Neither square nor ring.
+    EXPECT_NEAR(red + green, 1.f, 1e-5) << x;     // A blend of the wall.
+    if (x < 88) {
+      EXPECT_GT(red, 0.75f) << x;
+      ++left;
+    } else if (x >= 104) {
+      EXPECT_GT(green, 0.75f) << x;
+      ++right;
+    }
+  }
+  EXPECT_EQ(left, 4);
+  EXPECT_EQ(right, 4);
+}
+
 // A car 2 m in front of a wall 10 m away hides it as much as one 5 m in
 // front: a depth edge of 25 % (over the 10 % that makes a background) gets
 // the same hidden queries as one of 100 %. (A first rule took only jumps over

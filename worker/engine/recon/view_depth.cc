@@ -468,34 +468,38 @@ BehindSources FindBehindSources(const ViewDepth& depth, int band_px, double min_
   const int w = depth.width, h = depth.height;
   const size_t n = static_cast<size_t>(w) * h;
   if (band_px < 1 || n == 0) return out;
-  // deepest[i]: the deepest pixel of the window of the current radius.
+  // deepest[i]: the deepest pixel of the window of the current radius, and
+  // its depth beside it (read with it, not through it).
   std::vector<int32_t> deepest(n), next(n);
+  std::vector<float> deepest_depth(depth.depth.begin(), depth.depth.end()), next_depth(n);
   for (size_t i = 0; i < n; ++i) deepest[i] = static_cast<int32_t>(i);
   int previous = 0;  // Radius of `deepest` (0: the pixel itself).
   for (int radius = 1; radius <= band_px; radius *= 2) {
     // The window of `radius` is the union of the windows of `previous` at
     // offsets -step, 0, +step per axis (step = radius - previous).
     const int step = radius - previous;
+    std::vector<int32_t> sources(n, -1);
     DefaultThreadPool().ParallelFor(0, h, 16, [&](int64_t y0, int64_t y1) {
       for (int64_t y = y0; y < y1; ++y) {
         for (int x = 0; x < w; ++x) {
-          int32_t best = deepest[static_cast<size_t>(y) * w + x];
+          const size_t i = static_cast<size_t>(y) * w + x;
+          int32_t best = deepest[i];
+          float best_depth = deepest_depth[i];
           for (int dy = -step; dy <= step; dy += step) {
             const int64_t yy = std::clamp<int64_t>(y + dy, 0, h - 1);
             for (int dx = -step; dx <= step; dx += step) {
-              const int xx = std::clamp(x + dx, 0, w - 1);
-              const int32_t candidate = deepest[static_cast<size_t>(yy) * w + xx];
-              if (depth.depth[candidate] > depth.depth[best]) best = candidate;
+              const size_t j = static_cast<size_t>(yy) * w + std::clamp(x + dx, 0, w - 1);
+              if (deepest_depth[j] > best_depth) best = deepest[j], best_depth = deepest_depth[j];
             }
           }
-          next[static_cast<size_t>(y) * w + x] = best;
+          next[i] = best;
+          next_depth[i] = best_depth;
+          if (best_depth > (1.0 + min_jump) * depth.depth[i]) sources[i] = best;
         }
       }
     });
     deepest.swap(next);
-    std::vector<int32_t> sources(n, -1);
-    for (size_t i = 0; i < n; ++i)
-      if (depth.depth[deepest[i]] > (1.0 + min_jump) * depth.depth[i]) sources[i] = deepest[i];
+    deepest_depth.swap(next_depth);
     out.radii.push_back(radius);
     out.sources.push_back(std::move(sources));
     previous = radius;
