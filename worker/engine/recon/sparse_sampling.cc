@@ -75,7 +75,8 @@ void Emit(const Candidate& c, const SamplingView& sv, uint32_t owner, const Rigi
   const ContextView& view = *sv.view;
   const size_t i = static_cast<size_t>(c.pixel);
   const bool hidden = c.source_pixel >= 0;
-  // Colour, normal and layer come from the pixel the query shows.
+  // Colour, normal and layer come from the pixel the query shows (a hidden
+  // query's colour is replaced by BackgroundColour in SampleQueries).
   const size_t shown = hidden ? static_cast<size_t>(c.source_pixel) : i;
   const int x = static_cast<int>(shown % view.width()), y = static_cast<int>(shown / view.width());
   const Vec3 world{sv.lifted->points[3 * i], sv.lifted->points[3 * i + 1],
@@ -338,8 +339,8 @@ bool HiddenCandidate(const SamplingView& sv, int v, size_t i, int32_t source, do
 // background's colour"). Found by stepping from `i` in 8 directions up to
 // `reach` steps; background is a static pixel on `source`'s layer (far or
 // not) deeper than `i` by more than `min_jump`. The first background pixel
-// beside an edge mixes in the occluder (antialiasing), so the next two are
-// averaged where they are background too. `source`'s colour when no
+// beside an edge mixes in the occluder (antialiasing), so the next one is
+// taken instead where it is background too. `source`'s colour when no
 // direction meets the background.
 std::array<float, 3> BackgroundColour(const SamplingView& sv, size_t i, size_t source, int reach,
                                       double min_jump) {
@@ -372,7 +373,7 @@ std::array<float, 3> BackgroundColour(const SamplingView& sv, size_t i, size_t s
       int x = x0 + k * dx, y = y0 + k * dy;
       if (!background(x, y)) continue;
       done[d] = true;
-      if (weight == 0) limit = std::min(limit, kBlendReach * distance);
+      limit = std::min(limit, kBlendReach * distance);
       if (background(x + dx, y + dy)) x += dx, y += dy;
       const double wd = 1.0 / (distance * distance);
       for (int c = 0; c < 3; ++c) sum[c] += wd * view.rgb.at(x, y, c);

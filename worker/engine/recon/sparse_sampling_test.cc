@@ -111,10 +111,10 @@ PlaneView SquareInFront(float square_depth = 5.f) {
 
 // A hidden query takes the colour of the background nearest it: the wall
 // left of the square is red and right of it green, so the strip hidden
-// behind the square's left half goes on red and its right half green (the
-// deepest pixel of a window, the rule before, lies in one corner and gave
-// one colour to all of them). The wall's pixels around the square mix in
-// the square's colour (antialiasing, blue here) and are stepped over.
+// behind the square's left half goes on red and its right half green. The
+// wall's pixels around the square mix in the square's colour (antialiasing,
+// blue here) and are stepped over; the deepest pixel of a window, the rule
+// before, lies in a corner: here the ring's blue, for all of them.
 TEST(SparseSampling, HiddenQueriesTakeTheNearestBackgroundColour) {
   PlaneView front = SquareInFront();
   for (int y = 0; y < 144; ++y)
