@@ -683,18 +683,23 @@ TEST(Rasterizer, FisheyePointsLandWhereProjected) {
   ExpectPointsLandWhereProjected(camera, 0.05);
 }
 
+// Every layer of two renders, and what they tested, bit for bit.
+void ExpectSameBits(const RenderBuffers& a, const RenderBuffers& b) {
+  EXPECT_EQ(a.features, b.features);
+  EXPECT_EQ(a.rgb, b.rgb);
+  EXPECT_EQ(a.alpha, b.alpha);
+  EXPECT_EQ(a.depth, b.depth);
+  EXPECT_EQ(a.instance, b.instance);
+  EXPECT_EQ(a.stats.pairs_tested, b.stats.pairs_tested);
+  EXPECT_EQ(a.stats.pairs_contributing, b.stats.pairs_contributing);
+}
+
 TEST(Rasterizer, DeterministicAcrossRuns) {
   const BenchScene bench = MakeBenchScene(30000, 200, 150, 5, 3);
   absl::StatusOr<RenderBuffers> a = Render(bench.scene, bench.camera, bench.timestamp_us, {});
   absl::StatusOr<RenderBuffers> b = Render(bench.scene, bench.camera, bench.timestamp_us, {});
   ASSERT_TRUE(a.ok() && b.ok());
-  EXPECT_EQ(a->features, b->features);
-  EXPECT_EQ(a->rgb, b->rgb);
-  EXPECT_EQ(a->alpha, b->alpha);
-  EXPECT_EQ(a->depth, b->depth);
-  EXPECT_EQ(a->instance, b->instance);
-  EXPECT_EQ(a->stats.pairs_tested, b->stats.pairs_tested);
-  EXPECT_EQ(a->stats.pairs_contributing, b->stats.pairs_contributing);
+  ExpectSameBits(*a, *b);
 }
 
 TEST(Rasterizer, BaselineAndAvx2KernelsGiveTheSameBits) {
@@ -719,13 +724,7 @@ TEST(Rasterizer, BaselineAndAvx2KernelsGiveTheSameBits) {
     absl::StatusOr<RenderBuffers> base = Render(bench.scene, bench.camera, bench.timestamp_us, {});
     raster::ForceBaselineKernelForTesting(false);
     ASSERT_TRUE(fast.ok() && base.ok());
-    EXPECT_EQ(fast->features, base->features);
-    EXPECT_EQ(fast->alpha, base->alpha);
-    EXPECT_EQ(fast->depth, base->depth);
-    EXPECT_EQ(fast->instance, base->instance);
-    EXPECT_EQ(fast->rgb, base->rgb);
-    EXPECT_EQ(fast->stats.pairs_tested, base->stats.pairs_tested);
-    EXPECT_EQ(fast->stats.pairs_contributing, base->stats.pairs_contributing);
+    ExpectSameBits(*fast, *base);
     if (!gradients) flat_rgb = fast->rgb;
     if (gradients) EXPECT_NE(fast->rgb, flat_rgb);  // The gradients were used.
   }
