@@ -5,6 +5,8 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <optional>
+#include <tuple>
 
 #include "absl/container/flat_hash_map.h"
 #include "absl/container/flat_hash_set.h"
@@ -388,6 +390,180 @@ std::array<float, 3> BackgroundColour(const SamplingView& sv, size_t i, size_t s
   return {float(sum[0] / weight), float(sum[1] / weight), float(sum[2] / weight)};
 }
 
+// The direction the context cameras travel in: the least-squares slope of
+// their positions over time, unit; zero when they do not move.
+Vec3 RoadDirection(const std::vector<SamplingView>& views) {
+  Vec3 mean_position;
+  double mean_time = 0;
+  for (const SamplingView& sv : views) {
+    mean_position = mean_position + sv.view->world_from_camera.translation;
+    mean_time += 1e-6 * double(sv.view->timestamp_us);
+  }
+  mean_position = mean_position / double(views.size());
+  mean_time /= double(views.size());
+  Vec3 slope;
+  for (const SamplingView& sv : views) {
+    slope = slope + (sv.view->world_from_camera.translation - mean_position) *
+                        (1e-6 * double(sv.view->timestamp_us) - mean_time);
+  }
+  return Norm(slope) > 1e-9 ? Normalized(slope) : Vec3{};
+}
+
+// What the views saw, for the colours of hidden queries (Colour): the
+// visible static queries off the far layer, averaged per voxel of side
+// kSurfelSide and per normal direction (rounded to a 5x5x5 lattice, so a
+// voxel where a wall meets the road keeps both), searched in a frame where
+// distances along the road are scaled by `road_scale`. A query whose pixel
+// borders a nearer surface is left out: its colour mixes in the occluder
+// (antialiasing), which would run into every strip that occluder hides.
+class SeenSurfaces {
+ public:
+  SeenSurfaces(const QuerySet& queries, const std::vector<SamplingView>& views, double min_jump,
+               const Vec3& road, double road_scale) {
+    if (Norm(road) > 0.5) {
+      scale_ = road_scale;
+      e1_ = road;
+      e2_ = Normalized(std::abs(road.z) < 0.9 ? Cross(road, Vec3{0, 0, 1})
+                                              : Cross(road, Vec3{1, 0, 0}));
+      e3_ = Cross(e1_, e2_);
+    }
+    struct Sum {
+      Vec3 position, normal;
+      std::array<double, 3> rgb{};
+      double count = 0;
+    };
+    absl::flat_hash_map<uint64_t, Sum> sums;
+    for (size_t i = 0; i < queries.size(); ++i) {
+      if (queries.is_hidden(i) || queries.far[i] || queries.owners[i] != 0) continue;
+      if (BordersNearer(views[queries.views[i]], queries.pixels[i], min_jump)) continue;
+      const Vec3 p = queries.position(i), n = queries.normal(i);
+      auto lattice = [](double v) { return static_cast<uint64_t>(std::lround(2 * v) + 2); };
+      const uint64_t direction = lattice(n.x) * 25 + lattice(n.y) * 5 + lattice(n.z);
+      Sum& sum = sums[VoxelKey(p, kSurfelSide, 0) ^ (direction << 57)];
+      sum.position = sum.position + p;
+      sum.normal = sum.normal + n;
+      for (int c = 0; c < 3; ++c) sum.rgb[c] += queries.rgb[3 * i + c];
+      sum.count += 1;
+    }
+    std::vector<std::pair<uint64_t, Surfel>> keyed;
+    keyed.reserve(sums.size());
+    for (const auto& [key, sum] : sums) {
+      if (Norm(sum.normal) < 1e-9) continue;
+      const Surfel surfel{sum.position / sum.count,
+                          Normalized(sum.normal),
+                          {float(sum.rgb[0] / sum.count), float(sum.rgb[1] / sum.count),
+                           float(sum.rgb[2] / sum.count)}};
+      keyed.emplace_back(VoxelKey(Scaled(surfel.position), kCell, 0), surfel);
+    }
+    // By cell, then by position (the hash map's order is not deterministic
+    // across builds; the blend's sums should be).
+    std::sort(keyed.begin(), keyed.end(), [](const auto& a, const auto& b) {
+      const Vec3 &p = a.second.position, &q = b.second.position;
+      return std::tie(a.first, p.x, p.y, p.z) < std::tie(b.first, q.x, q.y, q.z);
+    });
+    surfels_.reserve(keyed.size());
+    for (size_t k = 0; k < keyed.size(); ++k) {
+      surfels_.push_back(keyed[k].second);
+      auto [it, inserted] = cells_.try_emplace(keyed[k].first, uint32_t(k), uint32_t(k));
+      it->second.second = static_cast<uint32_t>(k + 1);
+    }
+  }
+
+  // The colour around `p` on the plane through it of normal `n`: a 1 / d^2
+  // blend of the kNeighbours nearest surfels (d in the scaled frame) that
+  // face within kMinCos of `n` and lie within kPlaneTolerance of the plane,
+  // looked for up to kRings cells away. False when there is none.
+  bool Colour(const Vec3& p, const Vec3& n, std::array<float, 3>* rgb) const {
+    std::array<std::pair<double, uint32_t>, kNeighbours> nearest;
+    int found = 0;
+    const Vec3 ps = Scaled(p);
+    const int64_t cx = static_cast<int64_t>(std::floor(ps.x / kCell));
+    const int64_t cy = static_cast<int64_t>(std::floor(ps.y / kCell));
+    const int64_t cz = static_cast<int64_t>(std::floor(ps.z / kCell));
+    // How far a cell's points can lie from its centre along `n`.
+    const double reach =
+        0.5 * kCell *
+        (std::abs(Dot(n, e1_)) / scale_ + std::abs(Dot(n, e2_)) + std::abs(Dot(n, e3_)));
+    for (int r = 0; r <= kRings; ++r) {
+      // The cells at Chebyshev distance r: whole rows on the faces of the
+      // cube, the two ends of each row inside it.
+      for (int dz = -r; dz <= r; ++dz) {
+        for (int dy = -r; dy <= r; ++dy) {
+          const bool face = r == 0 || std::abs(dz) == r || std::abs(dy) == r;
+          for (int dx = -r; dx <= r; dx += face ? 1 : 2 * r) {
+            const Vec3 centre{(cx + dx + 0.5) * kCell, (cy + dy + 0.5) * kCell,
+                              (cz + dz + 0.5) * kCell};
+            if (std::abs(Dot(Unscaled(centre) - p, n)) > reach + kPlaneTolerance) continue;
+            const auto it = cells_.find(VoxelKey(centre, kCell, 0));
+            if (it == cells_.end()) continue;
+            for (uint32_t k = it->second.first; k < it->second.second; ++k) {
+              const Surfel& s = surfels_[k];
+              const Vec3 d = s.position - p;
+              if (Dot(s.normal, n) < kMinCos || std::abs(Dot(d, n)) > kPlaneTolerance) continue;
+              const Vec3 ds = Scaled(s.position) - ps;
+              const double d2 = Dot(ds, ds);
+              if (found < kNeighbours) {
+                nearest[found++] = {d2, k};
+                std::push_heap(nearest.begin(), nearest.begin() + found);
+              } else if (d2 < nearest[0].first) {
+                std::pop_heap(nearest.begin(), nearest.end());
+                nearest.back() = {d2, k};
+                std::push_heap(nearest.begin(), nearest.end());
+              }
+            }
+          }
+        }
+      }
+      // Whatever the next ring holds is at least r cells away.
+      if (found == kNeighbours && nearest[0].first < (r * kCell) * (r * kCell)) break;
+    }
+    if (found == 0) return false;
+    std::array<double, 3> sum{};
+    double weight = 0;
+    for (int k = 0; k < found; ++k) {
+      const double w = 1.0 / (nearest[k].first + kSurfelSide * kSurfelSide);
+      for (int c = 0; c < 3; ++c) sum[c] += w * surfels_[nearest[k].second].rgb[c];
+      weight += w;
+    }
+    for (int c = 0; c < 3; ++c) (*rgb)[c] = float(sum[c] / weight);
+    return true;
+  }
+
+ private:
+  struct Surfel {
+    Vec3 position;  // World.
+    Vec3 normal;
+    std::array<float, 3> rgb;
+  };
+  static constexpr double kSurfelSide = 0.1;      // Metres.
+  static constexpr double kCell = 0.8;            // Search cells, metres of the scaled frame.
+  static constexpr int kRings = 6;                // Cells searched around a query's.
+  static constexpr int kNeighbours = 16;          // Surfels blended.
+  static constexpr double kPlaneTolerance = 0.2;  // Metres off the query's plane.
+  static constexpr double kMinCos = 0.8;          // Between the normals.
+
+  // True if pixel `i` of `sv` has a neighbour (3x3) nearer by more than
+  // `min_jump` (relative).
+  static bool BordersNearer(const SamplingView& sv, int i, double min_jump) {
+    const int w = sv.depth->width, h = sv.depth->height;
+    const int x = i % w, y = i / w;
+    const float nearer = static_cast<float>(sv.depth->depth[i] / (1 + min_jump));
+    for (int v = std::max(0, y - 1); v <= std::min(h - 1, y + 1); ++v)
+      for (int u = std::max(0, x - 1); u <= std::min(w - 1, x + 1); ++u)
+        if (const float d = sv.depth->depth[static_cast<size_t>(v) * w + u]; d > 0 && d < nearer) {
+          return true;
+        }
+    return false;
+  }
+  Vec3 Scaled(const Vec3& p) const { return {scale_ * Dot(p, e1_), Dot(p, e2_), Dot(p, e3_)}; }
+  Vec3 Unscaled(const Vec3& q) const { return e1_ * (q.x / scale_) + e2_ * q.y + e3_ * q.z; }
+
+  double scale_ = 1;
+  Vec3 e1_{1, 0, 0}, e2_{0, 1, 0}, e3_{0, 0, 1};
+  std::vector<Surfel> surfels_;
+  absl::flat_hash_map<uint64_t, std::pair<uint32_t, uint32_t>> cells_;
+};
+
 double StaticStride(const SamplingView& sv, const SamplingOptions& options) {
   if (options.dense) return 1.0;
   const double pixels = double(sv.view->width()) * sv.view->height();
@@ -514,12 +690,21 @@ QuerySet SampleQueries(const std::vector<SamplingView>& views,
     colours.clear();
     SampleStatic(views, options, refine, floor, &out, &colours);
   }
+  std::optional<SeenSurfaces> seen;
+  if (options.hidden_colour_from_surfaces && !colours.empty()) {
+    seen.emplace(out, views, options.behind_min_jump, RoadDirection(views),
+                 options.hidden_road_scale);
+  }
   DefaultThreadPool().ParallelFor(
       0, static_cast<int64_t>(colours.size()), 256, [&](int64_t begin, int64_t end) {
         for (int64_t k = begin; k < end; ++k) {
           const HiddenColour& h = colours[static_cast<size_t>(k)];
-          const std::array<float, 3> rgb =
-              BackgroundColour(views[h.view], h.pixel, h.source, h.reach, options.behind_min_jump);
+          std::array<float, 3> rgb;
+          if (!seen || out.far[h.query] ||
+              !seen->Colour(out.position(h.query), out.normal(h.query), &rgb)) {
+            rgb = BackgroundColour(views[h.view], h.pixel, h.source, h.reach,
+                                   options.behind_min_jump);
+          }
           std::copy(rgb.begin(), rgb.end(), out.rgb.begin() + 3 * h.query);
         }
       });

@@ -27,8 +27,10 @@
 // the synth clip). So a sampled pixel near the near side of a depth edge
 // also gets a query where the background's surface (its plane) continues
 // behind it, or on the far layer when the background is the sky, coloured
-// like the background nearest it in the image (a blend of the first
-// background pixel in each of 8 directions); it is marked `hidden`, taken
+// like the surfaces the views saw nearest it along its plane, the road's
+// direction counting less (hidden_colour_from_surfaces), else like the
+// background nearest it in the image (a blend of the first background pixel
+// in each of 8 directions); it is marked `hidden`, taken
 // on a coarser grid (it copies one colour: no detail to sample), and dropped
 // when another view sees the point (that view samples it) or sees past it
 // (the point would float in free space). A surface seen at a grazing angle
@@ -81,6 +83,19 @@ struct SamplingOptions {
   // backgrounds: in k^2, k the smallest multiple of behind_stride >=
   // far_stride), with footprints as much larger.
   int behind_stride = 2;
+  // A hidden query not on the far layer takes the colour of the surfaces
+  // that the views saw nearest it in 3D, on its own plane, rather than the
+  // background next to it in its one view (SeenSurfaces,
+  // sparse_sampling.cc): the strip a van hides from every view goes on with
+  // the shop front seen in front of and behind the van by other views. Off,
+  // or where no seen surface lies within reach: the background next to it
+  // in the image (BackgroundColour).
+  bool hidden_colour_from_surfaces = true;
+  // Street scenes run along the road: kerbs, pavements, shop windows, signs
+  // and storeys. Distances along the direction in which the context cameras
+  // travel count this much in that search (1: isotropic; cameras that do
+  // not move: isotropic).
+  double hidden_road_scale = 0.1;
 };
 
 // Returns the budget `at_768x576` scaled by the pixel count relative to
