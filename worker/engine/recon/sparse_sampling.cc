@@ -29,9 +29,10 @@ struct Candidate {
   float depth = -1.f;
 };
 
-// The colour of hidden query `query` is BackgroundColour(view, pixel,
-// source, reach): found once the static queries are final (the first pass
-// is sampled again when the budget is refined) and for all of them at once.
+// The colour of hidden query `query`: SeenSurfaces::Colour of its position,
+// else BackgroundColour(view, pixel, source, reach); found once the static
+// queries are final (the first pass is sampled again when the budget is
+// refined) and for all of them at once.
 struct HiddenColour {
   size_t query;
   int view;
@@ -78,7 +79,7 @@ void Emit(const Candidate& c, const SamplingView& sv, uint32_t owner, const Rigi
   const size_t i = static_cast<size_t>(c.pixel);
   const bool hidden = c.source_pixel >= 0;
   // Colour, normal and layer come from the pixel the query shows (a hidden
-  // query's colour is replaced by BackgroundColour in SampleQueries).
+  // query's colour is replaced in SampleQueries).
   const size_t shown = hidden ? static_cast<size_t>(c.source_pixel) : i;
   const int x = static_cast<int>(shown % view.width()), y = static_cast<int>(shown / view.width());
   const Vec3 world{sv.lifted->points[3 * i], sv.lifted->points[3 * i + 1],
@@ -390,23 +391,33 @@ std::array<float, 3> BackgroundColour(const SamplingView& sv, size_t i, size_t s
   return {float(sum[0] / weight), float(sum[1] / weight), float(sum[2] / weight)};
 }
 
-// The direction the context cameras travel in: the least-squares slope of
-// their positions over time, unit; zero when they do not move.
+// The direction the context cameras travel in: their velocity, the
+// least-squares slope of their positions over time, as a unit vector; zero
+// when at that velocity they travel less than kMinTravel over the views' time
+// span (a parked car's pose jitter, a rig's cameras firing a few ms apart).
 Vec3 RoadDirection(const std::vector<SamplingView>& views) {
+  constexpr double kMinTravel = 1.0;  // Metres.
   Vec3 mean_position;
-  double mean_time = 0;
+  double mean_time = 0, first = std::numeric_limits<double>::infinity(), last = -first;
   for (const SamplingView& sv : views) {
+    const double t = 1e-6 * double(sv.view->timestamp_us);
     mean_position = mean_position + sv.view->world_from_camera.translation;
-    mean_time += 1e-6 * double(sv.view->timestamp_us);
+    mean_time += t;
+    first = std::min(first, t);
+    last = std::max(last, t);
   }
   mean_position = mean_position / double(views.size());
   mean_time /= double(views.size());
-  Vec3 slope;
+  Vec3 moment;
+  double spread = 0;
   for (const SamplingView& sv : views) {
-    slope = slope + (sv.view->world_from_camera.translation - mean_position) *
-                        (1e-6 * double(sv.view->timestamp_us) - mean_time);
+    const double dt = 1e-6 * double(sv.view->timestamp_us) - mean_time;
+    moment = moment + (sv.view->world_from_camera.translation - mean_position) * dt;
+    spread += dt * dt;
   }
-  return Norm(slope) > 1e-9 ? Normalized(slope) : Vec3{};
+  if (!(spread > 0)) return Vec3{};
+  const Vec3 velocity = moment / spread;
+  return Norm(velocity) * (last - first) >= kMinTravel ? Normalized(velocity) : Vec3{};
 }
 
 // What the views saw, for the colours of hidden queries (Colour): the
@@ -421,7 +432,7 @@ class SeenSurfaces {
   SeenSurfaces(const QuerySet& queries, const std::vector<SamplingView>& views, double min_jump,
                const Vec3& road, double road_scale) {
     if (Norm(road) > 0.5) {
-      scale_ = road_scale;
+      scale_ = std::clamp(road_scale, kMinRoadScale, 1.0);
       e1_ = road;
       e2_ = Normalized(std::abs(road.z) < 0.9 ? Cross(road, Vec3{0, 0, 1})
                                               : Cross(road, Vec3{1, 0, 0}));
@@ -445,7 +456,10 @@ class SeenSurfaces {
       for (int c = 0; c < 3; ++c) sum.rgb[c] += queries.rgb[3 * i + c];
       sum.count += 1;
     }
-    std::vector<std::pair<uint64_t, Surfel>> keyed;
+    // (search cell, surfel key, surfel), sorted: by cell, and within a cell
+    // in an order that does not depend on the hash map's (the blend's sums
+    // should not either).
+    std::vector<std::tuple<uint64_t, uint64_t, Surfel>> keyed;
     keyed.reserve(sums.size());
     for (const auto& [key, sum] : sums) {
       if (Norm(sum.normal) < 1e-9) continue;
@@ -453,26 +467,24 @@ class SeenSurfaces {
                           Normalized(sum.normal),
                           {float(sum.rgb[0] / sum.count), float(sum.rgb[1] / sum.count),
                            float(sum.rgb[2] / sum.count)}};
-      keyed.emplace_back(VoxelKey(Scaled(surfel.position), kCell, 0), surfel);
+      keyed.emplace_back(VoxelKey(Scaled(surfel.position), kCell, 0), key, surfel);
     }
-    // By cell, then by position (the hash map's order is not deterministic
-    // across builds; the blend's sums should be).
     std::sort(keyed.begin(), keyed.end(), [](const auto& a, const auto& b) {
-      const Vec3 &p = a.second.position, &q = b.second.position;
-      return std::tie(a.first, p.x, p.y, p.z) < std::tie(b.first, q.x, q.y, q.z);
+      return std::tie(std::get<0>(a), std::get<1>(a)) < std::tie(std::get<0>(b), std::get<1>(b));
     });
     surfels_.reserve(keyed.size());
     for (size_t k = 0; k < keyed.size(); ++k) {
-      surfels_.push_back(keyed[k].second);
-      auto [it, inserted] = cells_.try_emplace(keyed[k].first, uint32_t(k), uint32_t(k));
+      surfels_.push_back(std::get<2>(keyed[k]));
+      auto [it, inserted] = cells_.try_emplace(std::get<0>(keyed[k]), uint32_t(k), uint32_t(k));
       it->second.second = static_cast<uint32_t>(k + 1);
     }
   }
 
-  // The colour around `p` on the plane through it of normal `n`: a 1 / d^2
-  // blend of the kNeighbours nearest surfels (d in the scaled frame) that
-  // face within kMinCos of `n` and lie within kPlaneTolerance of the plane,
-  // looked for up to kRings cells away. False when there is none.
+  // The colour around `p` on the plane through it of normal `n`: a blend,
+  // weighted 1 / (d^2 + kSurfelSide^2), of the kNeighbours nearest surfels
+  // (d in the scaled frame) that face within kMinCos of `n` and lie within
+  // kPlaneTolerance of the plane, looked for within kRings x kCell of `p`
+  // in the scaled frame. False when there is none.
   bool Colour(const Vec3& p, const Vec3& n, std::array<float, 3>* rgb) const {
     std::array<std::pair<double, uint32_t>, kNeighbours> nearest;
     int found = 0;
@@ -502,6 +514,9 @@ class SeenSurfaces {
               if (Dot(s.normal, n) < kMinCos || std::abs(Dot(d, n)) > kPlaneTolerance) continue;
               const Vec3 ds = Scaled(s.position) - ps;
               const double d2 = Dot(ds, ds);
+              // A ball, not the cube of cells: the next ring, not searched,
+              // may hold nearer surfels than a corner of the last one.
+              if (d2 > kReach * kReach) continue;
               if (found < kNeighbours) {
                 nearest[found++] = {d2, k};
                 std::push_heap(nearest.begin(), nearest.begin() + found);
@@ -541,6 +556,8 @@ class SeenSurfaces {
   static constexpr int kNeighbours = 16;          // Surfels blended.
   static constexpr double kPlaneTolerance = 0.2;  // Metres off the query's plane.
   static constexpr double kMinCos = 0.8;          // Between the normals.
+  static constexpr double kReach = kRings * kCell;
+  static constexpr double kMinRoadScale = 0.01;
 
   // True if pixel `i` of `sv` has a neighbour (3x3) nearer by more than
   // `min_jump` (relative).

@@ -93,8 +93,8 @@ struct SamplingOptions {
   bool hidden_colour_from_surfaces = true;
   // Street scenes run along the road: kerbs, pavements, shop windows, signs
   // and storeys. Distances along the direction in which the context cameras
-  // travel count this much in that search (1: isotropic; cameras that do
-  // not move: isotropic).
+  // travel count this much in that search, in [0.01, 1] (1: isotropic;
+  // cameras that travel less than 1 m: isotropic).
   double hidden_road_scale = 0.1;
 };
 

@@ -154,70 +154,85 @@ TEST(SparseSampling, HiddenQueriesTakeTheNearestBackgroundColour) {
 
 // A van 5 m away hides a 5.8 m long, 1.7 m high piece of a wall 10 m away
 // (columns 40..151, rows 56..87) from the first view; the wall is green but
-// for a red band 0.8 m high (|y| < 0.4 m) that runs along the road (x, the
-// way the cameras travel: the second view is 100 m further on, a second
-// later, and sees none of it). The band left and right of the van lies 2.9 m
+// for a red band 0.8 m high (|y| < 0.4 m) that runs along the road (about x,
+// the way the cameras travel: the second view is 100 m further on and 10 m
+// further from the wall, a second later, and sees none of it). The band left and right of the van lies 2.9 m
 // from the middle of the hidden strip, the green wall above and below 0.7-1 m:
 // in the image, and in 3D without the road's direction, the nearest seen
 // surface is green; along the road it is the band, which goes on behind the
 // van. The wall's pixels next to the van mix in its blue (antialiasing) and
-// are no evidence of the wall's colour.
+// are no evidence of the wall's colour. The scene is placed in the world as
+// it is, and turned (the road 30 degrees off the world's x, the wall tilted
+// 20 degrees), so that a search that only works along the world's axes fails.
 TEST(SparseSampling, HiddenQueriesTakeTheColourOfTheSurfaceSeenAlongTheRoad) {
-  PlaneView front(192, 144, Rigid{});
-  auto van = [](int x, int y) { return x >= 40 && x < 152 && y >= 56 && y < 88; };
-  for (int y = 0; y < 144; ++y)
-    for (int x = 0; x < 192; ++x) {
-      const bool ring =
-          !van(x, y) && (van(x - 1, y) || van(x + 1, y) || van(x, y - 1) || van(x, y + 1));
-      const bool band = std::abs((y + 0.5 - 72) / 192 * 10) < 0.4;
-      front.depth.depth[y * 192 + x] = van(x, y) ? 5.f : 10.f;
-      const float rgb[3] = {!van(x, y) && !ring && band ? 1.f : 0.f,
-                            !van(x, y) && !ring && !band ? 1.f : 0.f,
-                            van(x, y) || ring ? 1.f : 0.f};
-      for (int c = 0; c < 3; ++c) front.view.rgb.at(x, y, c) = rgb[c];
-    }
-  front.lifted = LiftView(front.view, front.depth);
-  Rigid ahead;
-  ahead.translation = {100, 0, 0};
-  PlaneView later(192, 144, ahead, 1'000'000);
-  for (int y = 0; y < 144; ++y)
-    for (int x = 0; x < 192; ++x) later.view.rgb.at(x, y, 1) = 1.f;
-
-  SamplingOptions options;
-  options.static_per_view = 1728;
-  options.behind_band_px = 64;
-  options.fill_static_budget = false;
-  // The mean colour of the hidden queries in the middle of the strip
-  // (|x| < 1.5 m, |y| < 0.25 m: in the band).
-  auto middle = [&](const SamplingOptions& o) {
-    const QuerySet q = SampleQueries({front.sampling(), later.sampling()}, {}, o);
-    std::array<double, 3> sum{};
-    int n = 0;
-    for (size_t i = 0; i < q.size(); ++i) {
-      if (!q.is_hidden(i)) continue;
-      EXPECT_EQ(q.views[i], 0);
-      EXPECT_NEAR(q.positions[3 * i + 2], 10.0, 1e-3);
-      if (std::abs(q.positions[3 * i]) >= 1.5 || std::abs(q.positions[3 * i + 1]) >= 0.25) continue;
-      for (int c = 0; c < 3; ++c) sum[c] += q.rgb[3 * i + c];
-      ++n;
-    }
-    EXPECT_GE(n, 4);
-    for (double& v : sum) v /= std::max(n, 1);
-    return sum;
+  auto about = [](const Vec3& axis, double degrees) {
+    const double half = degrees * M_PI / 360;
+    return Quat{std::cos(half), axis.x * std::sin(half), axis.y * std::sin(half),
+                axis.z * std::sin(half)};
   };
-  const std::array<double, 3> along_road = middle(options);
-  EXPECT_GT(along_road[0], 0.9);
-  EXPECT_LT(along_road[1], 0.1);
-  EXPECT_EQ(along_road[2], 0.0);  // The van's colour, on the wall beside it, is left out.
+  Rigid turned;
+  turned.rotation = ToMatrix(about({0, 0, 1}, 30) * about({1, 0, 0}, 20));
+  turned.translation = {3, -2, 1};
+  for (const Rigid& world_from_scene : {Rigid{}, turned}) {
+    SCOPED_TRACE(world_from_scene.rotation.m[0][0]);
+    PlaneView front(192, 144, world_from_scene);
+    auto van = [](int x, int y) { return x >= 40 && x < 152 && y >= 56 && y < 88; };
+    for (int y = 0; y < 144; ++y)
+      for (int x = 0; x < 192; ++x) {
+        const bool ring =
+            !van(x, y) && (van(x - 1, y) || van(x + 1, y) || van(x, y - 1) || van(x, y + 1));
+        const bool band = std::abs((y + 0.5 - 72) / 192 * 10) < 0.4;
+        front.depth.depth[y * 192 + x] = van(x, y) ? 5.f : 10.f;
+        const float rgb[3] = {!van(x, y) && !ring && band ? 1.f : 0.f,
+                              !van(x, y) && !ring && !band ? 1.f : 0.f,
+                              van(x, y) || ring ? 1.f : 0.f};
+        for (int c = 0; c < 3; ++c) front.view.rgb.at(x, y, c) = rgb[c];
+      }
+    front.lifted = LiftView(front.view, front.depth);
+    Rigid ahead;  // Also 10 m back from the wall: the road is not quite along it.
+    ahead.translation = {100, 0, -10};
+    PlaneView later(192, 144, world_from_scene * ahead, 1'000'000);
+    for (int y = 0; y < 144; ++y)
+      for (int x = 0; x < 192; ++x) later.view.rgb.at(x, y, 1) = 1.f;
 
-  options.hidden_road_scale = 1;  // 3D, every direction alike: the wall above and below.
-  const std::array<double, 3> isotropic = middle(options);
-  EXPECT_GT(isotropic[1], isotropic[0]);
-  EXPECT_EQ(isotropic[2], 0.0);
+    SamplingOptions options;
+    options.static_per_view = 1728;
+    options.behind_band_px = 64;
+    options.fill_static_budget = false;
+    const Rigid scene_from_world = world_from_scene.Inverse();
+    // The mean colour of the hidden queries in the middle of the strip
+    // (|x| < 1.5 m, |y| < 0.25 m in the first camera's frame: in the band).
+    auto middle = [&](const SamplingOptions& o) {
+      const QuerySet q = SampleQueries({front.sampling(), later.sampling()}, {}, o);
+      std::array<double, 3> sum{};
+      int n = 0;
+      for (size_t i = 0; i < q.size(); ++i) {
+        if (!q.is_hidden(i)) continue;
+        EXPECT_EQ(q.views[i], 0);
+        const Vec3 p = scene_from_world * q.position(i);
+        EXPECT_NEAR(p.z, 10.0, 1e-3);
+        if (std::abs(p.x) >= 1.5 || std::abs(p.y) >= 0.25) continue;
+        for (int c = 0; c < 3; ++c) sum[c] += q.rgb[3 * i + c];
+        ++n;
+      }
+      EXPECT_GE(n, 4);
+      for (double& v : sum) v /= std::max(n, 1);
+      return sum;
+    };
+    const std::array<double, 3> along_road = middle(options);
+    EXPECT_GT(along_road[0], 0.9);
+    EXPECT_LT(along_road[1], 0.1);
+    EXPECT_EQ(along_road[2], 0.0);  // The van's colour, on the wall beside it, is left out.
 
-  options.hidden_colour_from_surfaces = false;  // The image: the wall above and below.
-  const std::array<double, 3> image = middle(options);
-  EXPECT_GT(image[1], 0.9);
+    options.hidden_road_scale = 1;  // 3D, every direction alike: the wall above and below.
+    const std::array<double, 3> isotropic = middle(options);
+    EXPECT_GT(isotropic[1], isotropic[0]);
+    EXPECT_EQ(isotropic[2], 0.0);
+
+    options.hidden_colour_from_surfaces = false;  // The image: the wall above and below.
+    const std::array<double, 3> image = middle(options);
+    EXPECT_GT(image[1], 0.9);
+  }
 }
 
 // A car 2 m in front of a wall 10 m away hides it as much as one 5 m in
