@@ -171,6 +171,20 @@ struct ViewResolution {
   double stride = 1;
 };
 
+// Sets `pixel` to the index of the pixel of `sv` that camera point `pc`
+// projects into; false when it projects nowhere or outside the image (tested
+// before any cast: a point near the camera plane projects millions of pixels
+// away).
+bool PixelOf(const SamplingView& sv, const Vec3& pc, size_t* pixel) {
+  double x, y;
+  if (!sv.view->camera.Project(pc, &x, &y)) return false;
+  const int w = sv.depth->width, h = sv.depth->height;
+  if (!(x >= 0 && y >= 0 && x < w && y < h)) return false;
+  const int px = std::min(w - 1, static_cast<int>(x)), py = std::min(h - 1, static_cast<int>(y));
+  *pixel = static_cast<size_t>(py) * w + px;
+  return true;
+}
+
 // Returns true if a view other than `self` sees world point `p`
 // (depth-consistent, in the image) with a footprint smaller than
 // `footprint` / `ratio`.
@@ -183,11 +197,8 @@ bool FinerViewSees(const Vec3& p, double footprint, size_t self, double ratio,
     if (pc.z <= 0 || pc.z / resolution[u].focal * resolution[u].stride * ratio >= footprint) {
       continue;
     }
-    double x, y;
-    if (!views[u].view->camera.Project(pc, &x, &y)) continue;
-    const int px = static_cast<int>(std::floor(x)), py = static_cast<int>(std::floor(y));
-    if (px < 0 || py < 0 || px >= views[u].depth->width || py >= views[u].depth->height) continue;
-    const size_t j = static_cast<size_t>(py) * views[u].depth->width + px;
+    size_t j;
+    if (!PixelOf(views[u], pc, &j)) continue;
     // An ego-body pixel shows the body, not the point.
     if (views[u].view->is_ego(j)) continue;
     if (views[u].depth->is_far(j) || (*views[u].owners)[j] != 0) continue;
@@ -207,11 +218,8 @@ bool OtherViewSeesOrPasses(const Vec3& p, bool far, size_t self,
   for (size_t u = 0; u < views.size(); ++u) {
     if (u == self) continue;
     const Vec3 pc = resolution[u].camera_from_world * p;
-    double x, y;
-    if (pc.z <= 0 || !views[u].view->camera.Project(pc, &x, &y)) continue;
-    const int px = static_cast<int>(std::floor(x)), py = static_cast<int>(std::floor(y));
-    if (px < 0 || py < 0 || px >= views[u].depth->width || py >= views[u].depth->height) continue;
-    const size_t j = static_cast<size_t>(py) * views[u].depth->width + px;
+    size_t j;
+    if (pc.z <= 0 || !PixelOf(views[u], pc, &j)) continue;
     if ((*views[u].owners)[j] != 0 || views[u].view->is_ego(j)) continue;
     if (views[u].depth->is_far(j) || (!far && views[u].depth->depth[j] >= 0.97 * pc.z)) {
       return true;
