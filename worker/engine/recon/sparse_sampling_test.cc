@@ -156,13 +156,15 @@ TEST(SparseSampling, HiddenQueriesTakeTheNearestBackgroundColour) {
 // (columns 40..151, rows 56..87) from the first view; the wall is green but
 // for a red band 0.8 m high (|y| < 0.4 m) that runs along the road (about x,
 // the way the cameras travel: the second view is 100 m further on and 10 m
-// further from the wall, a second later, and sees none of it). The band left and right of the van
-// lies 2.9 m from the middle of the hidden strip, the green wall above and below 0.7-1 m: in the
-// image, and in 3D without the road's direction, the nearest seen surface is green; along the road
-// it is the band, which goes on behind the van. The wall's pixels next to the van mix in its blue
-// (antialiasing) and are no evidence of the wall's colour. The scene is placed in the world as it
-// is, and turned (the road 30 degrees off the world's x, the wall tilted 20 degrees), so that a
-// search that only works along the world's axes fails.
+// further from the wall, a second later, and sees none of it). The band left
+// and right of the van lies 2.9 m from the middle of the hidden strip, the
+// green wall above and below 0.7-1 m: in the image, and in 3D without the
+// road's direction, the nearest seen surface is green; along the road it is
+// the band, which goes on behind the van. The wall's pixels next to the van
+// mix in its blue (antialiasing) and are no evidence of the wall's colour.
+// The scene is placed in the world as it is, and turned (the road 30 degrees
+// off the world's x, the wall tilted 20 degrees), so that a search that only
+// works along the world's axes fails.
 TEST(SparseSampling, HiddenQueriesTakeTheColourOfTheSurfaceSeenAlongTheRoad) {
   auto about = [](const Vec3& axis, double degrees) {
     const double half = degrees * M_PI / 360;
