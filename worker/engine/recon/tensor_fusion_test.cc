@@ -80,53 +80,8 @@ std::vector<TestView> RandomViews(std::mt19937& random) {
   return views;
 }
 
-// Queries lifted from random pixels of every view (some pushed off the
-// surface, a tenth on an instance, a tenth on the far layer).
-QuerySet RandomQueries(const std::vector<TestView>& views, int per_view, std::mt19937& random) {
-  std::uniform_real_distribution<float> unit(0.f, 1.f);
-  QuerySet q;
-  for (size_t v = 0; v < views.size(); ++v) {
-    const TestView& t = views[v];
-    for (int i = 0; i < per_view; ++i) {
-      const int x = static_cast<int>(unit(random) * kW), y = static_cast<int>(unit(random) * kH);
-      const size_t j = static_cast<size_t>(y) * kW + x;
-      if (t.view.is_ego(j)) continue;  // Never lifted.
-      Vec3 ray;
-      if (!t.view.camera.Unproject(x + 0.5, y + 0.5, &ray)) continue;
-      const bool far = unit(random) < 0.1f;
-      const float z = far ? 500.f : t.depth.depth[j] * (unit(random) < 0.2f ? 0.8f : 1.f);
-      const Vec3 world = t.view.world_from_camera * Vec3{ray.x * z, ray.y * z, z};
-      const uint32_t owner = !far && unit(random) < 0.1f ? 1 : 0;
-      q.positions.insert(q.positions.end(), {float(world.x), float(world.y), float(world.z)});
-      q.rgb.insert(q.rgb.end(), {unit(random), unit(random), unit(random)});
-      q.plucker.insert(q.plucker.end(), 6, 0.f);
-      q.normals.insert(q.normals.end(), {0, 0, -1});
-      q.rays.insert(q.rays.end(), {0, 0, 1});
-      q.depths.push_back(z);
-      q.footprints.push_back(0.1f);
-      q.views.push_back(static_cast<int32_t>(v));
-      q.pixels.push_back(static_cast<int32_t>(j));
-      q.owners.push_back(owner);
-      q.far.push_back(far ? 1 : 0);
-    }
-  }
-  return q;
-}
-
-// An instance whose box slides 1 m along x over the clip.
-std::vector<InstanceTrack> SlidingTrack() {
-  InstanceTrack track;
-  track.id = "car";
-  TrackBox first;
-  first.center = {0, 0, 10};
-  first.size = {4, 2, 1.5};
-  TrackBox last = first;
-  last.timestamp_us = 400000;
-  last.center = {1, 0, 10};
-  last.rotation = QuatNormalized({1, 0, 0.05, 0});
-  track.boxes = {first, last};
-  return {track};
-}
+using ::pf::testing::RandomQueries;
+using ::pf::testing::SlidingTrack;
 
 void ExpectSameFusion(const FusedQueries& expected, const FusedQueries& actual,
                       const std::string& label) {
