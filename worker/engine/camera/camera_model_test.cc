@@ -3,7 +3,11 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <limits>
+
 #include "pointforward/v1/clip.pb.h"
+#include "worker/engine/camera/image_pixel.h"
 
 namespace pf {
 namespace {
@@ -23,6 +27,39 @@ void ExpectUnprojectInvertsProject(const CameraModel& cam) {
     }
   }
   EXPECT_GT(checked, 40);
+}
+
+TEST(ImagePixel, FloorsInsideTheImageAndRejectsEverythingElse) {
+  int x = -7, y = -7;
+  ASSERT_TRUE(PixelInImage(0.0, 0.0, 768, 576, &x, &y));
+  EXPECT_EQ(x, 0);
+  EXPECT_EQ(y, 0);
+  ASSERT_TRUE(PixelInImage(767.999, 575.5, 768, 576, &x, &y));
+  EXPECT_EQ(x, 767);
+  EXPECT_EQ(y, 575);
+  ASSERT_TRUE(PixelInImage(12.5, 3.99, 768, 576, &x, &y));
+  EXPECT_EQ(x, 12);
+  EXPECT_EQ(y, 3);
+  x = y = -7;
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const double inf = std::numeric_limits<double>::infinity();
+  // The borders, just outside, and what a point near the camera plane
+  // projects to: far outside int's range, where a cast would be undefined.
+  for (const auto& [u, v] : std::vector<std::pair<double, double>>{{768.0, 0.0},
+                                                                   {0.0, 576.0},
+                                                                   {-1e-9, 10.0},
+                                                                   {10.0, -0.5},
+                                                                   {2.5e10, 10.0},
+                                                                   {-2.5e10, 10.0},
+                                                                   {10.0, 1e300},
+                                                                   {nan, 10.0},
+                                                                   {10.0, nan},
+                                                                   {inf, 10.0},
+                                                                   {10.0, -inf}}) {
+    EXPECT_FALSE(PixelInImage(u, v, 768, 576, &x, &y)) << u << ", " << v;
+  }
+  EXPECT_EQ(x, -7);  // Untouched when false.
+  EXPECT_EQ(y, -7);
 }
 
 TEST(CameraModel, PinholeProjectsPrincipalPointAndInverts) {

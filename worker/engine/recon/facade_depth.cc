@@ -7,6 +7,7 @@
 #include <cmath>
 
 #include "common/thread_pool.h"
+#include "worker/engine/camera/image_pixel.h"
 #include "worker/engine/recon/query_lifting.h"
 
 namespace pf {
@@ -47,10 +48,7 @@ bool PixelOf(const ContextView& view, const Rigid& camera_from_world, const Vec3
              int* y) {
   double u, v;
   if (!view.camera.Project(camera_from_world * p, &u, &v)) return false;
-  if (!(u >= 0 && v >= 0 && u < view.width() && v < view.height())) return false;
-  *x = static_cast<int>(std::floor(u));
-  *y = static_cast<int>(std::floor(v));
-  return true;
+  return PixelInImage(u, v, view.width(), view.height(), x, y);
 }
 
 // The views that check view `v`: cameras at least `min_baseline` away that

@@ -6,6 +6,7 @@
 #include <limits>
 
 #include "common/thread_pool.h"
+#include "worker/engine/camera/image_pixel.h"
 #include "worker/engine/render/rasterizer.h"
 
 namespace pf {
@@ -108,8 +109,8 @@ FusedQueries FuseQueries(const QuerySet& queries, const std::vector<FusionView>&
         const Vec3 pc = camera_from_frame[owner][v] * p;
         double u, vv;
         if (!fv.view->camera.Project(pc, &u, &vv)) continue;
-        const int x = static_cast<int>(std::floor(u)), y = static_cast<int>(std::floor(vv));
-        if (x < 0 || y < 0 || x >= fv.depth->width || y >= fv.depth->height) continue;
+        int x, y;
+        if (!PixelInImage(u, vv, fv.depth->width, fv.depth->height, &x, &y)) continue;
         const size_t j = static_cast<size_t>(y) * fv.depth->width + x;
         const bool is_source = static_cast<int>(v) == source;
         // A pixel on the ego vehicle's body sees the body, not the query (and

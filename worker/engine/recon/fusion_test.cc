@@ -72,6 +72,24 @@ TEST(Fusion, WeightsPreferTheConsistentView) {
   EXPECT_NEAR(blind.rgb[1], 2.0 / 4, 1e-5);
 }
 
+TEST(Fusion, AViewWhoseCameraPlaneHoldsTheQueryDoesNotSeeIt) {
+  // View 1 looks along +z from 1 km to the side, 2e-6 m behind the query's
+  // depth: the query projects to u = 10 * 1000 / 2e-6 = 5e9 px, beyond int's
+  // range. It sees nothing (no cast: the sanitizer tree would abort on one);
+  // view 2, from the side 1 m away, still observes it.
+  const FlatView source(1, 0, 0, 10);
+  FlatView grazing(0, 1, 0, 10);
+  grazing.view.world_from_camera.translation = {-1000, 0, 10 - 2e-6};
+  FlatView beside(0, 0, 1, 10);
+  beside.view.world_from_camera.translation = {-0.1, 0, 0};
+  const FusedQueries f = FuseQueries(
+      OneQuery(), {source.fusion(), grazing.fusion(), beside.fusion()}, {}, FusionOptions{});
+  EXPECT_EQ(f.observations[0], 2);
+  EXPECT_GT(f.rgb[0], 0.1f);
+  EXPECT_FLOAT_EQ(f.rgb[1], 0.f);
+  EXPECT_GT(f.rgb[2], 0.1f);
+}
+
 TEST(Fusion, StaticQueriesIgnoreMaskedPixels) {
   const FlatView source(1, 0, 0, 10);
   FlatView masked(0, 1, 0, 10);

@@ -11,6 +11,7 @@
 #include "absl/container/flat_hash_map.h"
 #include "absl/container/flat_hash_set.h"
 #include "common/thread_pool.h"
+#include "worker/engine/camera/image_pixel.h"
 #include "worker/engine/recon/scene_graph.h"
 
 namespace pf {
@@ -172,16 +173,13 @@ struct ViewResolution {
 };
 
 // Sets `pixel` to the index of the pixel of `sv` that camera point `pc`
-// projects into; false when it projects nowhere or outside the image (tested
-// before any cast: a point near the camera plane projects millions of pixels
-// away).
+// projects into; false when it projects nowhere or outside the image.
 bool PixelOf(const SamplingView& sv, const Vec3& pc, size_t* pixel) {
   double x, y;
   if (!sv.view->camera.Project(pc, &x, &y)) return false;
-  const int w = sv.depth->width, h = sv.depth->height;
-  if (!(x >= 0 && y >= 0 && x < w && y < h)) return false;
-  const int px = std::min(w - 1, static_cast<int>(x)), py = std::min(h - 1, static_cast<int>(y));
-  *pixel = static_cast<size_t>(py) * w + px;
+  int px, py;
+  if (!PixelInImage(x, y, sv.depth->width, sv.depth->height, &px, &py)) return false;
+  *pixel = static_cast<size_t>(py) * sv.depth->width + px;
   return true;
 }
 

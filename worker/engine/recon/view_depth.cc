@@ -13,6 +13,7 @@
 #include "absl/strings/str_cat.h"
 #include "common/thread_pool.h"
 #include "pointforward/v1/clip.pb.h"
+#include "worker/engine/camera/image_pixel.h"
 #include "worker/engine/clip/clip_validator.h"
 #include "worker/engine/recon/query_lifting.h"
 #include "worker/engine/recon/scene_graph.h"
@@ -115,8 +116,8 @@ ImageF ProjectPoints(const std::vector<float>& points, const CameraModel& camera
     const Vec3 pc = camera_from_world * Vec3{points[3 * i], points[3 * i + 1], points[3 * i + 2]};
     double u, v;
     if (!camera.Project(pc, &u, &v)) continue;
-    const int x = static_cast<int>(std::floor(u)), y = static_cast<int>(std::floor(v));
-    if (x < 0 || y < 0 || x >= depth.width || y >= depth.height) continue;
+    int x, y;
+    if (!PixelInImage(u, v, depth.width, depth.height, &x, &y)) continue;
     float& d = depth.at(x, y);
     if (d == 0.f || pc.z < d) d = static_cast<float>(pc.z);
   }

@@ -19,6 +19,18 @@ TEST(ViewDepth, ProjectPointsKeepsTheNearestPerPixel) {
   EXPECT_FLOAT_EQ(depth.at(20, 15), 0.f);   // The point behind the camera is dropped.
 }
 
+TEST(ViewDepth, ProjectPointsDropsAPointOnTheCameraPlane) {
+  // (1000, 0, 2e-6) projects to u = 40 * 1000 / 2e-6 = 2e10, beyond int's
+  // range (a LiDAR return off the ego body, beside the camera): dropped
+  // without a cast (the sanitizer tree would abort on one), the others kept.
+  const std::vector<float> points = {1000, 0, 2e-6f, -1000, 5, 2e-6f, 1, 0.5f, 10};
+  const ImageF depth = ProjectPoints(points, kCamera, Rigid{});
+  int set = 0;
+  for (float d : depth.pixels) set += d != 0.f;
+  EXPECT_EQ(set, 1);
+  EXPECT_FLOAT_EQ(depth.at(24, 17), 10.f);
+}
+
 TEST(ViewDepth, CompletionFillsNearbyPixelsOnlyAndPrefersTheNearerSurface) {
   ImageF sparse(40, 30, 1);
   sparse.at(10, 10) = 5.f;
