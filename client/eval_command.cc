@@ -48,10 +48,12 @@ Reconstructs the clip from its CONTEXT frames, renders every TARGET frame at its
 pose and time, compares it with the frame, and writes DIR/report.json ("mean",
 "frames") and a contact sheet DIR/<camera>_<timestamp_us>.png per frame
 (truth | render | error heat map). "psnr" measures the render composited over
-black, as the rgb layer of pf render is; "filledPsnr" the render composited
-over a push-pull fill of itself, as the "filled" layer is (pixels the scene
-does not cover take the colour around them); "holeFraction" is the share of
-pixels with alpha < 0.5.
+black, as the rgb layer of pf render is, clamped to [0, 1] as its PNG preview
+shows it (the truth is a PNG or JPEG); "psnrUnclamped" the raw float render;
+"filledPsnr" the render composited over a push-pull fill of itself, as the
+"filled" layer is (pixels the scene does not cover take the colour around
+them); "holeFraction" is the share of pixels with alpha < 0.5. SSIM and
+dynamicPsnr are of the clamped render too.
 
 reconstruction flags (as pf reconstruct):
   --model analytic|pixel-aligned  --ns N --nd N  --fusion softmax|average|no-depth
@@ -66,7 +68,7 @@ extra views (views not in the clip, e.g. extrapolated poses):
                        required; the view's size) and TRUTH_DIR/<name>.exr (depth,
                        optional), as `pf synth render --clip CLIP_DIR --cameras
                        VIEWS.json --out TRUTH_DIR` writes them
-  report.json gains "views" ([{"name", "camera", "timestampUs", "psnr", "ssim",
+  report.json gains "views" ([{"name", "camera", "timestampUs", "psnr", "psnrUnclamped", "ssim",
   "depthRmse", "dynamicPsnr", "filledPsnr", "holeFraction", "contactSheet"}]) and
   "viewsMean";
   the contact sheets go to DIR/views/<name>.png. A clip without TARGET frames is
@@ -199,11 +201,12 @@ absl::Status Run(const CommandLine& cl) {
   std::printf(
       "%s: %lld gaussians, reconstruct %.2f s, %zu target frames and %zu views rendered in "
       "%.2f s\n"
-      "  mean PSNR %s, SSIM %s, depth RMSE %s, dynamic PSNR %s, filled PSNR %s\n",
+      "  mean PSNR %s (unclamped %s), SSIM %s, depth RMSE %s, dynamic PSNR %s, filled PSNR %s\n",
       ReconModelName(options.model), static_cast<long long>(report.gaussians),
       report.stats.total_seconds, report.frames.size(), report.views.size(), report.render_seconds,
-      Figure(report.mean.psnr, " dB").c_str(), Figure(report.mean.ssim, "").c_str(),
-      Figure(report.mean.depth_rmse, " m").c_str(), Figure(report.mean.dynamic_psnr, " dB").c_str(),
+      Figure(report.mean.psnr, " dB").c_str(), Figure(report.mean.psnr_unclamped, " dB").c_str(),
+      Figure(report.mean.ssim, "").c_str(), Figure(report.mean.depth_rmse, " m").c_str(),
+      Figure(report.mean.dynamic_psnr, " dB").c_str(),
       Figure(report.mean.filled_psnr, " dB").c_str());
   if (!report.views.empty()) {
     std::printf("  views: mean PSNR %s, SSIM %s, depth RMSE %s\n",

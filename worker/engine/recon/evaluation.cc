@@ -34,6 +34,7 @@ nlohmann::json OptionalNumber(const std::optional<double>& value) {
 // The figures a TARGET frame and an extra view share, in report order.
 void AddFigures(const FrameMetrics& f, nlohmann::ordered_json* out) {
   (*out)["psnr"] = f.psnr;
+  (*out)["psnrUnclamped"] = f.psnr_unclamped;
   (*out)["ssim"] = f.ssim;
   (*out)["depthRmse"] = OptionalNumber(f.depth_rmse);
   (*out)["dynamicPsnr"] = OptionalNumber(f.dynamic_psnr);
@@ -43,6 +44,7 @@ void AddFigures(const FrameMetrics& f, nlohmann::ordered_json* out) {
 
 nlohmann::ordered_json MeanJson(const MeanMetrics& mean) {
   return {{"psnr", OptionalNumber(mean.psnr)},
+          {"psnrUnclamped", OptionalNumber(mean.psnr_unclamped)},
           {"ssim", OptionalNumber(mean.ssim)},
           {"depthRmse", OptionalNumber(mean.depth_rmse)},
           {"dynamicPsnr", OptionalNumber(mean.dynamic_psnr)},
@@ -70,6 +72,13 @@ FrameMetrics Measure(const ImageF& truth_rgb, const ImageF& truth_depth,
       if (ego[i] != 0 && !dynamic_mask.empty()) dynamic_mask[i] = 0;
     }
   }
+  // The truth is a PNG or JPEG, in [0, 1]. The render is measured as an
+  // image, the way its PNG preview and the contact sheet show it: clamped to
+  // that range (the colour fit overshoots where discs overlap, and no value
+  // above 1 shows brighter). Clamping never moves a pixel away from a truth
+  // inside the range. psnrUnclamped keeps the raw render's figure.
+  m.psnr_unclamped = Psnr(truth_rgb, *render, scene_pixels).value_or(0.0);
+  for (float& v : render->pixels) v = std::clamp(v, 0.f, 1.f);
   m.psnr = Psnr(truth_rgb, *render, scene_pixels).value_or(0.0);
   m.ssim = Ssim(truth_rgb, *render, scene_pixels).value_or(0.0);
   if (truth_depth.width > 0) {
@@ -85,6 +94,7 @@ FrameMetrics Measure(const ImageF& truth_rgb, const ImageF& truth_depth,
   if (m.dynamic_pixels > 0) m.dynamic_psnr = Psnr(truth_rgb, *render, dynamic_mask);
   ImageF filled(buffers.width, buffers.height, 3);
   filled.pixels = FillUncovered(buffers.rgb, buffers.alpha, buffers.width, buffers.height);
+  for (float& v : filled.pixels) v = std::clamp(v, 0.f, 1.f);
   m.filled_psnr = Psnr(truth_rgb, filled, scene_pixels).value_or(0.0);
   int64_t holes = 0;
   for (size_t i = 0; i < pixels; ++i) {
@@ -239,6 +249,8 @@ MeanMetrics MeanOf(const std::vector<FrameMetrics>& frames) {
     return sum / count;
   };
   mean.psnr = average([](const FrameMetrics& f) { return std::optional<double>(f.psnr); });
+  mean.psnr_unclamped =
+      average([](const FrameMetrics& f) { return std::optional<double>(f.psnr_unclamped); });
   mean.ssim = average([](const FrameMetrics& f) { return std::optional<double>(f.ssim); });
   mean.depth_rmse = average([](const FrameMetrics& f) { return f.depth_rmse; });
   mean.dynamic_psnr = average([](const FrameMetrics& f) { return f.dynamic_psnr; });

@@ -72,7 +72,8 @@ struct FrameMetrics {
   std::string name;  // Extra views: the view's output name; empty for TARGET frames.
   std::string camera;
   int64_t timestamp_us = 0;
-  double psnr = 0;
+  double psnr = 0;            // Of the render clamped to [0, 1], as its PNG shows it.
+  double psnr_unclamped = 0;  // Of the raw float render.
   double ssim = 0;
   std::optional<double> depth_rmse;
   std::optional<double> dynamic_psnr;
@@ -90,7 +91,8 @@ struct FrameMetrics {
 };
 
 struct MeanMetrics {
-  std::optional<double> psnr, ssim, depth_rmse, dynamic_psnr, hole_fraction, filled_psnr;
+  std::optional<double> psnr, psnr_unclamped, ssim, depth_rmse, dynamic_psnr, hole_fraction,
+      filled_psnr;
 };
 
 // The views a lane shift made: each camera's pose at `time_us` moved
