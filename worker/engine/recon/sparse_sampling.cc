@@ -73,9 +73,29 @@ double LevelSide(uint32_t level) { return 0.01 * std::pow(2.0, int(level) - 20);
 
 double FocalLength(const CameraModel& camera) { return 0.5 * (camera.fx() + camera.fy()); }
 
+// Returns true if pixel `i` of `depth` is on the near side of an occluding
+// edge: a pixel of its 3x3 neighbourhood holds a surface more than `min_jump`
+// (relative) deeper. The far layer does not count.
+bool AtNearSideOfEdge(const ViewDepth& depth, size_t i, double min_jump) {
+  if (depth.is_far(i)) return false;
+  const int x = static_cast<int>(i % depth.width), y = static_cast<int>(i / depth.width);
+  const double deeper = (1 + min_jump) * depth.depth[i];
+  for (int dy = -1; dy <= 1; ++dy) {
+    for (int dx = -1; dx <= 1; ++dx) {
+      const int qx = x + dx, qy = y + dy;
+      if (qx < 0 || qy < 0 || qx >= depth.width || qy >= depth.height) continue;
+      const size_t j = static_cast<size_t>(qy) * depth.width + qx;
+      if (!depth.is_far(j) && depth.depth[j] > deeper) return true;
+    }
+  }
+  return false;
+}
+
 // Writes `c` to `out` with the frame change `to_frame` (identity for static).
+// A visible query on the near side of an occluding edge gets its footprint
+// scaled by options.edge_footprint_scale.
 void Emit(const Candidate& c, const SamplingView& sv, uint32_t owner, const Rigid& to_frame,
-          QuerySet* out) {
+          const SamplingOptions& options, QuerySet* out) {
   const ContextView& view = *sv.view;
   const size_t i = static_cast<size_t>(c.pixel);
   const bool hidden = c.source_pixel >= 0;
@@ -100,7 +120,9 @@ void Emit(const Candidate& c, const SamplingView& sv, uint32_t owner, const Rigi
   out->normals.insert(out->normals.end(), {float(normal.x), float(normal.y), float(normal.z)});
   out->rays.insert(out->rays.end(), {float(ray.x), float(ray.y), float(ray.z)});
   out->depths.push_back(hidden ? c.depth : sv.depth->depth[i]);
-  out->footprints.push_back(c.footprint);
+  const bool edge = !hidden && options.edge_footprint_scale != 1.0 &&
+                    AtNearSideOfEdge(*sv.depth, i, options.behind_min_jump);
+  out->footprints.push_back(edge ? float(c.footprint * options.edge_footprint_scale) : c.footprint);
   out->views.push_back(c.view);
   out->pixels.push_back(c.pixel);
   out->owners.push_back(owner);
@@ -664,7 +686,7 @@ size_t SampleStatic(const std::vector<SamplingView>& views, const SamplingOption
             // background within twice that.
             colours->push_back({out->size(), static_cast<int>(v), i,
                                 static_cast<size_t>(hidden.source_pixel), 2 * hidden_radius + 1});
-            Emit(hidden, sv, 0, identity, out);
+            Emit(hidden, sv, 0, identity, options, out);
           }
         }
         if (!sv.lifted->valid[i] || (*sv.owners)[i] != 0) continue;
@@ -685,7 +707,8 @@ size_t SampleStatic(const std::vector<SamplingView>& views, const SamplingOption
           if (covered.contains(key)) continue;
           new_keys.push_back(key);
         }
-        Emit({static_cast<int>(v), static_cast<int>(i), p, float(footprint)}, sv, 0, identity, out);
+        Emit({static_cast<int>(v), static_cast<int>(i), p, float(footprint)}, sv, 0, identity,
+             options, out);
         ++visible;
       }
     }
@@ -779,7 +802,7 @@ QuerySet SampleQueries(const std::vector<SamplingView>& views,
     for (size_t index : kept) {
       Candidate c = candidates[index];
       c.footprint = std::max(c.footprint, float(side));
-      Emit(c, views[c.view], owner, to_canonical[c.view], &out);
+      Emit(c, views[c.view], owner, to_canonical[c.view], options, &out);
     }
   }
   return out;

@@ -17,6 +17,10 @@
 // grids refined by sqrt(kept / (V N_s)) (fill_static_budget), which spends
 // the freed budget on detail instead of dropping it.
 //
+// A visible query on the near side of an occluding edge gets a smaller
+// footprint (edge_footprint_scale), so its disc does not spread over the
+// background behind the silhouette.
+//
 // Dynamic: every pixel of every view that lies in instance k's box, moved to
 // the canonical frame, thinned by a uniform voxel grid whose side is found by
 // bisection so that at most N_d points remain (one per voxel).
@@ -79,6 +83,14 @@ struct SamplingOptions {
   // none.
   int behind_band_px = 256;
   double behind_min_jump = 0.1;  // Relative depth jump that makes an occlusion edge.
+  // A visible query whose source pixel is on the near side of an occluding
+  // edge (a surface more than behind_min_jump deeper in its 3x3
+  // neighbourhood; not the far layer) gets its footprint, so its disc,
+  // scaled by this: the disc stops near the silhouette instead of spreading
+  // about a pixel onto the background behind it, where the image's edge is
+  // one antialiased pixel. Against the sky the discs keep their size, or
+  // the far layer would show through a roof line in the depth render. 1: off.
+  double edge_footprint_scale = 0.5;
   // Hidden queries take one cell in behind_stride^2 (behind far-layer
   // backgrounds: in k^2, k the smallest multiple of behind_stride >=
   // far_stride), with footprints as much larger.

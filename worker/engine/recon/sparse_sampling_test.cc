@@ -350,6 +350,43 @@ TEST(SparseSampling, DenseModeTakesEveryValidPixel) {
   EXPECT_NEAR(q.footprints[0], 10.0 / 32, 1e-6);
 }
 
+// A 32 x 24 view: a wall at 5 m on the left half, the plane at 10 m on the
+// right, and the sky (far layer) in the last two columns. Discs on the near
+// side of the occluding edge shrink; the far side, the middle of the near
+// wall and a surface against the sky keep their footprint.
+TEST(SparseSampling, DiscsOnTheNearSideOfAnOccludingEdgeAreSmaller) {
+  PlaneView view(32, 24, Rigid{});
+  for (int y = 0; y < 24; ++y) {
+    for (int x = 0; x < 32; ++x) {
+      const size_t j = static_cast<size_t>(y) * 32 + x;
+      if (x < 16) view.depth.depth[j] = 5.f;
+      if (x >= 30) {
+        view.depth.depth[j] = 500.f;
+        view.depth.source[j] = uint8_t(DepthSource::kFar);
+      }
+    }
+  }
+  view.lifted = LiftView(view.view, view.depth);
+  SamplingOptions options;
+  options.dense = true;
+  options.behind_band_px = 0;
+  options.edge_footprint_scale = 0.5;
+  for (const double scale : {0.5, 1.0}) {
+    SCOPED_TRACE(scale);
+    options.edge_footprint_scale = scale;
+    const QuerySet q = SampleQueries({view.sampling()}, {}, options);
+    ASSERT_EQ(q.size(), 32u * 24);
+    std::array<float, 32> footprint{};
+    for (size_t i = 0; i < q.size(); ++i) {
+      if (q.pixels[i] / 32 == 12) footprint[q.pixels[i] % 32] = q.footprints[i];
+    }
+    EXPECT_NEAR(footprint[14], 5.0 / 32, 1e-6);          // Inside the near wall.
+    EXPECT_NEAR(footprint[15], 5.0 / 32 * scale, 1e-6);  // At its edge.
+    EXPECT_NEAR(footprint[16], 10.0 / 32, 1e-6);         // Behind the edge.
+    EXPECT_NEAR(footprint[29], 10.0 / 32, 1e-6);         // Against the sky.
+  }
+}
+
 TEST(SparseSampling, InstanceQueriesAreCanonicalAndWithinBudget) {
   PlaneView plane(192, 144, Rigid{}, /*t=*/1000000);
   // An instance whose box at t = 1 s is centred on the plane; its first box
