@@ -18,7 +18,7 @@
 // context, kernels and allocator); min / median / max seconds. Each device's
 // result is compared with the C++ kernel's: "differing" counts the queries
 // whose observations, agreement or lifespan differ, or whose colour differs
-// by 1e-5 or more (tensor_fusion_test.cc's rule).
+// by 1e-5 or more (SameFusedQuery, fusion_test_util.h, as tensor_fusion_test.cc).
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -99,11 +99,7 @@ int64_t Differing(const FusedQueries& a, const FusedQueries& b) {
   }
   int64_t differing = 0;
   for (size_t i = 0; i < a.observations.size(); ++i) {
-    bool same = a.observations[i] == b.observations[i] && a.agreement[i] == b.agreement[i] &&
-                a.lifespans[i] == b.lifespans[i];
-    for (int c = 0; c < 3; ++c)
-      same = same && std::abs(a.rgb[3 * i + c] - b.rgb[3 * i + c]) < 1e-5f;
-    differing += !same;
+    differing += !testing::SameFusedQuery(a, b, i);
   }
   return differing;
 }

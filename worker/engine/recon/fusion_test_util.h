@@ -4,6 +4,7 @@
 #define POINTFORWARD_WORKER_ENGINE_RECON_FUSION_TEST_UTIL_H_
 
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <random>
 #include <vector>
@@ -70,6 +71,20 @@ QuerySet RandomQueries(const std::vector<View>& views, int per_view, std::mt1993
     }
   }
   return q;
+}
+
+// Returns true if query `i` fused the same in `a` and `b`: the same
+// observations, agreement and lifespan, and each colour channel within
+// 1e-5 (the C++ kernel and the tensor version must agree to this).
+inline bool SameFusedQuery(const FusedQueries& a, const FusedQueries& b, size_t i) {
+  if (a.observations[i] != b.observations[i] || a.agreement[i] != b.agreement[i] ||
+      a.lifespans[i] != b.lifespans[i]) {
+    return false;
+  }
+  for (int c = 0; c < 3; ++c) {
+    if (!(std::abs(a.rgb[3 * i + c] - b.rgb[3 * i + c]) < 1e-5f)) return false;
+  }
+  return true;
 }
 
 // An instance (owner 1) whose 4 x 2 x 1.5 m box slides 1 m along x, from

@@ -88,13 +88,7 @@ void ExpectSameFusion(const FusedQueries& expected, const FusedQueries& actual,
   ASSERT_EQ(expected.observations.size(), actual.observations.size()) << label;
   int differing = 0;
   for (size_t i = 0; i < expected.observations.size(); ++i) {
-    const bool same = expected.observations[i] == actual.observations[i] &&
-                      expected.agreement[i] == actual.agreement[i] &&
-                      (expected.lifespans[i] == actual.lifespans[i]) &&
-                      std::abs(expected.rgb[3 * i] - actual.rgb[3 * i]) < 1e-5f &&
-                      std::abs(expected.rgb[3 * i + 1] - actual.rgb[3 * i + 1]) < 1e-5f &&
-                      std::abs(expected.rgb[3 * i + 2] - actual.rgb[3 * i + 2]) < 1e-5f;
-    if (!same && ++differing <= 5) {
+    if (!testing::SameFusedQuery(expected, actual, i) && ++differing <= 5) {
       ADD_FAILURE() << label << " query " << i << ": observations " << expected.observations[i]
                     << " vs " << actual.observations[i] << ", agreement " << expected.agreement[i]
                     << " vs " << actual.agreement[i] << ", lifespan " << expected.lifespans[i]
