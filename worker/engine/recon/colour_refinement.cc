@@ -23,6 +23,22 @@ using Channels = std::array<double, 3>;
 // pixel sees still has a positive prior and keeps its fused colour.
 constexpr float kPriorFloor = 1e-3f;
 
+// The transmittance under which alpha_ip = w_ip / T is not trusted.
+constexpr float kMinTransmittance = 1e-4f;
+
+// The data weight a colour's prior is relative to: the geometric mean of
+// the Gaussian's own data weight `seen` (sum of w_ip^2) and the weight it
+// would have with nothing in front of it, `unoccluded` (sum of alpha_ip^2,
+// at least `seen`). Fully visible, that is `seen`; a Gaussian that its
+// context views see only through what lies in front of it (transmittance
+// T) is held 1 / T times harder, relative to its data, so the few dim
+// pixels it reaches do not push its colour out of range: the road beside a
+// car in seed 2 came out as (1.5, 0.8, -0.5) and showed where the car moved
+// on.
+float UnoccludedPrior(float seen, float unoccluded) {
+  return std::sqrt(seen * std::max(seen, unoccluded));
+}
+
 // The prior weight of hidden Gaussians, relative like prior_weight: large
 // enough that the fit leaves their colour as it is.
 constexpr float kHiddenPrior = 1e4f;
@@ -67,6 +83,80 @@ void ApplyTransposed(const CompositingWeights& a, const float* r, float* out) {
   }
 }
 
+// Renumbers the local indices of `a` in the order its entries first use
+// them (tile by tile, as they are stored), `gaussians` with them (no
+// longer ascending): the Gaussians of neighbouring pixels then sit side by
+// side in the per-view arrays each iteration gathers from and adds into,
+// instead of scattered over them in scene order.
+void NumberByFirstUse(CompositingWeights* a) {
+  constexpr uint32_t kUnused = ~uint32_t{0};
+  std::vector<uint32_t> renumbered(a->gaussians.size(), kUnused);
+  std::vector<uint32_t> gaussians;
+  gaussians.reserve(a->gaussians.size());
+  for (uint32_t& local : a->local) {
+    if (renumbered[local] == kUnused) {
+      renumbered[local] = static_cast<uint32_t>(gaussians.size());
+      gaussians.push_back(a->gaussians[local]);
+    }
+    local = renumbered[local];
+  }
+  // Gaussians listed without an entry (none are) keep a place at the end.
+  for (size_t k = 0; k < renumbered.size(); ++k)
+    if (renumbered[k] == kUnused) gaussians.push_back(a->gaussians[k]);
+  a->gaussians = std::move(gaussians);
+}
+
+// Writes the inverse of the symmetric matrix [[a, b, c], [b, d, e], [c, e,
+// f]] to `out` as (00, 01, 02, 11, 12, 22); the inverse of its diagonal
+// where it is near singular.
+void InvertSymmetric3(double a, double b, double c, double d, double e, double f, float* out) {
+  const double m00 = d * f - e * e, m01 = c * e - b * f, m02 = b * e - c * d;
+  const double det = a * m00 + b * m01 + c * m02;
+  if (!(det > 1e-9 * a * d * f)) {
+    out[0] = static_cast<float>(1 / a);
+    out[1] = out[2] = out[4] = 0.f;
+    out[3] = static_cast<float>(1 / d);
+    out[5] = static_cast<float>(1 / f);
+    return;
+  }
+  out[0] = static_cast<float>(m00 / det);
+  out[1] = static_cast<float>(m01 / det);
+  out[2] = static_cast<float>(m02 / det);
+  out[3] = static_cast<float>((a * f - c * c) / det);
+  out[4] = static_cast<float>((b * c - a * e) / det);
+  out[5] = static_cast<float>((a * d - b * b) / det);
+}
+
+// Sums over one view's fitted pixels, per Gaussian (kSums floats each, the
+// same for the three channels): w^2, (w u)^2, (w v)^2, w^2 u, w^2 v,
+// w^2 u v (its block of A^T M A; u, v the local coordinates, 0 for flat
+// colours) and alpha^2 = (w / T)^2, T the transmittance left by the
+// entries in front (1 - their summed weight; the few under min_weight are
+// not counted): the Gaussian's data weight with nothing in front of it.
+constexpr int kSums = 7;
+void AccumulateSums(const CompositingWeights& a, const std::vector<uint8_t>& fitted, float* out) {
+  const bool textured = !a.coords.empty();
+  for (size_t p = 0; p < fitted.size(); ++p) {
+    if (!fitted[p]) continue;
+    float in_front = 0.f;
+    for (uint64_t k = a.pixel_begin[p]; k < a.pixel_begin[p] + a.pixel_count[p]; ++k) {
+      const float w = a.weights[k];
+      const float u = textured ? a.coords[2 * k] : 0.f, v = textured ? a.coords[2 * k + 1] : 0.f;
+      const float alpha = w / std::max(kMinTransmittance, 1.f - in_front);
+      in_front += w;
+      const float ww = w * w;
+      float* d = out + kSums * size_t(a.local[k]);
+      d[0] += ww;
+      d[1] += ww * u * u;
+      d[2] += ww * v * v;
+      d[3] += ww * u;
+      d[4] += ww * v;
+      d[5] += ww * u * v;
+      d[6] += alpha * alpha;
+    }
+  }
+}
+
 // Sum of squares of the masked residual image - A x of one view (x already
 // gathered into scratch->local_in), per channel; leaves the masked residual
 // in scratch->pixels.
@@ -99,9 +189,8 @@ void Gather(const FitView& view, const Layout& layout, const std::vector<float>&
 
 // Adds every view's local_out into `global` (views in order, so the sums do
 // not depend on thread timing).
-void Scatter(const std::vector<FitView>& views, const Layout& layout,
-             const std::vector<ViewScratch>& scratch, std::vector<float>* global) {
-  const int per = layout.per_gaussian();
+void Scatter(const std::vector<FitView>& views, int per, const std::vector<ViewScratch>& scratch,
+             std::vector<float>* global) {
   for (size_t v = 0; v < views.size(); ++v) {
     const std::vector<uint32_t>& ids = views[v].a.gaussians;
     const std::vector<float>& local = scratch[v].local_out;
@@ -187,6 +276,7 @@ absl::StatusOr<RefinementStats> RefineColours(const std::vector<ContextView>& vi
       fit[v].fitted.resize(fit[v].a.alpha.size());
       for (size_t p = 0; p < fit[v].fitted.size(); ++p)
         fit[v].fitted[p] = fit[v].a.alpha[p] >= options.min_alpha && !view.is_ego(p);
+      NumberByFirstUse(&fit[v].a);
     }
   });
   for (const absl::Status& error : errors) RETURN_IF_ERROR(error);
@@ -224,22 +314,23 @@ absl::StatusOr<RefinementStats> RefineColours(const std::vector<ContextView>& vi
   for (size_t i = 0; i < n; ++i)
     for (int c = 0; c < 3; ++c) x[per * i + kk * c] = scene->features[i * stride + c];
   std::vector<ViewScratch> scratch(views.size());
-  auto for_views = [&](const auto& body, std::vector<float>* out) {
+  auto for_views = [&](const auto& body, std::vector<float>* out, int width = 0) {
+    if (width == 0) width = per;
     DefaultThreadPool().ParallelFor(0, num_views, 1, [&](int64_t b, int64_t e) {
       for (int64_t v = b; v < e; ++v) {
-        scratch[v].local_out.assign(per * fit[v].a.gaussians.size(), 0.f);
+        scratch[v].local_out.assign(width * fit[v].a.gaussians.size(), 0.f);
         body(fit[v], &scratch[v]);
       }
     });
     if (out == nullptr) return;
-    out->assign(per * n, 0.f);
-    Scatter(fit, layout, scratch, out);
+    out->assign(width * n, 0.f);
+    Scatter(fit, width, scratch, out);
   };
   std::vector<Channels> view_sums(views.size());
 
   // r = A^T M (I - A x), the negative gradient at x = c0 (where the prior
-  // term is 0), and diag(A^T M A), the Jacobi preconditioner.
-  std::vector<float> r, diag;
+  // term is 0).
+  std::vector<float> r;
   for_views(
       [&](const FitView& view, ViewScratch* s) {
         Gather(view, layout, x, s);
@@ -253,29 +344,16 @@ absl::StatusOr<RefinementStats> RefineColours(const std::vector<ContextView>& vi
     return std::sqrt(sum / (3.0 * double(stats.pixels)));
   };
   stats.rmse_before = total_rmse();
-  for_views(
-      [&](const FitView& view, ViewScratch* s) {
-        const CompositingWeights& a = view.a;
-        for (size_t p = 0; p < view.fitted.size(); ++p) {
-          if (!view.fitted[p]) continue;
-          for (uint64_t k = a.pixel_begin[p]; k < a.pixel_begin[p] + a.pixel_count[p]; ++k) {
-            const float w = a.weights[k];
-            float* d = &s->local_out[per * size_t(a.local[k])];
-            for (int c = 0; c < 3; ++c) d[kk * c] += w * w;
-            if (kk == 3) {
-              const float wu = w * a.coords[2 * k], wv = w * a.coords[2 * k + 1];
-              for (int c = 0; c < 3; ++c) {
-                d[3 * c + 1] += wu * wu;
-                d[3 * c + 2] += wv * wv;
-              }
-            }
-          }
-        }
-      },
-      &diag);
+  // Each Gaussian's block of A^T M A and its data weight with nothing in
+  // front (AccumulateSums).
+  std::vector<float> sums;
+  for_views([&](const FitView& view,
+                ViewScratch* s) { AccumulateSums(view.a, view.fitted, s->local_out.data()); },
+            &sums, kSums);
   // The prior of each Gaussian is relative to its own data weight (plus a
   // floor for Gaussians no fitted pixel sees), so one prior_weight means the
-  // same for small pixel-aligned discs and large fused ones.
+  // same for small pixel-aligned discs and large fused ones; with
+  // prior_from_unoccluded, to UnoccludedPrior of it.
   // Hidden Gaussians (agreement channel 0: no context view observes them)
   // keep their colour: the little weight they get where the surface in front
   // is not quite opaque would only let them absorb its residuals.
@@ -286,21 +364,59 @@ absl::StatusOr<RefinementStats> RefineColours(const std::vector<ContextView>& vi
   auto hidden_gaussian = [&](size_t i) {
     return has_agreement && scene->features[i * stride + kAgreementChannel] <= 0.f;
   };
+  // The preconditioner: per Gaussian, the inverse of its block of
+  // A^T M A + Lambda (1x1 for flat colours; 3x3, colour and its two
+  // gradients, with gradients), the same for the three channels. The
+  // colour and its gradients of one disc share every pixel, so their block
+  // is far from diagonal, and by the diagonal alone the fit converged
+  // slowly (docs/QUALITY.md, "Colour fit: block preconditioner").
   std::vector<float> prior(per * n);
-  for (size_t j = 0; j < per * n; ++j) {
-    const size_t i = j / per;
+  std::vector<float> inverse((kk == 3 ? 6 : 1) * n);
+  for (size_t i = 0; i < n; ++i) {
+    const float* sum = &sums[kSums * i];
     const bool hidden = hidden_gaussian(i);
-    const bool gradient = (j % per) % kk != 0;
-    prior[j] = (hidden     ? kHiddenPrior
-                : gradient ? lambda_gradient
-                           : lambda) *
-               (diag[j] + kPriorFloor);
-    diag[j] += prior[j];
+    const float data =
+        hidden || !options.prior_from_unoccluded ? sum[0] : UnoccludedPrior(sum[0], sum[6]);
+    const float prior_colour = (hidden ? kHiddenPrior : lambda) * (data + kPriorFloor);
+    for (int c = 0; c < 3; ++c) prior[per * i + kk * c] = prior_colour;
+    if (kk == 1) {
+      inverse[i] = 1.f / (sum[0] + prior_colour);
+      continue;
+    }
+    const float gradient = hidden ? kHiddenPrior : lambda_gradient;
+    const float prior_u = gradient * (sum[1] + kPriorFloor);
+    const float prior_v = gradient * (sum[2] + kPriorFloor);
+    for (int c = 0; c < 3; ++c) {
+      prior[per * i + 3 * c + 1] = prior_u;
+      prior[per * i + 3 * c + 2] = prior_v;
+    }
+    InvertSymmetric3(sum[0] + prior_colour, sum[3], sum[4], sum[1] + prior_u, sum[5],
+                     sum[2] + prior_v, &inverse[6 * i]);
   }
+  std::vector<float>().swap(sums);
+  auto precondition = [&](const std::vector<float>& residual, std::vector<float>* out) {
+    DefaultThreadPool().ParallelFor(0, static_cast<int64_t>(n), 16384, [&](int64_t b, int64_t e) {
+      for (int64_t i = b; i < e; ++i) {
+        const float* r = &residual[per * i];
+        float* z = &(*out)[per * i];
+        if (kk == 1) {
+          for (int c = 0; c < 3; ++c) z[c] = inverse[i] * r[c];
+          continue;
+        }
+        const float* m = &inverse[6 * i];
+        for (int c = 0; c < 3; ++c) {
+          const float r0 = r[3 * c], r1 = r[3 * c + 1], r2 = r[3 * c + 2];
+          z[3 * c] = m[0] * r0 + m[1] * r1 + m[2] * r2;
+          z[3 * c + 1] = m[1] * r0 + m[3] * r1 + m[4] * r2;
+          z[3 * c + 2] = m[2] * r0 + m[4] * r1 + m[5] * r2;
+        }
+      }
+    });
+  };
 
   // Preconditioned conjugate gradients, the three channels side by side.
   std::vector<float> z(per * n), p(per * n), q;
-  for (size_t i = 0; i < per * n; ++i) z[i] = r[i] / diag[i];
+  precondition(r, &z);
   p = z;
   Channels rz = Dot(layout, r, z);
   for (int iteration = 0; iteration < options.iterations; ++iteration) {
@@ -308,13 +424,7 @@ absl::StatusOr<RefinementStats> RefineColours(const std::vector<ContextView>& vi
     for_views(
         [&](const FitView& view, ViewScratch* s) {
           Gather(view, layout, p, s);
-          const size_t num_pixels = view.fitted.size();
-          s->pixels.resize(3 * num_pixels);
-          Apply(view.a, s->local_in.data(), s->pixels.data());
-          for (size_t px = 0; px < num_pixels; ++px)
-            if (!view.fitted[px])
-              s->pixels[3 * px] = s->pixels[3 * px + 1] = s->pixels[3 * px + 2] = 0.f;
-          ApplyTransposed(view.a, s->pixels.data(), s->local_out.data());
+          AccumulateNormal(view.a, view.fitted, s->local_in.data(), s->local_out.data());
         },
         &q);
     for (size_t i = 0; i < per * n; ++i) q[i] += prior[i] * p[i];
@@ -326,9 +436,9 @@ absl::StatusOr<RefinementStats> RefineColours(const std::vector<ContextView>& vi
         const float a = step[j / kk];
         x[i + j] += a * p[i + j];
         r[i + j] -= a * q[i + j];
-        z[i + j] = r[i + j] / diag[i + j];
       }
     }
+    precondition(r, &z);
     const Channels rz_next = Dot(layout, r, z);
     float beta[3];
     for (int c = 0; c < 3; ++c) beta[c] = rz[c] > 0 ? static_cast<float>(rz_next[c] / rz[c]) : 0.f;

@@ -11,13 +11,19 @@
 //   min_c  sum_v sum_{p: alpha_vp >= min_alpha} |(A_v c)_p - I_vp|^2
 //          + sum_i lambda_i |c_i - c0_i|^2,
 // with c_0 the decoded (fused) colours and lambda_i = prior_weight x
-// (d_i + 0.001), d_i = sum_v,p M w_ip^2 being Gaussian i's own data weight
-// (the diagonal of A^T M A): the prior is relative, so one prior_weight
-// damps a pixel-sized disc and a large fused one alike, and keeps
-// Gaussians that the context views barely see at their fused colour. It is
+// (sqrt(d_i u_i) + 0.001), d_i = sum_v,p M w_ip^2 being Gaussian i's own
+// data weight (the diagonal of A^T M A) and u_i the same with nothing in
+// front of it (w_ip / T_ip, T the transmittance; prior_from_unoccluded):
+// the prior is relative, so one prior_weight damps a pixel-sized disc and
+// a large fused one alike, keeps Gaussians that the context views barely
+// see at their fused colour, and holds those they see only through others
+// (1 / T times harder) from taking colours out of range. It is
 // solved per channel by conjugate gradients on the normal equations
 // (A^T M A + Lambda) c = A^T M I + Lambda c_0, preconditioned by their
-// diagonal, starting from c_0; the result is clamped to
+// blocks per Gaussian (a colour and its two gradients share every pixel,
+// so with colour gradients a 3x3 block, not the diagonal), each iteration
+// one pass over every view's weights, starting from c_0; the result is
+// clamped to
 // [min_colour, max_colour]. Only CONTEXT images are used; geometry,
 // opacity, time and the other feature channels are not touched. Pixels the
 // render barely covers (alpha < min_alpha: holes, their rims) are left out,
@@ -39,8 +45,13 @@
 namespace pf {
 
 struct RefinementOptions {
-  int iterations = 12;         // Conjugate-gradient iterations; 0: no refinement.
+  int iterations = 16;         // Conjugate-gradient iterations; 0: no refinement.
   double prior_weight = 0.05;  // Pull towards the decoded colours, relative to the data.
+  // Take each colour's prior relative to sqrt(d_i u_i) instead of d_i, u_i
+  // being the data weight Gaussian i would have with nothing in front of it
+  // (alpha_ip = w_ip / T_ip in place of w_ip): one the views see only
+  // through others keeps closer to its decoded colour.
+  bool prior_from_unoccluded = true;
   double min_alpha = kCoveredAlpha;
   // Leave the colour of hidden Gaussians (feature kAgreementChannel 0, see
   // gaussian_decoder.h: behind the surface every context view sees) as
@@ -58,7 +69,7 @@ struct RefinementOptions {
   // one, pulled to 0 by gradient_prior_weight relative to their own data
   // weight, kept in [-max_gradient, max_gradient] per std-dev.
   bool colour_gradients = true;
-  double gradient_prior_weight = 0.25;
+  double gradient_prior_weight = 0.1;
   float max_gradient = 1.f;
   // Memory bound: the fit holds every view's weights at once, 8 bytes per
   // (pixel, Gaussian) pair, 16 with colour gradients (such a pair counts

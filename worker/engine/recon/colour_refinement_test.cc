@@ -79,41 +79,50 @@ TEST(ColourRefinement, HiddenGaussiansKeepTheirColour) {
 TEST(ColourRefinement, OnePixelTwoGaussiansMatchesTheClosedForm) {
   // A 1x1 view; two Gaussians on its centre ray, opacity 0.6 (front) and 0.5,
   // so the pixel is a . c with a = (0.6, 0.5 x 0.4). One equation, two
-  // unknowns, the prior sum_k l_k (c_k - c0_k)^2 with l_k = 0.05 (a_k^2 +
+  // unknowns, the prior sum_k l_k (c_k - c0_k)^2 with l_k = 0.05 (s_k +
   // 0.001): the minimiser is
   //   c = c0 + L^-1 a (I - a . c0) / (1 + a^T L^-1 a)
   // (the normal equations' single-row form), which CG reaches in 2 steps.
-  GaussianScene scene = EmptyScene();
-  AddGaussian(&scene, {0, 0, 2}, 0.001, 0.6, {0.2, 0.5, 0.9});
-  AddGaussian(&scene, {0, 0, 3}, 0.001, 0.5, {0.4, 0.5, 0.1});
-  const ContextView view = UniformView(1, 1, 1, 0.7f);
-  RefinementOptions options;
-  options.iterations = 2;
-  options.prior_weight = 0.05;
-  options.min_colour = -10;
-  options.max_colour = 10;
-  absl::StatusOr<RefinementStats> stats = RefineColours({view}, options, &scene);
-  ASSERT_TRUE(stats.ok()) << stats.status();
-  const double a0 = 0.6, a1 = 0.5 * 0.4;
-  const double l0 = 0.05 * (a0 * a0 + 0.001), l1 = 0.05 * (a1 * a1 + 0.001);
-  const double gain = a0 * a0 / l0 + a1 * a1 / l1;  // a^T L^-1 a.
-  const double c0[2][3] = {{0.2, 0.5, 0.9}, {0.4, 0.5, 0.1}};
-  for (int c = 0; c < 3; ++c) {
-    const double rendered = a0 * c0[0][c] + a1 * c0[1][c];
-    const double k = (0.7 - rendered) / (1 + gain);
-    EXPECT_NEAR(scene.features[c], c0[0][c] + a0 / l0 * k, 1e-4) << "channel " << c;
-    EXPECT_NEAR(scene.features[kReconChannels + c], c0[1][c] + a1 / l1 * k, 1e-4)
-        << "channel " << c;
+  // s_k is a_k^2 for the front Gaussian. For the back one it is a_1^2
+  // without prior_from_unoccluded and sqrt(a_1^2 x 0.5^2) with it, 0.5 being
+  // its alpha with nothing in front (a_1 / the transmittance 0.4): the view
+  // sees it only through the front one, and its prior is 2.5 times stronger.
+  for (const bool unoccluded : {true, false}) {
+    GaussianScene scene = EmptyScene();
+    AddGaussian(&scene, {0, 0, 2}, 0.001, 0.6, {0.2, 0.5, 0.9});
+    AddGaussian(&scene, {0, 0, 3}, 0.001, 0.5, {0.4, 0.5, 0.1});
+    const ContextView view = UniformView(1, 1, 1, 0.7f);
+    RefinementOptions options;
+    options.iterations = 2;
+    options.prior_weight = 0.05;
+    options.min_colour = -10;
+    options.max_colour = 10;
+    options.prior_from_unoccluded = unoccluded;
+    absl::StatusOr<RefinementStats> stats = RefineColours({view}, options, &scene);
+    ASSERT_TRUE(stats.ok()) << stats.status();
+    const double a0 = 0.6, a1 = 0.5 * 0.4;
+    const double s1 = unoccluded ? std::sqrt(a1 * a1 * 0.5 * 0.5) : a1 * a1;
+    const double l0 = 0.05 * (a0 * a0 + 0.001), l1 = 0.05 * (s1 + 0.001);
+    const double gain = a0 * a0 / l0 + a1 * a1 / l1;  // a^T L^-1 a.
+    const double c0[2][3] = {{0.2, 0.5, 0.9}, {0.4, 0.5, 0.1}};
+    for (int c = 0; c < 3; ++c) {
+      const double rendered = a0 * c0[0][c] + a1 * c0[1][c];
+      const double k = (0.7 - rendered) / (1 + gain);
+      EXPECT_NEAR(scene.features[c], c0[0][c] + a0 / l0 * k, 1e-4)
+          << "channel " << c << ", unoccluded " << unoccluded;
+      EXPECT_NEAR(scene.features[kReconChannels + c], c0[1][c] + a1 / l1 * k, 1e-4)
+          << "channel " << c << ", unoccluded " << unoccluded;
+    }
+    EXPECT_FLOAT_EQ(scene.features[6], 0.25f);
+    EXPECT_EQ(stats->pixels, 1);
+    EXPECT_EQ(stats->pairs, 2);
+    // Before: mean over channels of (0.7 - rendered)^2.
+    double before = 0;
+    for (int c = 0; c < 3; ++c) before += std::pow(0.7 - (a0 * c0[0][c] + a1 * c0[1][c]), 2) / 3;
+    EXPECT_NEAR(stats->rmse_before, std::sqrt(before), 1e-6);
+    // After: every channel's residual shrinks by 1 / (1 + a^T L^-1 a).
+    EXPECT_NEAR(stats->rmse_after, std::sqrt(before) / (1 + gain), 1e-5);
   }
-  EXPECT_FLOAT_EQ(scene.features[6], 0.25f);
-  EXPECT_EQ(stats->pixels, 1);
-  EXPECT_EQ(stats->pairs, 2);
-  // Before: mean over channels of (0.7 - rendered)^2.
-  double before = 0;
-  for (int c = 0; c < 3; ++c) before += std::pow(0.7 - (a0 * c0[0][c] + a1 * c0[1][c]), 2) / 3;
-  EXPECT_NEAR(stats->rmse_before, std::sqrt(before), 1e-6);
-  // After: every channel's residual shrinks by 1 / (1 + a^T L^-1 a).
-  EXPECT_NEAR(stats->rmse_after, std::sqrt(before) / (1 + gain), 1e-5);
 }
 
 TEST(ColourRefinement, PixelsUnderMinAlphaAreLeftOut) {
@@ -263,6 +272,46 @@ TEST(ColourRefinement, FitsColourGradientsAFlatFitCannot) {
   EXPECT_LT(with->rmse_after, 0.002);
   EXPECT_GT(without->rmse_after, 5 * with->rmse_after);
   EXPECT_FALSE(flat.has_colour_gradients());
+}
+
+TEST(ColourRefinement, ADiscWithAGradientIsFittedInOneIteration) {
+  // One disc with a colour ramp, cut by the image's left edge, so the
+  // pixels that see it are not centred on it: its colour and gradients are
+  // coupled (the off-diagonal terms of its 3x3 block of A^T A). The
+  // preconditioner is that block's inverse, so from grey and flat, the
+  // first conjugate-gradient step lands on the least-squares solution: the
+  // truth. A diagonal preconditioner would leave it well off after one
+  // step.
+  const int w = 24, h = 24;
+  const ContextView geometry = UniformView(w, h, 24, 0.f);
+  GaussianScene truth = EmptyScene();
+  truth.low_pass = 0.1f;
+  // 3 px from the left edge, 2 px above the centre row; std-dev 4 px.
+  AddGaussian(&truth, {(3 - w / 2.0) / 24 * 10, (10 - h / 2.0) / 24 * 10, 10}, 1.6, 0.9,
+              {0.3, 0.6, 0.45});
+  truth.log_scales[2] = std::log(0.01f);  // A flat disc facing the camera.
+  truth.colour_gradients = {0.2f, -0.1f, -0.15f, 0.1f, 0.05f, 0.2f};
+  const ContextView view = RenderedView(truth, geometry);
+  ASSERT_FALSE(view.rgb.pixels.empty());
+
+  GaussianScene fitted = truth;
+  fitted.colour_gradients.clear();
+  for (int c = 0; c < 3; ++c) fitted.features[c] = 0.5f;
+  RefinementOptions options;
+  options.iterations = 1;
+  options.prior_weight = 1e-6;
+  options.gradient_prior_weight = 1e-6;
+  options.min_alpha = 0;
+  options.min_weight = 0;
+  ASSERT_TRUE(RefineColours({view}, options, &fitted).ok());
+  ASSERT_TRUE(fitted.has_colour_gradients());
+  for (int c = 0; c < 3; ++c) {
+    EXPECT_NEAR(fitted.features[c], truth.features[c], 2e-3) << "channel " << c;
+    EXPECT_NEAR(fitted.colour_gradients[2 * c], truth.colour_gradients[2 * c], 2e-3)
+        << "channel " << c;
+    EXPECT_NEAR(fitted.colour_gradients[2 * c + 1], truth.colour_gradients[2 * c + 1], 2e-3)
+        << "channel " << c;
+  }
 }
 
 // A wall of grey discs 10 m away, one every 2 pixels of a w x h view with

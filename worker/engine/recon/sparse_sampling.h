@@ -90,7 +90,7 @@ struct SamplingOptions {
   // about a pixel onto the background behind it, where the image's edge is
   // one antialiased pixel. Against the sky the discs keep their size, or
   // the far layer would show through a roof line in the depth render. 1: off.
-  double edge_footprint_scale = 0.5;
+  double edge_footprint_scale = 0.35;
   // Hidden queries take one cell in behind_stride^2 (behind far-layer
   // backgrounds: in k^2, k the smallest multiple of behind_stride >=
   // far_stride), with footprints as much larger.

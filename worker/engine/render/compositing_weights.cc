@@ -237,70 +237,100 @@ absl::StatusOr<CompositingWeights> ComputeCompositingWeights(const GaussianScene
 
 namespace {
 
-// The two products, with the channel count fixed at compile time when it is
-// the common 3 (kChannels = 0: `channels` at run time).
+// The two products at one pixel p, with the channel count fixed at compile
+// time when it is the common 3 (kChannels = 0: `channels` at run time):
+// dst = (A c)_p, and out += (row p of A)^T r.
+template <int kChannels>
+inline void CompositePixel(const CompositingWeights& a, size_t p, const float* colours,
+                           int channels, float* dst) {
+  if constexpr (kChannels > 0) channels = kChannels;
+  for (int c = 0; c < channels; ++c) dst[c] = 0.f;
+  const uint64_t begin = a.pixel_begin[p], end = begin + a.pixel_count[p];
+  for (uint64_t e = begin; e < end; ++e) {
+    const float w = a.weights[e];
+    const float* src = colours + static_cast<size_t>(a.local[e]) * channels;
+    for (int c = 0; c < channels; ++c) dst[c] += w * src[c];
+  }
+}
+
+template <int kChannels>
+inline void AccumulatePixel(const CompositingWeights& a, size_t p, const float* r, int channels,
+                            float* out) {
+  if constexpr (kChannels > 0) channels = kChannels;
+  const uint64_t begin = a.pixel_begin[p], end = begin + a.pixel_count[p];
+  for (uint64_t e = begin; e < end; ++e) {
+    const float w = a.weights[e];
+    float* dst = out + static_cast<size_t>(a.local[e]) * channels;
+    for (int c = 0; c < channels; ++c) dst[c] += w * r[c];
+  }
+}
+
+// The same for colours with gradients: 9 parameters per Gaussian.
+inline void CompositePixelTextured(const CompositingWeights& a, size_t p, const float* params,
+                                   float* dst) {
+  dst[0] = dst[1] = dst[2] = 0.f;
+  const uint64_t begin = a.pixel_begin[p], end = begin + a.pixel_count[p];
+  for (uint64_t e = begin; e < end; ++e) {
+    const float w = a.weights[e], wu = w * a.coords[2 * e], wv = w * a.coords[2 * e + 1];
+    const float* src = params + static_cast<size_t>(a.local[e]) * 9;
+    for (int c = 0; c < 3; ++c)
+      dst[c] += w * src[3 * c] + wu * src[3 * c + 1] + wv * src[3 * c + 2];
+  }
+}
+
+inline void AccumulatePixelTextured(const CompositingWeights& a, size_t p, const float* r,
+                                    float* out) {
+  const uint64_t begin = a.pixel_begin[p], end = begin + a.pixel_count[p];
+  for (uint64_t e = begin; e < end; ++e) {
+    const float w = a.weights[e], wu = w * a.coords[2 * e], wv = w * a.coords[2 * e + 1];
+    float* dst = out + static_cast<size_t>(a.local[e]) * 9;
+    for (int c = 0; c < 3; ++c) {
+      dst[3 * c] += w * r[c];
+      dst[3 * c + 1] += wu * r[c];
+      dst[3 * c + 2] += wv * r[c];
+    }
+  }
+}
+
 template <int kChannels>
 void CompositeImpl(const CompositingWeights& a, const float* colours, int channels, float* image) {
   if constexpr (kChannels > 0) channels = kChannels;
-  const size_t pixels = a.pixel_begin.size();
-  for (size_t p = 0; p < pixels; ++p) {
-    float* dst = image + p * channels;
-    for (int c = 0; c < channels; ++c) dst[c] = 0.f;
-    const uint64_t begin = a.pixel_begin[p], end = begin + a.pixel_count[p];
-    for (uint64_t e = begin; e < end; ++e) {
-      const float w = a.weights[e];
-      const float* src = colours + static_cast<size_t>(a.local[e]) * channels;
-      for (int c = 0; c < channels; ++c) dst[c] += w * src[c];
-    }
-  }
+  for (size_t p = 0; p < a.pixel_begin.size(); ++p)
+    CompositePixel<kChannels>(a, p, colours, channels, image + p * channels);
 }
 
 template <int kChannels>
 void AccumulateTransposedImpl(const CompositingWeights& a, const float* residual, int channels,
                               float* out) {
   if constexpr (kChannels > 0) channels = kChannels;
-  const size_t pixels = a.pixel_begin.size();
-  for (size_t p = 0; p < pixels; ++p) {
-    const float* r = residual + p * channels;
-    const uint64_t begin = a.pixel_begin[p], end = begin + a.pixel_count[p];
-    for (uint64_t e = begin; e < end; ++e) {
-      const float w = a.weights[e];
-      float* dst = out + static_cast<size_t>(a.local[e]) * channels;
-      for (int c = 0; c < channels; ++c) dst[c] += w * r[c];
-    }
-  }
+  for (size_t p = 0; p < a.pixel_begin.size(); ++p)
+    AccumulatePixel<kChannels>(a, p, residual + p * channels, channels, out);
 }
 
 }  // namespace
 
 void CompositeTextured(const CompositingWeights& a, const float* params, float* image) {
-  const size_t pixels = a.pixel_begin.size();
-  for (size_t p = 0; p < pixels; ++p) {
-    float* dst = image + p * 3;
-    dst[0] = dst[1] = dst[2] = 0.f;
-    const uint64_t begin = a.pixel_begin[p], end = begin + a.pixel_count[p];
-    for (uint64_t e = begin; e < end; ++e) {
-      const float w = a.weights[e], wu = w * a.coords[2 * e], wv = w * a.coords[2 * e + 1];
-      const float* src = params + static_cast<size_t>(a.local[e]) * 9;
-      for (int c = 0; c < 3; ++c)
-        dst[c] += w * src[3 * c] + wu * src[3 * c + 1] + wv * src[3 * c + 2];
-    }
-  }
+  for (size_t p = 0; p < a.pixel_begin.size(); ++p)
+    CompositePixelTextured(a, p, params, image + p * 3);
 }
 
 void AccumulateTransposedTextured(const CompositingWeights& a, const float* residual, float* out) {
-  const size_t pixels = a.pixel_begin.size();
-  for (size_t p = 0; p < pixels; ++p) {
-    const float* r = residual + p * 3;
-    const uint64_t begin = a.pixel_begin[p], end = begin + a.pixel_count[p];
-    for (uint64_t e = begin; e < end; ++e) {
-      const float w = a.weights[e], wu = w * a.coords[2 * e], wv = w * a.coords[2 * e + 1];
-      float* dst = out + static_cast<size_t>(a.local[e]) * 9;
-      for (int c = 0; c < 3; ++c) {
-        dst[3 * c] += w * r[c];
-        dst[3 * c + 1] += wu * r[c];
-        dst[3 * c + 2] += wv * r[c];
-      }
+  for (size_t p = 0; p < a.pixel_begin.size(); ++p)
+    AccumulatePixelTextured(a, p, residual + p * 3, out);
+}
+
+void AccumulateNormal(const CompositingWeights& a, const std::vector<uint8_t>& mask, const float* x,
+                      float* out) {
+  const bool textured = !a.coords.empty();
+  for (size_t p = 0; p < a.pixel_begin.size(); ++p) {
+    if (!mask[p]) continue;
+    float v[3];
+    if (textured) {
+      CompositePixelTextured(a, p, x, v);
+      AccumulatePixelTextured(a, p, v, out);
+    } else {
+      CompositePixel<3>(a, p, x, 3, v);
+      AccumulatePixel<3>(a, p, v, 3, out);
     }
   }
 }

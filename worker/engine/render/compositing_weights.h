@@ -88,6 +88,15 @@ void AccumulateTransposed(const CompositingWeights& a, const float* residual, in
 void CompositeTextured(const CompositingWeights& a, const float* params, float* image);
 void AccumulateTransposedTextured(const CompositingWeights& a, const float* residual, float* out);
 
+// Adds A^T M A x to `out`, M the pixels where `mask` ([H * W]) is non-zero:
+// textured (`x`, `out` as CompositeTextured's params) when `a` has coords,
+// else flat RGB ([a.gaussians.size(), 3]). One pass: each pixel's entries
+// are read from memory once and, still in cache, again for the transposed
+// product, where Composite then AccumulateTransposed read them all twice
+// (the colour fit's iterations are mostly this).
+void AccumulateNormal(const CompositingWeights& a, const std::vector<uint8_t>& mask, const float* x,
+                      float* out);
+
 }  // namespace pf
 
 #endif  // POINTFORWARD_WORKER_ENGINE_RENDER_COMPOSITING_WEIGHTS_H_

@@ -260,6 +260,49 @@ TEST(CompositingWeights, TexturedTransposeIsTheAdjoint) {
       [&](const float* r, float* out) { AccumulateTransposedTextured(*a, r, out); });
 }
 
+TEST(CompositingWeights, AccumulateNormalIsTheTransposeOfTheMaskedComposite) {
+  // A^T M A x in one pass equals Composite, the pixels outside the mask
+  // zeroed, then AccumulateTransposed: flat RGB and with gradients.
+  const GaussianScene scene = RandomScene(6, 800);
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> u(-1.f, 1.f);
+  std::vector<uint8_t> mask(64 * 48);
+  for (size_t p = 0; p < mask.size(); ++p) mask[p] = (p * 7919 % 5) != 0;  // 4 in 5 pixels.
+  for (const bool textured : {false, true}) {
+    SCOPED_TRACE(textured);
+    WeightOptions options;
+    options.local_coords = textured;
+    absl::StatusOr<CompositingWeights> a =
+        ComputeCompositingWeights(scene, SimpleCamera(64, 48, 60), 0, options);
+    ASSERT_TRUE(a.ok()) << a.status();
+    const size_t per = textured ? 9 : 3;
+    std::vector<float> x(per * a->gaussians.size());
+    for (float& v : x) v = u(rng);
+    std::vector<float> image(3 * mask.size());
+    if (textured) {
+      CompositeTextured(*a, x.data(), image.data());
+    } else {
+      Composite(*a, x.data(), 3, image.data());
+    }
+    for (size_t p = 0; p < mask.size(); ++p)
+      if (!mask[p]) image[3 * p] = image[3 * p + 1] = image[3 * p + 2] = 0.f;
+    std::vector<float> expected(x.size(), 0.f), got(x.size(), 0.f);
+    if (textured) {
+      AccumulateTransposedTextured(*a, image.data(), expected.data());
+    } else {
+      AccumulateTransposed(*a, image.data(), 3, expected.data());
+    }
+    AccumulateNormal(*a, mask, x.data(), got.data());
+    double max_error = 0, max_value = 0;
+    for (size_t k = 0; k < x.size(); ++k) {
+      max_error = std::max(max_error, double(std::abs(got[k] - expected[k])));
+      max_value = std::max(max_value, double(std::abs(expected[k])));
+    }
+    EXPECT_GT(max_value, 0.1);
+    EXPECT_LT(max_error, 1e-5 * max_value);
+  }
+}
+
 TEST(CompositingWeights, RejectsEmptyCameraAndBadScenes) {
   GaussianScene scene = RandomScene(7, 10);
   EXPECT_EQ(ComputeCompositingWeights(scene, SimpleCamera(0, 10, 10), 0).status().code(),
