@@ -83,29 +83,6 @@ void ApplyTransposed(const CompositingWeights& a, const float* r, float* out) {
   }
 }
 
-// Renumbers the local indices of `a` in the order its entries first use
-// them (tile by tile, as they are stored), `gaussians` with them (no
-// longer ascending): the Gaussians of neighbouring pixels then sit side by
-// side in the per-view arrays each iteration gathers from and adds into,
-// instead of scattered over them in scene order.
-void NumberByFirstUse(CompositingWeights* a) {
-  constexpr uint32_t kUnused = ~uint32_t{0};
-  std::vector<uint32_t> renumbered(a->gaussians.size(), kUnused);
-  std::vector<uint32_t> gaussians;
-  gaussians.reserve(a->gaussians.size());
-  for (uint32_t& local : a->local) {
-    if (renumbered[local] == kUnused) {
-      renumbered[local] = static_cast<uint32_t>(gaussians.size());
-      gaussians.push_back(a->gaussians[local]);
-    }
-    local = renumbered[local];
-  }
-  // Gaussians listed without an entry (none are) keep a place at the end.
-  for (size_t k = 0; k < renumbered.size(); ++k)
-    if (renumbered[k] == kUnused) gaussians.push_back(a->gaussians[k]);
-  a->gaussians = std::move(gaussians);
-}
-
 // Writes the inverse of the symmetric matrix [[a, b, c], [b, d, e], [c, e,
 // f]] to `out` as (00, 01, 02, 11, 12, 22); the inverse of its diagonal
 // where it is near singular.
@@ -276,7 +253,6 @@ absl::StatusOr<RefinementStats> RefineColours(const std::vector<ContextView>& vi
       fit[v].fitted.resize(fit[v].a.alpha.size());
       for (size_t p = 0; p < fit[v].fitted.size(); ++p)
         fit[v].fitted[p] = fit[v].a.alpha[p] >= options.min_alpha && !view.is_ego(p);
-      NumberByFirstUse(&fit[v].a);
     }
   });
   for (const absl::Status& error : errors) RETURN_IF_ERROR(error);
