@@ -1,6 +1,8 @@
 // CommandLine implementation.
 #include "common/command_line.h"
 
+#include <cstdio>
+
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_split.h"
@@ -101,6 +103,12 @@ absl::StatusOr<double> CommandLine::GetDouble(const std::string& name, double fa
 std::vector<std::string> CommandLine::GetList(const std::string& name) const {
   if (values_.find(name) == values_.end()) return {};
   return absl::StrSplit(Get(name), ',');
+}
+
+int ExitStatusFor(const char* program, const absl::Status& status) {
+  if (status.ok()) return 0;
+  std::fprintf(stderr, "%s: %s\n", program, std::string(status.message()).c_str());
+  return status.code() == absl::StatusCode::kInvalidArgument ? 2 : 1;
 }
 
 }  // namespace pf

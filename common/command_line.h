@@ -52,6 +52,12 @@ class CommandLine {
   std::map<std::string, std::string> values_;
 };
 
+// Returns main()'s exit status for a program that ended with `status`: 0
+// when it is OK; else prints "PROGRAM: message" to stderr and returns 2 for
+// INVALID_ARGUMENT (a bad flag), 1 for any other error. The benchmark and
+// check programs (pf_fusion_bench, pf_store_bench, ...) end with it.
+int ExitStatusFor(const char* program, const absl::Status& status);
+
 }  // namespace pf
 
 #endif  // POINTFORWARD_COMMON_COMMAND_LINE_H_

@@ -70,5 +70,12 @@ TEST(CommandLine, GetListKeepsEmptyItems) {
   EXPECT_TRUE(cl->GetList("d").empty());
 }
 
+TEST(ExitStatusFor, BadFlagsAreTwoOtherErrorsOne) {
+  EXPECT_EQ(ExitStatusFor("prog", absl::OkStatus()), 0);
+  EXPECT_EQ(ExitStatusFor("prog", absl::InvalidArgumentError("--runs: 1 to 100, got 0")), 2);
+  EXPECT_EQ(ExitStatusFor("prog", absl::NotFoundError("clip.json: no such file")), 1);
+  EXPECT_EQ(ExitStatusFor("prog", absl::InternalError("broken")), 1);
+}
+
 }  // namespace
 }  // namespace pf

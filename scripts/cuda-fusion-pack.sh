@@ -1,27 +1,29 @@
 #!/usr/bin/env bash
 # Packs what a machine with a CUDA LibTorch (for instance PyTorch's Python
 # wheel) but none of our other dependencies needs to run the tensor-fusion
-# tests and pf_fusion_bench on its GPU, with scripts/cuda-fusion-run.sh:
-# our static libraries without the two files that include LibTorch
-# (tensor_fusion.cc and compute_device.cc, which the run script compiles
-# there), the test and benchmark objects, the headers those two files need
-# beyond LibTorch's (absl, protobuf, spdlog, fmt, our generated protos), and
+# tests, pf_fusion_bench and pf_recon_device_check (the whole reconstruction)
+# on its GPU, with scripts/cuda-fusion-run.sh: our static libraries without
+# the two files that include LibTorch (tensor_fusion.cc and
+# compute_device.cc, which the run script compiles there), the test,
+# benchmark and check objects, the headers those two files need beyond
+# LibTorch's (absl, protobuf, spdlog, fmt, our generated protos), and
 # Debian's absl, spdlog, fmt and protobuf shared libraries by soname with
-# what they need in turn. About 19 MB.
+# what they need in turn. About 20 MB.
 #
 #   scripts/cuda-fusion-pack.sh [BUILD_DIR] [PACK_DIR]   (defaults: build .cuda-pack)
 #
-# BUILD_DIR must hold a build with LibTorch (tests/recon_test and
-# bin/pf_fusion_bench built). PACK_DIR is git-ignored; copy it, with the
-# source tree, to the GPU machine.
+# BUILD_DIR must hold a build with LibTorch (tests/recon_test,
+# bin/pf_fusion_bench and bin/pf_recon_device_check built). PACK_DIR is
+# git-ignored; copy it, with the source tree, to the GPU machine.
 set -euo pipefail
 BUILD=${1:-build}
 PACK=${2:-.cuda-pack}
 rm -rf "$PACK"
 mkdir -p "$PACK"/lib "$PACK"/obj "$PACK"/so "$PACK"/include
-for a in worker/engine/recon/libpf_recon.a worker/engine/render/libpf_render.a \
-         worker/engine/clip/libpf_clip.a worker/engine/image/libpf_image.a \
-         worker/engine/camera/libpf_camera.a proto/libpf_proto.a common/libpf_common.a; do
+for a in worker/engine/recon/libpf_recon.a worker/engine/synth/libpf_synth.a \
+         worker/engine/render/libpf_render.a worker/engine/clip/libpf_clip.a \
+         worker/engine/image/libpf_image.a worker/engine/camera/libpf_camera.a \
+         proto/libpf_proto.a common/libpf_common.a; do
   cp "$BUILD/$a" "$PACK/lib/"
 done
 ar d "$PACK/lib/libpf_recon.a" tensor_fusion.cc.o compute_device.cc.o
@@ -29,7 +31,8 @@ cp /usr/lib/x86_64-linux-gnu/libgtest.a /usr/lib/x86_64-linux-gnu/libgtest_main.
 strip --strip-debug "$PACK"/lib/*.a
 objects="$BUILD/worker/engine/recon/CMakeFiles"
 cp "$objects/recon_test.dir/tensor_fusion_test.cc.o" "$objects/recon_test.dir/compute_device_test.cc.o" \
-   "$objects/pf_fusion_bench.dir/fusion_bench.cc.o" "$PACK/obj/"
+   "$objects/pf_fusion_bench.dir/fusion_bench.cc.o" \
+   "$objects/pf_recon_device_check.dir/recon_device_check.cc.o" "$PACK/obj/"
 strip --strip-debug "$PACK"/obj/*.o
 cp -r /usr/include/absl /usr/include/google /usr/include/spdlog /usr/include/fmt "$PACK/include/"
 cp -r "$BUILD/proto_gen/pointforward" "$PACK/include/"

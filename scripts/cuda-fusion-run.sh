@@ -1,19 +1,22 @@
 #!/usr/bin/env bash
 # On a GPU machine with a CUDA LibTorch: compiles tensor_fusion.cc and
 # compute_device.cc against it, links the tensor-fusion tests
-# (tensor_fusion_test.cc, compute_device_test.cc) and pf_fusion_bench with
-# what scripts/cuda-fusion-pack.sh packed, runs the tests (CudaMatchesTheCpu
-# included) and the benchmark at three sizes, and writes the log, the tests'
-# XML and the benchmark's JSON to OUT_DIR. Needs g++ and, unless the two
-# variables below are set, python3 with torch.
+# (tensor_fusion_test.cc, compute_device_test.cc), pf_fusion_bench and
+# pf_recon_device_check with what scripts/cuda-fusion-pack.sh packed, runs
+# the tests (CudaMatchesTheCpu included), the benchmark at three sizes and
+# the whole reconstruction of the default synth clip on each device, and
+# writes the log, the tests' XML and the JSON of the benchmark and the check
+# to OUT_DIR. Needs g++ and, unless the three variables below are set,
+# python3 with torch.
 #
 #   scripts/cuda-fusion-run.sh [PACK_DIR] [OUT_DIR]   (defaults: .cuda-pack /tmp/cuda-fusion)
 #   TORCH_INCLUDES="DIR..." TORCH_LIBDIR=DIR TORCH_LIBS="-l..."   another LibTorch
-#   RUNS=N DEVICES=cpu,cuda:0                                      the benchmark's flags
+#   RUN="tests bench recon"                                        what runs (default all)
+#   RUNS=N DEVICES=cpu,cuda:0                    the flags of the benchmark and of the check
 #
 # OpenImageIO is not needed there: no image file is read or written, and the
 # functions of it that our libraries call get stubs that abort, found by a
-# first link.
+# first link of each program.
 set -uo pipefail
 PACK=$(realpath "${1:-.cuda-pack}")
 OUT_DIR=${2:-/tmp/cuda-fusion}
@@ -41,14 +44,20 @@ g++ $flags -c worker/engine/recon/compute_device.cc -o "$WORK/compute_device.o" 
 wait $compile1 && wait $compile2 || { echo "compiling failed"; exit 1; }
 echo "compiled in $(($(date +%s) - start)) s"
 libs="$WORK/tensor_fusion.o $WORK/compute_device.o"
-for lib in recon render clip image camera proto common; do libs="$libs $PACK/lib/libpf_$lib.a"; done
+for lib in recon synth render clip image camera proto common; do libs="$libs $PACK/lib/libpf_$lib.a"; done
 link="-L$TORCH_LIBDIR -Wl,--no-as-needed $TORCH_LIBS -Wl,--as-needed $(ls "$PACK"/so/libabsl_*)
       $PACK/so/libspdlog.so.1.10 $PACK/so/libfmt.so.9 $PACK/so/libprotobuf.so.32 -pthread
       -Wl,-rpath,$TORCH_LIBDIR:$PACK/so"
-tests="$PACK/obj/tensor_fusion_test.cc.o $PACK/obj/compute_device_test.cc.o"
 gtest="$PACK/lib/libgtest_main.a $PACK/lib/libgtest.a"
-g++ -o "$WORK/probe" $tests $libs $gtest $link -Wl,--no-demangle 2>&1 |
-  grep -o "undefined reference to \`[A-Za-z0-9_]*'" | sed "s/.*\`//; s/'//" | sort -u >"$WORK/missing.txt"
+# Each program's own objects and libraries, before $libs.
+declare -A programs=(
+  [recon_cuda_test]="$PACK/obj/tensor_fusion_test.cc.o $PACK/obj/compute_device_test.cc.o $gtest"
+  [pf_fusion_bench]="$PACK/obj/fusion_bench.cc.o"
+  [pf_recon_device_check]="$PACK/obj/recon_device_check.cc.o")
+for program in "${!programs[@]}"; do
+  g++ -o "$WORK/probe" ${programs[$program]} $libs $link -Wl,--no-demangle 2>&1 |
+    grep -o "undefined reference to \`[A-Za-z0-9_]*'" | sed "s/.*\`//; s/'//"
+done | sort -u >"$WORK/missing.txt"
 echo "stubbed $(wc -l <"$WORK/missing.txt") functions:"
 c++filt <"$WORK/missing.txt" | sed 's/^/  /'
 {
@@ -59,16 +68,29 @@ c++filt <"$WORK/missing.txt" | sed 's/^/  /'
   done <"$WORK/missing.txt"
 } >"$WORK/stubs.c"
 gcc -c -fPIC "$WORK/stubs.c" -o "$WORK/stubs.o"
-g++ -o "$WORK/recon_cuda_test" $tests $libs "$WORK/stubs.o" $gtest $link || { echo "linking the tests failed"; exit 1; }
-g++ -o "$WORK/pf_fusion_bench" "$PACK/obj/fusion_bench.cc.o" $libs "$WORK/stubs.o" $link ||
-  { echo "linking the benchmark failed"; exit 1; }
+for program in "${!programs[@]}"; do
+  g++ -o "$WORK/$program" ${programs[$program]} $libs "$WORK/stubs.o" $link ||
+    { echo "linking $program failed"; exit 1; }
+done
 echo "linked in $(($(date +%s) - start)) s"
-"$WORK/recon_cuda_test" --gtest_output="xml:$OUT_DIR/recon_cuda_test.xml"
-tests_rc=$?
-echo "tests: exit status $tests_rc"
-bench() { "$WORK/pf_fusion_bench" --runs "${RUNS:-3}" --devices "${DEVICES:-cpu,cuda:0}" "$@"; }
-bench | tee "$OUT_DIR/bench_default.json"
-bench --queries_per_view 400000 | tee "$OUT_DIR/bench_4x.json"
-bench --views 24 --width 1936 --height 1216 --queries_per_view 200000 | tee "$OUT_DIR/bench_dgp_size.json"
+wants() { [[ " ${RUN:-tests bench recon} " == *" $1 "* ]]; }
+rc=0
+if wants tests; then
+  "$WORK/recon_cuda_test" --gtest_output="xml:$OUT_DIR/recon_cuda_test.xml" || rc=1
+  echo "tests: exit status $rc"
+fi
+if wants bench; then
+  bench() { "$WORK/pf_fusion_bench" --runs "${RUNS:-3}" --devices "${DEVICES:-cpu,cuda:0}" "$@"; }
+  bench | tee "$OUT_DIR/bench_default.json"
+  bench --queries_per_view 400000 | tee "$OUT_DIR/bench_4x.json"
+  bench --views 24 --width 1936 --height 1216 --queries_per_view 200000 | tee "$OUT_DIR/bench_dgp_size.json"
+fi
+if wants recon; then
+  "$WORK/pf_recon_device_check" --runs "${RUNS:-3}" --devices "${DEVICES:-cpu,cuda:0}" |
+    tee "$OUT_DIR/recon_check.json"
+  check_rc=${PIPESTATUS[0]}
+  echo "recon check: exit status $check_rc"
+  [ "$check_rc" = 0 ] || rc=1
+fi
 echo "done in $(($(date +%s) - start)) s"
-exit $tests_rc
+exit $rc

@@ -37,7 +37,7 @@ TEST(NormalizeOptions, FillsDefaultsAndRefusesTuningOutOfRangeNamingTheField) {
   };
   const Bad bad[] = {
       {[](v1::ReconstructionOptions* o) { o->set_refine(-1); },
-       "options.refine: must be in [0, 20] iterations, got -1"},
+       "options.refine: must be in [0, 64] iterations, got -1"},
       {[](v1::ReconstructionOptions* o) { o->set_splat_sigma(0.01); },
        "options.splat_sigma: must be in (0.05, 4], got 0.01"},
       {[](v1::ReconstructionOptions* o) { o->set_low_pass(4.5); },

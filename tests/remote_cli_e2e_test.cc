@@ -418,9 +418,9 @@ TEST_F(RemoteCliE2e, TuningFlagsReachTheWorkerAndMakeAnotherScene) {
 
   StartServer();
   StartWorker("w1");
-  const CommandResult bad = Remote({"scene", "create", Clip(), "--refine", "25"});
+  const CommandResult bad = Remote({"scene", "create", Clip(), "--refine", "65"});
   EXPECT_EQ(bad.exit_code, 2);
-  EXPECT_NE(bad.err.find("--refine: must be in [0, 20] iterations, got 25"), std::string::npos)
+  EXPECT_NE(bad.err.find("--refine: must be in [0, 64] iterations, got 65"), std::string::npos)
       << bad.err;
   const CommandResult bad_colour = Remote({"scene", "create", Clip(), "--colour", "sh"});
   EXPECT_EQ(bad_colour.exit_code, 2);

@@ -331,9 +331,9 @@ TEST(ReconOptionsFromProto, TuningFieldsMapOntoTheOptions) {
   EXPECT_FALSE(options->completion.ground_fill);
   EXPECT_FALSE(options->completion.facades);
 
-  proto.set_refine(25);
+  proto.set_refine(65);
   EXPECT_EQ(ReconOptionsFromProto(proto).status().message(),
-            "options.refine: must be in [0, 20] iterations, got 25");
+            "options.refine: must be in [0, 64] iterations, got 65");
   proto.set_refine(4);
   proto.set_splat_sigma(0.05);
   EXPECT_EQ(ReconOptionsFromProto(proto).status().message(),

@@ -148,10 +148,6 @@ absl::Status Run(const std::vector<std::string>& args) {
 }  // namespace pf
 
 int main(int argc, char** argv) {
-  const absl::Status status = pf::Run(std::vector<std::string>(argv + 1, argv + argc));
-  if (!status.ok()) {
-    std::fprintf(stderr, "pf_store_bench: %s\n", std::string(status.message()).c_str());
-    return status.code() == absl::StatusCode::kInvalidArgument ? 2 : 1;
-  }
-  return 0;
+  return pf::ExitStatusFor("pf_store_bench",
+                           pf::Run(std::vector<std::string>(argv + 1, argv + argc)));
 }

@@ -180,15 +180,6 @@ void Scatter(const std::vector<FitView>& views, int per, const std::vector<ViewS
   }
 }
 
-// Per-channel dot product of two [N, 3, K] arrays.
-Channels Dot(const Layout& layout, const std::vector<float>& x, const std::vector<float>& y) {
-  Channels sum{0, 0, 0};
-  const int per = layout.per_gaussian();
-  for (size_t i = 0; i < x.size(); i += per)
-    for (int j = 0; j < per; ++j) sum[j / layout.k] += double(x[i + j]) * y[i + j];
-  return sum;
-}
-
 }  // namespace
 
 absl::StatusOr<RefinementStats> RefineColours(const std::vector<ContextView>& views,
@@ -370,31 +361,52 @@ absl::StatusOr<RefinementStats> RefineColours(const std::vector<ContextView>& vi
                      sum[2] + prior_v, &inverse[6 * i]);
   }
   std::vector<float>().swap(sums);
-  auto precondition = [&](const std::vector<float>& residual, std::vector<float>* out) {
-    DefaultThreadPool().ParallelFor(0, static_cast<int64_t>(n), 16384, [&](int64_t b, int64_t e) {
-      for (int64_t i = b; i < e; ++i) {
-        const float* r = &residual[per * i];
-        float* z = &(*out)[per * i];
-        if (kk == 1) {
-          for (int c = 0; c < 3; ++c) z[c] = inverse[i] * r[c];
-          continue;
-        }
-        const float* m = &inverse[6 * i];
-        for (int c = 0; c < 3; ++c) {
-          const float r0 = r[3 * c], r1 = r[3 * c + 1], r2 = r[3 * c + 2];
-          z[3 * c] = m[0] * r0 + m[1] * r1 + m[2] * r2;
-          z[3 * c + 1] = m[1] * r0 + m[3] * r1 + m[4] * r2;
-          z[3 * c + 2] = m[2] * r0 + m[4] * r1 + m[5] * r2;
-        }
+  // z_i = (block i)^-1 r_i for Gaussian i.
+  auto precondition = [&](size_t i, const float* r, float* z) {
+    if (kk == 1) {
+      for (int c = 0; c < 3; ++c) z[c] = inverse[i] * r[c];
+      return;
+    }
+    const float* m = &inverse[6 * i];
+    for (int c = 0; c < 3; ++c) {
+      const float r0 = r[3 * c], r1 = r[3 * c + 1], r2 = r[3 * c + 2];
+      z[3 * c] = m[0] * r0 + m[1] * r1 + m[2] * r2;
+      z[3 * c + 1] = m[1] * r0 + m[3] * r1 + m[4] * r2;
+      z[3 * c + 2] = m[2] * r0 + m[4] * r1 + m[5] * r2;
+    }
+  };
+  // Runs body(i, &sum) for every Gaussian i on the pool, in blocks of a
+  // fixed size, and returns the per-channel sums it adds up: the blocks'
+  // sums are added in block order, so they do not depend on the thread
+  // count. The vector updates of an iteration are three such passes.
+  constexpr int64_t kBlock = 16384;
+  const int64_t num_blocks = (static_cast<int64_t>(n) + kBlock - 1) / kBlock;
+  std::vector<Channels> block_sums(num_blocks);
+  auto for_gaussians = [&](const auto& body) {
+    DefaultThreadPool().ParallelFor(0, num_blocks, 1, [&](int64_t b, int64_t e) {
+      for (int64_t block = b; block < e; ++block) {
+        Channels sum{0, 0, 0};
+        const size_t end = std::min(n, static_cast<size_t>(block + 1) * kBlock);
+        for (size_t i = static_cast<size_t>(block) * kBlock; i < end; ++i) body(i, &sum);
+        block_sums[block] = sum;
       }
     });
+    Channels total{0, 0, 0};
+    for (const Channels& sum : block_sums)
+      for (int c = 0; c < 3; ++c) total[c] += sum[c];
+    return total;
   };
 
   // Preconditioned conjugate gradients, the three channels side by side.
   std::vector<float> z(per * n), p(per * n), q;
-  precondition(r, &z);
-  p = z;
-  Channels rz = Dot(layout, r, z);
+  Channels rz = for_gaussians([&](size_t i, Channels* sum) {
+    const size_t k = per * i;
+    precondition(i, &r[k], &z[k]);
+    for (int j = 0; j < per; ++j) {
+      p[k + j] = z[k + j];
+      (*sum)[j / kk] += double(r[k + j]) * z[k + j];
+    }
+  });
   for (int iteration = 0; iteration < options.iterations; ++iteration) {
     // q = (A^T M A + Lambda) p.
     for_views(
@@ -403,23 +415,29 @@ absl::StatusOr<RefinementStats> RefineColours(const std::vector<ContextView>& vi
           AccumulateNormal(view.a, view.fitted, s->local_in.data(), s->local_out.data());
         },
         &q);
-    for (size_t i = 0; i < per * n; ++i) q[i] += prior[i] * p[i];
-    const Channels pq = Dot(layout, p, q);
+    const Channels pq = for_gaussians([&](size_t i, Channels* sum) {
+      for (size_t k = per * i, j = 0; j < size_t(per); ++j, ++k) {
+        q[k] += prior[k] * p[k];
+        (*sum)[j / kk] += double(p[k]) * q[k];
+      }
+    });
     float step[3];
     for (int c = 0; c < 3; ++c) step[c] = pq[c] > 0 ? static_cast<float>(rz[c] / pq[c]) : 0.f;
-    for (size_t i = 0; i < per * n; i += per) {
+    // x += step p, r -= step q, z = M^-1 r.
+    const Channels rz_next = for_gaussians([&](size_t i, Channels* sum) {
+      const size_t k = per * i;
       for (int j = 0; j < per; ++j) {
-        const float a = step[j / kk];
-        x[i + j] += a * p[i + j];
-        r[i + j] -= a * q[i + j];
+        x[k + j] += step[j / kk] * p[k + j];
+        r[k + j] -= step[j / kk] * q[k + j];
       }
-    }
-    precondition(r, &z);
-    const Channels rz_next = Dot(layout, r, z);
+      precondition(i, &r[k], &z[k]);
+      for (int j = 0; j < per; ++j) (*sum)[j / kk] += double(r[k + j]) * z[k + j];
+    });
     float beta[3];
     for (int c = 0; c < 3; ++c) beta[c] = rz[c] > 0 ? static_cast<float>(rz_next[c] / rz[c]) : 0.f;
-    for (size_t i = 0; i < per * n; i += per)
-      for (int j = 0; j < per; ++j) p[i + j] = z[i + j] + beta[j / kk] * p[i + j];
+    for_gaussians([&](size_t i, Channels*) {
+      for (size_t k = per * i, j = 0; j < size_t(per); ++j, ++k) p[k] = z[k] + beta[j / kk] * p[k];
+    });
     rz = rz_next;
   }
 

@@ -28,12 +28,12 @@ struct TuningLimit {
 inline constexpr TuningLimit kSplatSigmaLimit{"--splat-sigma", "splat_sigma", 0.05, true, 4, ""};
 inline constexpr TuningLimit kLowPassLimit{"--low-pass", "low_pass",  0,
                                            false,        kMaxLowPass, " pixels^2"};
-inline constexpr TuningLimit kRefineLimit{"--refine", "refine", 0, false, 20, " iterations"};
+inline constexpr TuningLimit kRefineLimit{"--refine", "refine", 0, false, 64, " iterations"};
 inline constexpr TuningLimit kHiddenBandLimit{"--hidden-band", "hidden_band", 0,
                                               false,           256,           " pixels"};
 
 // Returns "" when `value` is within `limit`, else what is wrong with it
-// ("must be in [0, 20] iterations, got 25"). NaN is never within.
+// ("must be in [0, 64] iterations, got 65"). NaN is never within.
 inline std::string TuningProblem(const TuningLimit& limit, double value) {
   const bool above_lo = limit.lo_open ? value > limit.lo : value >= limit.lo;
   if (above_lo && value <= limit.hi) return "";
@@ -63,7 +63,7 @@ inline absl::StatusOr<bool> ParseColourModel(const std::string& value, const std
 
 // Checks the tuning fields that are set in a ReconstructionOptions message
 // (a template so that this header needs no generated code), naming the
-// field: "options.refine: must be in [0, 20] iterations, got 25"; the colour
+// field: "options.refine: must be in [0, 64] iterations, got 65"; the colour
 // model must be empty, "gradients" or "flat".
 template <typename ReconstructionOptions>
 absl::Status CheckTuningFields(const ReconstructionOptions& options) {

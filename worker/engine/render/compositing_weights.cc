@@ -70,6 +70,9 @@ absl::StatusOr<CompositingWeights> ComputeCompositingWeights(const GaussianScene
   std::vector<Splat> visible;
   std::vector<uint32_t> visible_index;
   std::vector<uint64_t> keys;
+  visible.reserve(n);
+  visible_index.reserve(n);
+  keys.reserve(n);
   for (size_t i = 0; i < n; ++i) {
     Splat splat;
     if (!ProjectSplat(scene, frame, i, &splat)) continue;

@@ -13,7 +13,6 @@
 #include "worker/engine/image/image_io.h"
 #include "worker/engine/synth/synth_lidar.h"
 #include "worker/engine/synth/synth_params.h"
-#include "worker/engine/synth/synth_ray_caster.h"
 
 namespace pf {
 namespace {
@@ -97,6 +96,12 @@ std::string EncodeLidarPoints(const std::vector<float>& points) {
   return bytes;
 }
 
+RenderedView RenderSynthFrame(const SceneSnapshot& snapshot, int camera) {
+  const SynthScene& scene = *snapshot.scene;
+  return RenderView(snapshot, scene.cameras[camera].model,
+                    scene.WorldFromCamera(camera, snapshot.time_s), scene.options.antialias);
+}
+
 absl::StatusOr<SynthClipSummary> WriteSynthClip(const SynthOptions& options,
                                                 const std::string& out_dir) {
   const auto start = std::chrono::steady_clock::now();
@@ -116,9 +121,7 @@ absl::StatusOr<SynthClipSummary> WriteSynthClip(const SynthOptions& options,
     const SceneSnapshot snapshot = SnapshotAt(scene, Seconds(t));
     for (size_t c = 0; c < scene.cameras.size(); ++c) {
       const RigCamera& camera = scene.cameras[c];
-      const RenderedView view =
-          RenderView(snapshot, camera.model, scene.WorldFromCamera(static_cast<int>(c), Seconds(t)),
-                     options.antialias);
+      const RenderedView view = RenderSynthFrame(snapshot, static_cast<int>(c));
       RETURN_IF_ERROR(WritePng(absl::StrCat(out_dir, "/", ImagePath(camera.id, t)), view.rgb));
       RETURN_IF_ERROR(
           WriteDepthExr(absl::StrCat(out_dir, "/", DepthPath(camera.id, t)), view.depth));

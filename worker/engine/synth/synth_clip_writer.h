@@ -17,6 +17,7 @@
 
 #include "absl/status/statusor.h"
 #include "pointforward/v1/clip.pb.h"
+#include "worker/engine/synth/synth_ray_caster.h"
 #include "worker/engine/synth/synth_scene.h"
 
 namespace pf {
@@ -38,6 +39,11 @@ pointforward::v1::Clip BuildSynthClip(const SynthScene& scene);
 
 // Returns the camera of the manifest for rig camera `camera`.
 pointforward::v1::Camera SynthCameraProto(const RigCamera& camera);
+
+// Renders what WriteSynthClip writes for rig camera `camera` at the time of
+// `snapshot` (SnapshotAt(scene, timestamp_us * 1e-6)): its colour before the
+// PNG's 8-bit quantisation, and its depth map. For clips kept in memory.
+RenderedView RenderSynthFrame(const SceneSnapshot& snapshot, int camera);
 
 // Generates the scene of `options` and writes its clip under `out_dir`
 // (created if missing; existing files of the same names are replaced).
