@@ -96,8 +96,9 @@ absl::Status Run(const std::vector<std::string>& args) {
                            {"iterations", iterations},
                            {"runs", runs},
                            {"poolWorkers", DefaultThreadPool().num_threads()}};
-  std::vector<CompositingWeights> weights(inputs.views.size());
   if (wants("weights") || wants("normal")) {
+    // Freed at the end of the block: the fit records its own.
+    std::vector<CompositingWeights> weights(inputs.views.size());
     int64_t entries = 0;
     ASSIGN_OR_RETURN(nlohmann::json weights_seconds,
                      TimeRuns(wants("weights") ? static_cast<int>(runs) : 0, [&]() {
@@ -115,19 +116,19 @@ absl::Status Run(const std::vector<std::string>& args) {
 
     report["entries"] = entries;
     if (wants("weights")) report["weightsSeconds"] = weights_seconds;
-    const int per = options.colour_gradients ? 9 : 3;
-    std::mt19937 random(3);
-    std::uniform_real_distribution<float> unit(0.f, 1.f);
-    std::vector<std::vector<float>> x(weights.size()), out(weights.size());
-    std::vector<std::vector<uint8_t>> masks(weights.size());
-    for (size_t v = 0; v < weights.size(); ++v) {
-      x[v].resize(per * weights[v].gaussians.size());
-      for (float& value : x[v]) value = unit(random);
-      masks[v].resize(weights[v].alpha.size());
-      for (size_t p = 0; p < masks[v].size(); ++p)
-        masks[v][p] = weights[v].alpha[p] >= options.min_alpha;
-    }
     if (wants("normal")) {
+      const int per = options.colour_gradients ? 9 : 3;
+      std::mt19937 random(3);
+      std::uniform_real_distribution<float> unit(0.f, 1.f);
+      std::vector<std::vector<float>> x(weights.size()), out(weights.size());
+      std::vector<std::vector<uint8_t>> masks(weights.size());
+      for (size_t v = 0; v < weights.size(); ++v) {
+        x[v].resize(per * weights[v].gaussians.size());
+        for (float& value : x[v]) value = unit(random);
+        masks[v].resize(weights[v].alpha.size());
+        for (size_t p = 0; p < masks[v].size(); ++p)
+          masks[v][p] = weights[v].alpha[p] >= options.min_alpha;
+      }
       ASSIGN_OR_RETURN(report["normalSeconds"], TimeRuns(static_cast<int>(runs), [&]() {
                          for (size_t v = 0; v < weights.size(); ++v) {
                            out[v].assign(x[v].size(), 0.f);
@@ -137,7 +138,6 @@ absl::Status Run(const std::vector<std::string>& args) {
                        }));
     }
   }
-  weights = std::vector<CompositingWeights>();  // The fit records its own.
 
   if (wants("fit")) {
     ASSIGN_OR_RETURN(report["fitSeconds"], TimeRuns(static_cast<int>(runs), [&]() {

@@ -69,10 +69,7 @@ absl::StatusOr<ReconInputs> SynthInputs(const SynthOptions& options) {
     view.rgb = std::move(rendered.rgb);
     view.depth = std::move(rendered.depth);
   }
-  ASSIGN_OR_RETURN(std::vector<InstanceTrack> tracks, TracksFromClip(clip));
-  for (InstanceTrack& track : tracks)
-    if (!track.boxes.empty()) inputs.tracks.push_back(std::move(track));
-  inputs.time_origin_us = ClipTimeOrigin(clip);
+  RETURN_IF_ERROR(SetTracksFromClip(clip, &inputs));
   return inputs;
 }
 

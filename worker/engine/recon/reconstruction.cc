@@ -59,6 +59,15 @@ const char* ReconModelName(ReconModel model) {
   return model == ReconModel::kAnalytic ? "analytic" : "pixel-aligned";
 }
 
+absl::Status SetTracksFromClip(const pointforward::v1::Clip& clip, ReconInputs* inputs) {
+  ASSIGN_OR_RETURN(std::vector<InstanceTrack> tracks, TracksFromClip(clip));
+  inputs->tracks.clear();
+  for (InstanceTrack& track : tracks)
+    if (!track.boxes.empty()) inputs->tracks.push_back(std::move(track));
+  inputs->time_origin_us = ClipTimeOrigin(clip);
+  return absl::OkStatus();
+}
+
 absl::StatusOr<ReconInputs> LoadReconInputs(const LoadedClip& loaded, bool allow_outside_paths) {
   ReconInputs inputs;
   LoadViewsOptions view_options;
@@ -67,16 +76,13 @@ absl::StatusOr<ReconInputs> LoadReconInputs(const LoadedClip& loaded, bool allow
   if (inputs.views.empty()) {
     return absl::InvalidArgumentError("frames: the clip has no CONTEXT frame to reconstruct from");
   }
-  ASSIGN_OR_RETURN(std::vector<InstanceTrack> tracks, TracksFromClip(loaded.clip));
-  for (InstanceTrack& track : tracks)
-    if (!track.boxes.empty()) inputs.tracks.push_back(std::move(track));
+  RETURN_IF_ERROR(SetTracksFromClip(loaded.clip, &inputs));
   // LiDAR only matters for views without a depth map.
   const bool need_lidar = std::any_of(inputs.views.begin(), inputs.views.end(),
                                       [](const ContextView& v) { return v.depth.width == 0; });
   if (need_lidar) {
     ASSIGN_OR_RETURN(inputs.sweeps, LoadLidarSweeps(loaded, allow_outside_paths));
   }
-  inputs.time_origin_us = ClipTimeOrigin(loaded.clip);
   return inputs;
 }
 

@@ -104,6 +104,11 @@ struct ReconInputs {
   int64_t time_origin_us = 0;
 };
 
+// Sets inputs->tracks to the tracks of `clip` that have boxes and
+// inputs->time_origin_us to its time origin (TracksFromClip,
+// ClipTimeOrigin): what a reconstruction takes of a clip beside its frames.
+absl::Status SetTracksFromClip(const pointforward::v1::Clip& clip, ReconInputs* inputs);
+
 // Loads the CONTEXT frames, LiDAR sweeps and tracks of `loaded`.
 // INVALID_ARGUMENT when the clip has no CONTEXT frame; errors of the loaders
 // otherwise.
