@@ -33,7 +33,7 @@
 namespace pf {
 namespace {
 
-constexpr char kUsage[] =
+constexpr char kEvalUsage[] =
     "usage: pf eval CLIP.json --out DIR [--model analytic|pixel-aligned] [--ns N --nd N] "
     "[--fusion softmax|average|no-depth] [--no-lifespan] [--refine N] [--splat-sigma S] "
     "[--low-pass PX2] [--hidden-band PX] [--no-ground-fill] [--no-facades] "
@@ -166,9 +166,9 @@ absl::StatusOr<ExtraViews> PrepareLaneShift(const CommandLine& cl, const LoadedC
   return extra;
 }
 
-absl::Status Run(const CommandLine& cl) {
-  if (cl.positional().size() != 1) return absl::InvalidArgumentError(kUsage);
-  RETURN_IF_ERROR(cl.Require({"out"}, kUsage));
+absl::Status EvalCommand(const CommandLine& cl) {
+  if (cl.positional().size() != 1) return absl::InvalidArgumentError(kEvalUsage);
+  RETURN_IF_ERROR(cl.Require({"out"}, kEvalUsage));
   if (cl.Has("views") != cl.Has("truth")) {
     return absl::InvalidArgumentError(cl.Has("views")
                                           ? "--truth: required with --views (the truth images)"
@@ -236,7 +236,7 @@ int RunEval(const std::vector<std::string>& args) {
     std::fputs(kHelp, stdout);
     return kExitOk;
   }
-  const absl::Status status = Run(*cl);
+  const absl::Status status = EvalCommand(*cl);
   return status.ok() ? kExitOk : ReportError("eval", status);
 }
 

@@ -27,15 +27,15 @@
 namespace pf {
 namespace {
 
-constexpr char kUsage[] =
+constexpr char kReconstructUsage[] =
     "usage: pf reconstruct CLIP.json --out SCENE [--model analytic|pixel-aligned] "
     "[--ns N --nd N] [--fusion softmax|average|no-depth] [--no-lifespan] [--refine N] "
     "[--splat-sigma S] [--low-pass PX2] [--hidden-band PX] [--no-ground-fill] [--no-facades] "
     "[--device cpu|cuda[:N]] [--allow-outside-paths]";
 
-absl::Status Run(const CommandLine& cl) {
-  if (cl.positional().size() != 1) return absl::InvalidArgumentError(kUsage);
-  RETURN_IF_ERROR(cl.Require({"out"}, kUsage));
+absl::Status ReconstructCommand(const CommandLine& cl) {
+  if (cl.positional().size() != 1) return absl::InvalidArgumentError(kReconstructUsage);
+  RETURN_IF_ERROR(cl.Require({"out"}, kReconstructUsage));
   ASSIGN_OR_RETURN(ReconOptions options, ReconOptionsFromFlags(cl));
   options.progress = [](const std::string& line) {
     std::fprintf(stderr, "pf reconstruct: %s\n", line.c_str());
@@ -82,7 +82,7 @@ absl::Status Run(const CommandLine& cl) {
 int RunReconstruct(const std::vector<std::string>& args) {
   absl::StatusOr<CommandLine> cl = ParseReconCommandLine(args);
   if (!cl.ok()) return ReportError("reconstruct", cl.status());
-  const absl::Status status = Run(*cl);
+  const absl::Status status = ReconstructCommand(*cl);
   return status.ok() ? kExitOk : ReportError("reconstruct", status);
 }
 

@@ -22,13 +22,13 @@
 namespace pf {
 namespace {
 
-constexpr char kUsage[] =
+constexpr char kRenderUsage[] =
     "usage: pf render SCENE --cameras VIEWS.json --out DIR "
     "[--outputs rgb,alpha,depth,features,instance,filled]";
 
-absl::Status Run(const CommandLine& cl) {
-  if (cl.positional().size() != 1) return absl::InvalidArgumentError(kUsage);
-  RETURN_IF_ERROR(cl.Require({"cameras", "out"}, kUsage));
+absl::Status RenderCommand(const CommandLine& cl) {
+  if (cl.positional().size() != 1) return absl::InvalidArgumentError(kRenderUsage);
+  RETURN_IF_ERROR(cl.Require({"cameras", "out"}, kRenderUsage));
   absl::StatusOr<OutputChannels> parsed = ParseOutputChannels(cl.GetList("outputs"));
   if (!parsed.ok()) {
     return absl::InvalidArgumentError(absl::StrCat("--outputs: ", parsed.status().message()));
@@ -90,7 +90,7 @@ absl::Status Run(const CommandLine& cl) {
 int RunRender(const std::vector<std::string>& args) {
   absl::StatusOr<CommandLine> cl = CommandLine::Parse(args, {"cameras", "out", "outputs"});
   if (!cl.ok()) return ReportError("render", cl.status());
-  const absl::Status status = Run(*cl);
+  const absl::Status status = RenderCommand(*cl);
   return status.ok() ? kExitOk : ReportError("render", status);
 }
 

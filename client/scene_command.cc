@@ -23,7 +23,7 @@
 namespace pf {
 namespace {
 
-constexpr char kUsage[] =
+constexpr char kSceneUsage[] =
     "usage: pf scene info SCENE | pf scene export SCENE --ply OUT.ply [--time-us T]";
 
 // Axis-aligned bounds of a set of points.
@@ -104,9 +104,9 @@ int Info(const std::string& path) {
 
 int Export(const CommandLine& cl) {
   if (cl.positional().size() != 2) {
-    return ReportError("scene export", absl::InvalidArgumentError(kUsage));
+    return ReportError("scene export", absl::InvalidArgumentError(kSceneUsage));
   }
-  if (absl::Status required = cl.Require({"ply"}, kUsage); !required.ok()) {
+  if (absl::Status required = cl.Require({"ply"}, kSceneUsage); !required.ok()) {
     return ReportError("scene export", required);
   }
   const std::string& path = cl.positional()[1];
@@ -133,16 +133,16 @@ int RunScene(const std::vector<std::string>& args) {
   absl::StatusOr<CommandLine> cl = CommandLine::Parse(args, {"ply", "time-us"});
   if (!cl.ok()) return ReportError("scene", cl.status());
   const std::vector<std::string>& words = cl->positional();
-  if (words.empty()) return ReportError("scene", absl::InvalidArgumentError(kUsage));
+  if (words.empty()) return ReportError("scene", absl::InvalidArgumentError(kSceneUsage));
   if (words[0] == "info") {
     if (words.size() != 2 || cl->Has("ply") || cl->Has("time-us")) {
-      return ReportError("scene info", absl::InvalidArgumentError(kUsage));
+      return ReportError("scene info", absl::InvalidArgumentError(kSceneUsage));
     }
     return Info(words[1]);
   }
   if (words[0] == "export") return Export(*cl);
-  return ReportError("scene", absl::InvalidArgumentError(
-                                  absl::StrCat("unknown subcommand '", words[0], "'; ", kUsage)));
+  return ReportError("scene", absl::InvalidArgumentError(absl::StrCat(
+                                  "unknown subcommand '", words[0], "'; ", kSceneUsage)));
 }
 
 }  // namespace pf

@@ -65,6 +65,13 @@ inline Mat3 Transpose(const Mat3& a) {
   return r;
 }
 inline double Determinant(const Mat3& a) { return Dot(a.Row(0), Cross(a.Row(1), a.Row(2))); }
+// Returns the rotation by `radians` about z (counter-clockwise seen from +z).
+inline Mat3 RotationZ(double radians) {
+  const double c = std::cos(radians), s = std::sin(radians);
+  Mat3 r;
+  r.m = {{{c, -s, 0}, {s, c, 0}, {0, 0, 1}}};
+  return r;
+}
 
 // Unit quaternion (w, x, y, z) for rotations; Hamilton convention, so
 // ToMatrix(q) * v rotates v by q.

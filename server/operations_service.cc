@@ -21,7 +21,7 @@ namespace {
 using google::longrunning::Operation;
 
 constexpr int64_t kMaxWaitMs = 60000;
-constexpr auto kPollInterval = std::chrono::milliseconds(100);
+constexpr auto kWaitPollInterval = std::chrono::milliseconds(100);
 
 absl::StatusOr<std::optional<JobKind>> ParseFilter(const std::string& filter) {
   if (filter.empty()) return std::optional<JobKind>();
@@ -132,7 +132,7 @@ grpc::Status OperationsServiceImpl::WaitOperation(
       *response = *std::move(op);
       return grpc::Status::OK;
     }
-    std::this_thread::sleep_for(kPollInterval);
+    std::this_thread::sleep_for(kWaitPollInterval);
   }
 }
 

@@ -24,7 +24,7 @@ namespace {
 namespace v1 = pointforward::v1;
 using google::protobuf::util::TimeUtil;
 
-constexpr auto kPollInterval = std::chrono::milliseconds(100);
+constexpr auto kLeasePollInterval = std::chrono::milliseconds(100);
 
 absl::Status CheckWorkerId(const std::string& worker_id) {
   if (worker_id.empty() || worker_id.size() > 128) {
@@ -117,7 +117,7 @@ grpc::Status WorkerServiceImpl::LeaseTask(grpc::ServerContext* context,
     if (std::chrono::steady_clock::now() >= deadline || context->IsCancelled()) {
       return grpc::Status::OK;
     }
-    std::this_thread::sleep_for(kPollInterval);
+    std::this_thread::sleep_for(kLeasePollInterval);
   }
 }
 

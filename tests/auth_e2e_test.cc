@@ -135,7 +135,8 @@ struct Client {
   }
 
   static void Deadline(grpc::ClientContext& context) {
-    context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(10));
+    context.set_deadline(std::chrono::system_clock::now() +
+                         testing::Scaled(std::chrono::seconds(10)));
   }
 
   std::shared_ptr<grpc::Channel> channel;
@@ -563,8 +564,9 @@ TEST_F(AuthE2e, ATokenAddedToTheFileWorksWithinTheReloadTimeWithoutARestart) {
       std::chrono::seconds(5)))
       << status.error_message();
   // Documented: within one second of the change; the rest is slack for the
-  // 100 ms polling here and a loaded test machine.
-  EXPECT_LT(std::chrono::steady_clock::now() - added, std::chrono::milliseconds(2500));
+  // 100 ms polling here (scaled for a sanitizer build or a loaded machine).
+  EXPECT_LT(std::chrono::steady_clock::now() - added,
+            testing::Scaled(std::chrono::milliseconds(2500)));
   EXPECT_EQ(server.pid(), pid);
   EXPECT_NE(server.Log().find("reloaded token file"), std::string::npos);
 

@@ -67,6 +67,7 @@ using testing::CommandResult;
 using testing::Metadata;
 using testing::RgbPsnr;
 using testing::RunCommand;
+using testing::Scaled;
 using testing::ServerProcess;
 using testing::ViewName;
 using testing::ViewsOfFirstCamera;
@@ -82,22 +83,6 @@ constexpr int kMaxAttempts = 10;
 constexpr int kMinWorkerKills = 10;
 constexpr int kClientThreads = 4;
 
-// Under AddressSanitizer (make test-asan) every process runs 2-3 times
-// slower: a worker killed every second or two would rarely finish a task. The
-// kill pauses and the deadline stretch by this factor, so the test still
-// kills as often relative to the work.
-#if defined(__SANITIZE_ADDRESS__)
-constexpr int kSlowdown = 3;
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-constexpr int kSlowdown = 3;
-#else
-constexpr int kSlowdown = 1;
-#endif
-#else
-constexpr int kSlowdown = 1;
-#endif
-
 // A call that failed only because the server is down or restarting.
 bool ServerDown(grpc::StatusCode code) {
   return code == grpc::StatusCode::UNAVAILABLE || code == grpc::StatusCode::DEADLINE_EXCEEDED;
@@ -108,10 +93,10 @@ bool ServerDown(grpc::StatusCode code) {
 // restart. Submissions carry a request_id, so a retry cannot create a job
 // twice.
 grpc::Status Retry(const std::function<grpc::Status(grpc::ClientContext*)>& call) {
-  const auto give_up = Clock::now() + std::chrono::seconds(60);
+  const auto give_up = Clock::now() + Scaled(std::chrono::seconds(60));
   while (true) {
     grpc::ClientContext context;
-    context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(10));
+    context.set_deadline(std::chrono::system_clock::now() + Scaled(std::chrono::seconds(10)));
     const grpc::Status status = call(&context);
     if (!ServerDown(status.error_code()) || Clock::now() > give_up) return status;
     std::this_thread::sleep_for(std::chrono::milliseconds(200));
@@ -233,7 +218,13 @@ TEST(Fault, HundredJobsSurviveRandomWorkerKillsAndAServerKill) {
   std::atomic<int> worker_kills{0};
   pid_t killed_server_pid = -1;
   std::vector<std::string> killer_errors;
-  std::uniform_int_distribution<int> pause_ms(1000 * kSlowdown, 2500 * kSlowdown);
+  // In a sanitizer build or on a busy machine every process runs slower: a
+  // worker killed every second or two would rarely finish a task. The kill
+  // pauses stretch by the tests' time scale, so the test still kills as often
+  // relative to the work.
+  const double slowdown = testing::TimeScale();
+  std::uniform_int_distribution<int> pause_ms(static_cast<int>(1000 * slowdown),
+                                              static_cast<int>(2500 * slowdown));
   std::uniform_int_distribution<int> pick_worker(0, 1);
   const int server_kill_after = std::uniform_int_distribution<int>(2, 6)(random);
   std::vector<int> pauses;  // Drawn up front, so the seed alone fixes the schedule.
@@ -354,7 +345,7 @@ TEST(Fault, HundredJobsSurviveRandomWorkerKillsAndAServerKill) {
     for (const std::string& name : all_ops) {
       if (done.count(name)) continue;
       grpc::ClientContext context;
-      context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(5));
+      context.set_deadline(std::chrono::system_clock::now() + Scaled(std::chrono::seconds(5)));
       google::longrunning::GetOperationRequest request;
       request.set_name(name);
       Operation op;
@@ -363,7 +354,7 @@ TEST(Fault, HundredJobsSurviveRandomWorkerKillsAndAServerKill) {
     }
     return done.size() == all_ops.size();
   };
-  const bool all_done = submitted && WaitFor(poll, std::chrono::seconds(240 * kSlowdown));
+  const bool all_done = submitted && WaitFor(poll, std::chrono::seconds(240));
   jobs_done = true;
   killer.join();
   figures.worker_kills = worker_kills;

@@ -24,7 +24,8 @@ absl::StatusOr<Operation> GetOperation(const std::string& address, const std::st
                                        int deadline_seconds) {
   auto stub = google::longrunning::Operations::NewStub(MakeChannel(address));
   grpc::ClientContext context;
-  context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(deadline_seconds));
+  context.set_deadline(std::chrono::system_clock::now() +
+                       Scaled(std::chrono::seconds(deadline_seconds)));
   google::longrunning::GetOperationRequest request;
   request.set_name(name);
   Operation op;

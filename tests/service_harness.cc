@@ -52,7 +52,7 @@ bool Serving(const std::string& address, const ChannelOptions& channel_options) 
   auto channel = MakeChannel(address, channel_options);
   grpc::GenericStub stub(channel);
   grpc::ClientContext context;
-  context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(1));
+  context.set_deadline(std::chrono::system_clock::now() + Scaled(std::chrono::seconds(1)));
   grpc::Slice empty_message("");  // An empty HealthCheckRequest: the whole server.
   grpc::ByteBuffer request(&empty_message, 1);
   grpc::ByteBuffer response;
@@ -120,7 +120,7 @@ int ChildProcess::Kill(int signal, std::chrono::milliseconds timeout) {
   if (pid_ <= 0) return -1;
   if (!running()) return exit_status_;
   ::kill(pid_, signal);
-  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  const auto deadline = std::chrono::steady_clock::now() + Scaled(timeout);
   while (std::chrono::steady_clock::now() < deadline) {
     if (!running()) return exit_status_;
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
@@ -167,7 +167,7 @@ bool WorkerProcess::Start(const std::vector<std::string>& extra) {
 }
 
 bool WaitFor(const std::function<bool()>& done, std::chrono::milliseconds timeout) {
-  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  const auto deadline = std::chrono::steady_clock::now() + Scaled(timeout);
   while (std::chrono::steady_clock::now() < deadline) {
     if (done()) return true;
     std::this_thread::sleep_for(std::chrono::milliseconds(100));

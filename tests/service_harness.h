@@ -39,8 +39,9 @@ class ChildProcess {
   // Starts `argv` (argv[0] a path). False if fork/exec failed.
   bool Start(const std::vector<std::string>& argv, const std::string& log_path);
   bool running();
-  // Sends `signal`; then, for SIGKILL and SIGTERM, waits up to `timeout` for
-  // the exit and returns its status (128 + signal when killed), or -1.
+  // Sends `signal`; then, for SIGKILL and SIGTERM, waits up to
+  // Scaled(`timeout`) for the exit and returns its status (128 + signal when
+  // killed), or -1.
   int Kill(int signal, std::chrono::milliseconds timeout = std::chrono::seconds(15));
   pid_t pid() const { return pid_; }
   const std::string& log_path() const { return log_path_; }
@@ -65,7 +66,7 @@ class ServerProcess {
         store_(std::move(store)),
         blobs_(std::move(blobs)) {}
   // Starts pf-server with `extra` flags and waits until it answers health
-  // checks (at most 20 s).
+  // checks (at most Scaled(20 s)).
   bool Start(const std::vector<std::string>& extra = {});
   // Same store, blobs, port and flags as the last Start.
   bool Restart();
@@ -110,7 +111,8 @@ class WorkerProcess {
   ChildProcess process_;
 };
 
-// Polls `done` every 100 ms until it returns true or `timeout` passes.
+// Polls `done` every 100 ms until it returns true or Scaled(`timeout`)
+// (tests/test_util.h) passes.
 bool WaitFor(const std::function<bool()>& done, std::chrono::milliseconds timeout);
 
 // Number of non-overlapping occurrences of `needle` in `text`.

@@ -8,6 +8,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <cstdlib>
 #include <filesystem>
@@ -39,7 +40,43 @@ std::string EnvOr(const char* name, const std::string& fallback) {
   return value != nullptr && *value != '\0' ? value : fallback;
 }
 
+// The slowdown of this build's sanitizer, if any.
+double SanitizerSlowdown() {
+#if defined(__SANITIZE_THREAD__)
+  return 5;
+#elif defined(__SANITIZE_ADDRESS__)
+  return 3;
+#elif defined(__has_feature)
+#if __has_feature(thread_sanitizer)
+  return 5;
+#elif __has_feature(address_sanitizer)
+  return 3;
+#else
+  return 1;
+#endif
+#else
+  return 1;
+#endif
+}
+
 }  // namespace
+
+double TimeScale() {
+  double scale = SanitizerSlowdown();
+  double load[1];
+  const long cores = ::sysconf(_SC_NPROCESSORS_ONLN);
+  if (::getloadavg(load, 1) == 1 && cores > 0) scale *= std::max(1.0, load[0] / cores);
+  if (const char* extra = std::getenv("PF_TEST_TIME_SCALE"); extra != nullptr) {
+    const double factor = std::atof(extra);
+    if (factor > 0 && std::isfinite(factor)) scale *= factor;
+  }
+  return std::max(1.0, scale);
+}
+
+std::chrono::milliseconds Scaled(std::chrono::milliseconds nominal) {
+  return std::chrono::milliseconds(
+      static_cast<int64_t>(std::ceil(static_cast<double>(nominal.count()) * TimeScale())));
+}
 
 std::string MakeTempDir(const std::string& prefix) {
   std::string pattern = (fs::path(EnvOr("TMPDIR", "/tmp")) / (prefix + "_XXXXXX")).string();

@@ -3,12 +3,26 @@
 #ifndef POINTFORWARD_TESTS_TEST_UTIL_H_
 #define POINTFORWARD_TESTS_TEST_UTIL_H_
 
+#include <chrono>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
 #include <vector>
 
 namespace pf::testing {
+
+// How many times longer than in an optimised build on an idle machine a wait
+// on the clock may need to be in this process: 3 under AddressSanitizer, 5
+// under ThreadSanitizer (1 otherwise), times the load per core when that is
+// above 1 (the one-minute load average over the online cores, read at each
+// call), times PF_TEST_TIME_SCALE when set (a positive number). Never below 1.
+double TimeScale();
+
+// Returns `nominal` times TimeScale(): the deadline of a wait, or the bound a
+// test puts on how long something took. Every wait on the clock in a test
+// goes through it (WaitFor, ChildProcess::Kill and the RPC deadlines of
+// tests/ do), so a sanitizer build or a busy machine only makes tests slower.
+std::chrono::milliseconds Scaled(std::chrono::milliseconds nominal);
 
 // Returns a new empty directory under $TMPDIR (or /tmp), removed when the
 // process exits normally.

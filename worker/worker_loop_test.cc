@@ -57,10 +57,11 @@ class FakeWorkerService final : public pb::WorkerService::Service {
     lost_.insert(task_id);
   }
 
-  // Waits until `done()` (called under the lock) or 20 s; returns done().
+  // Waits until `done()` (called under the lock) or Scaled(20 s); returns
+  // done().
   bool WaitFor(const std::function<bool()>& done) {
     std::unique_lock<std::mutex> lock(mu_);
-    return cv_.wait_for(lock, std::chrono::seconds(20), done);
+    return cv_.wait_for(lock, testing::Scaled(std::chrono::seconds(20)), done);
   }
 
   grpc::Status LeaseTask(grpc::ServerContext*, const pb::LeaseTaskRequest* request,
@@ -347,7 +348,7 @@ TEST_F(WorkerLoop, StopLetsTheRunningTaskFinish) {
   EXPECT_EQ(exit_code_, 0);
   ASSERT_EQ(service_.completed.size(), 1u);
   EXPECT_EQ(service_.completed[0].render().files_size(), 6);
-  EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(10));
+  EXPECT_LT(std::chrono::steady_clock::now() - start, testing::Scaled(std::chrono::seconds(10)));
 }
 
 TEST_F(WorkerLoop, ReconstructsAnUploadedClipAndKeepsTheScene) {

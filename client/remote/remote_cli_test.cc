@@ -38,7 +38,7 @@ TEST(RemoteCli, UnreachableServerIsExitThreeNamingIt) {
       << result.err;
   EXPECT_TRUE(result.out.empty()) << result.out;
   // The connection deadline is 5 s.
-  EXPECT_LT(seconds, 10.0);
+  EXPECT_LT(seconds, testing::TimeScale() * 10.0);
 }
 
 TEST(RemoteCli, ServerFromEnvironmentWhenNoFlag) {
@@ -56,17 +56,16 @@ TEST(RemoteCli, JobsWithoutServerIsBadInput) {
   EXPECT_NE(result.err.find("--server"), std::string::npos) << result.err;
 }
 
+// Nothing listens at kNoServer, so a call to it would end the command with
+// exit 3 "unreachable": exit 2 naming the file shows it was read first.
 TEST(RemoteCli, MissingViewsFileIsExitTwoBeforeConnecting) {
   const std::string dir = testing::MakeTempDir("remote_cli");
   const std::string views = dir + "/missing.json";
-  double seconds = 0;
-  const CommandResult result = RunTimed({BinPath("pf"), "--server", kNoServer, "render", "S",
-                                         "--cameras", views, "--out", dir + "/d"},
-                                        &seconds);
+  const CommandResult result = RunCommand({BinPath("pf"), "--server", kNoServer, "render", "S",
+                                           "--cameras", views, "--out", dir + "/d"});
   EXPECT_EQ(result.exit_code, 2) << result.err;
   EXPECT_NE(result.err.find(views), std::string::npos) << result.err;
   EXPECT_EQ(result.err.find("unreachable"), std::string::npos) << result.err;
-  EXPECT_LT(seconds, 4.0) << "checked the file only after trying to connect";
   EXPECT_FALSE(std::filesystem::exists(dir + "/d"));
 }
 

@@ -25,7 +25,7 @@ namespace lro = google::longrunning;
 
 namespace {
 
-constexpr char kUsage[] =
+constexpr char kRemoteJobsUsage[] =
     "usage: pf --server ADDR jobs list [--kind reconstruct|render]\n"
     "       pf --server ADDR jobs get ID | cancel ID | wait ID [--out DIR]";
 
@@ -39,7 +39,7 @@ std::string StateOf(const lro::Operation& operation, const v1::OperationMetadata
 }
 
 absl::StatusOr<int> List(RemoteContext& ctx, const CommandLine& cl) {
-  if (!cl.positional().empty()) return absl::InvalidArgumentError(kUsage);
+  if (!cl.positional().empty()) return absl::InvalidArgumentError(kRemoteJobsUsage);
   const std::string kind = cl.Get("kind");
   if (!kind.empty() && kind != "reconstruct" && kind != "render") {
     return absl::InvalidArgumentError(
@@ -125,7 +125,7 @@ absl::StatusOr<int> Wait(RemoteContext& ctx, const std::string& name, const Comm
 }  // namespace
 
 absl::StatusOr<int> RunRemoteJobs(RemoteContext& ctx, const std::vector<std::string>& args) {
-  if (args.empty()) return absl::InvalidArgumentError(kUsage);
+  if (args.empty()) return absl::InvalidArgumentError(kRemoteJobsUsage);
   const std::string& verb = args[0];
   const std::vector<std::string> words(args.begin() + 1, args.end());
   if (verb == "list") {
@@ -133,12 +133,13 @@ absl::StatusOr<int> RunRemoteJobs(RemoteContext& ctx, const std::vector<std::str
     return List(ctx, cl);
   }
   if (verb != "get" && verb != "cancel" && verb != "wait") {
-    return absl::InvalidArgumentError(absl::StrCat("unknown jobs command '", verb, "'\n", kUsage));
+    return absl::InvalidArgumentError(
+        absl::StrCat("unknown jobs command '", verb, "'\n", kRemoteJobsUsage));
   }
   ASSIGN_OR_RETURN(const CommandLine cl,
                    CommandLine::Parse(words, verb == "wait" ? std::set<std::string>{"out"}
                                                             : std::set<std::string>{}));
-  if (cl.positional().size() != 1) return absl::InvalidArgumentError(kUsage);
+  if (cl.positional().size() != 1) return absl::InvalidArgumentError(kRemoteJobsUsage);
   ASSIGN_OR_RETURN(const std::string name, OperationNameFor(cl.positional()[0]));
   if (verb == "get") return Get(ctx, name);
   if (verb == "cancel") return Cancel(ctx, name);

@@ -32,7 +32,7 @@ namespace lro = google::longrunning;
 
 namespace {
 
-constexpr char kUsage[] =
+constexpr char kRemoteRenderUsage[] =
     "usage: pf --server ADDR render SCENE --cameras VIEWS.json [--out DIR --wait] "
     "[--outputs rgb,alpha,depth,features,instance,filled] [--chunk-frames N] [--request-id ID]\n"
     "       pf --server ADDR render --clip CLIP.json [--model M] [--ns N] [--nd N] [--fusion F] "
@@ -72,12 +72,13 @@ absl::StatusOr<RenderTarget> TargetFromFlags(const CommandLine& cl) {
   RenderTarget target;
   if (cl.Has("clip")) {
     if (!cl.positional().empty()) {
-      return absl::InvalidArgumentError(absl::StrCat("give a SCENE or --clip, not both\n", kUsage));
+      return absl::InvalidArgumentError(
+          absl::StrCat("give a SCENE or --clip, not both\n", kRemoteRenderUsage));
     }
     ASSIGN_OR_RETURN(target.clip, PrepareClipInput(cl.Get("clip")));
     return target;
   }
-  if (cl.positional().size() != 1) return absl::InvalidArgumentError(kUsage);
+  if (cl.positional().size() != 1) return absl::InvalidArgumentError(kRemoteRenderUsage);
   ASSIGN_OR_RETURN(target.scene, SceneNameFor(cl.positional()[0]));
   return target;
 }
@@ -109,7 +110,7 @@ absl::StatusOr<int> RunRemoteRender(RemoteContext& ctx, const std::vector<std::s
   std::set<std::string> bool_flags = kReconBoolFlags;
   bool_flags.insert("wait");
   ASSIGN_OR_RETURN(const CommandLine cl, CommandLine::Parse(args, value_flags, bool_flags));
-  RETURN_IF_ERROR(cl.Require({"cameras"}, kUsage));
+  RETURN_IF_ERROR(cl.Require({"cameras"}, kRemoteRenderUsage));
   if (cl.Has("wait") && !cl.Has("out")) {
     return absl::InvalidArgumentError("--wait needs --out DIR to download the outputs into");
   }

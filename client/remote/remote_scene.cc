@@ -36,7 +36,7 @@ namespace lro = google::longrunning;
 
 namespace {
 
-constexpr char kUsage[] =
+constexpr char kRemoteSceneUsage[] =
     "usage: pf --server ADDR scene create CLIP.json|file:///abs/clip.json [--wait] [--model M] "
     "[--ns N] [--nd N] [--fusion F] [--no-lifespan] [--device D] [--request-id ID]\n"
     "         [--refine N] [--splat-sigma S] [--low-pass PX2] [--hidden-band PX] "
@@ -45,7 +45,7 @@ constexpr char kUsage[] =
     "       pf --server ADDR scene get NAME | list [--page-size N] | delete NAME\n"
     "       pf --server ADDR scene export NAME --ply OUT.ply [--time-us T]";
 
-absl::Status Usage() { return absl::InvalidArgumentError(kUsage); }
+absl::Status Usage() { return absl::InvalidArgumentError(kRemoteSceneUsage); }
 
 // Parses `words` and checks the number of positional words.
 absl::StatusOr<CommandLine> ParseWords(const std::vector<std::string>& words, size_t positional,
@@ -289,7 +289,8 @@ absl::StatusOr<int> RunRemoteScene(RemoteContext& ctx, const std::vector<std::st
   if (verb == "list") return List(ctx, words);
   if (verb == "delete") return Delete(ctx, words);
   if (verb == "export") return Export(ctx, words);
-  return absl::InvalidArgumentError(absl::StrCat("unknown scene command '", verb, "'\n", kUsage));
+  return absl::InvalidArgumentError(
+      absl::StrCat("unknown scene command '", verb, "'\n", kRemoteSceneUsage));
 }
 
 }  // namespace pf

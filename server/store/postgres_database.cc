@@ -28,7 +28,7 @@ namespace pf {
 namespace {
 
 // How often Transaction starts over after a conflict before giving up.
-constexpr int kMaxTransactionTries = 12;
+constexpr int kPostgresTransactionTries = 12;
 
 // Type OIDs (pg_type.h) of the parameters we send and the cells we read.
 constexpr Oid kBoolOid = 16;
@@ -286,7 +286,7 @@ absl::Status PostgresDatabase::Transaction(const TransactionFn& fn) {
   std::minstd_rand jitter(std::random_device{}());
   bool reconnected = false;
   absl::Status status;
-  for (int attempt = 1; attempt <= kMaxTransactionTries; ++attempt) {
+  for (int attempt = 1; attempt <= kPostgresTransactionTries; ++attempt) {
     bool in_commit = false;
     status = TransactionOnce(fn, &in_commit);
     if (status.ok()) return status;
@@ -311,7 +311,7 @@ absl::Status PostgresDatabase::Transaction(const TransactionFn& fn) {
         std::chrono::microseconds(std::uniform_int_distribution<int>(500, 2000 * attempt)(jitter)));
   }
   return StatusWithContext(status, absl::StrCat("PostgreSQL '", redacted_, "': gave up after ",
-                                                kMaxTransactionTries, " tries"));
+                                                kPostgresTransactionTries, " tries"));
 }
 
 absl::Status PostgresDatabase::TransactionOnce(const TransactionFn& fn, bool* in_commit) {

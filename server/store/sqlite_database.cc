@@ -18,7 +18,7 @@ namespace {
 // How long a statement waits for another connection's write lock before
 // failing with SQLITE_BUSY, and how often Transaction then starts over.
 constexpr int kBusyTimeoutMs = 10000;
-constexpr int kMaxTransactionTries = 8;
+constexpr int kSqliteTransactionTries = 8;
 
 // Maps an SQLite result code to a status naming `what` and SQLite's message.
 absl::Status SqliteError(sqlite3* db, int code, const std::string& what) {
@@ -174,13 +174,13 @@ absl::StatusOr<SqlRows> SqliteDatabase::ExecLocked(const std::string& sql,
 absl::Status SqliteDatabase::Transaction(const TransactionFn& fn) {
   std::lock_guard<std::mutex> lock(mutex_);
   absl::Status status;
-  for (int attempt = 1; attempt <= kMaxTransactionTries; ++attempt) {
+  for (int attempt = 1; attempt <= kSqliteTransactionTries; ++attempt) {
     status = TransactionOnce(fn);
     if (status.code() != absl::StatusCode::kAborted) return status;
     std::this_thread::sleep_for(std::chrono::milliseconds(5 * attempt));
   }
   return StatusWithContext(status, absl::StrCat("SQLite database ", path_, ": gave up after ",
-                                                kMaxTransactionTries, " tries"));
+                                                kSqliteTransactionTries, " tries"));
 }
 
 absl::Status SqliteDatabase::TransactionOnce(const TransactionFn& fn) {

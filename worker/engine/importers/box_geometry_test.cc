@@ -10,15 +10,9 @@
 namespace pf {
 namespace {
 
-Mat3 RotZ(double a) {
-  Mat3 r;
-  r.m = {{{std::cos(a), -std::sin(a), 0}, {std::sin(a), std::cos(a), 0}, {0, 0, 1}}};
-  return r;
-}
-
 TEST(BoxGeometry, CornersAndContainmentFollowSizeAndRotation) {
   // 4 m long (x), 2 m wide (y), 1 m high, turned 90 degrees: long along world y.
-  const OrientedBox box{{10, 20, 1}, {4, 2, 1}, RotZ(M_PI / 2)};
+  const OrientedBox box{{10, 20, 1}, {4, 2, 1}, RotationZ(M_PI / 2)};
   double max_dx = 0, max_dy = 0;
   for (const Vec3& c : BoxCorners(box)) {
     max_dx = std::max(max_dx, std::abs(c.x - 10));

@@ -19,6 +19,7 @@
 #include "tests/test_util.h"
 #include "worker/engine/camera/camera_model.h"
 #include "worker/engine/importers/box_geometry.h"
+#include "worker/engine/importers/box_test_util.h"
 #include "worker/engine/importers/npy.h"
 #include "worker/engine/importers/zip_reader.h"
 
@@ -27,15 +28,10 @@ namespace {
 
 namespace fs = std::filesystem;
 namespace v1 = pointforward::v1;
+using testing::BoxFromProto;
 using Json = nlohmann::json;
 
 constexpr char kScene[] = "dgp_test_scene/scene_02";
-
-OrientedBox BoxFromProto(const v1::Box& b) {
-  return {{b.center(0), b.center(1), b.center(2)},
-          {b.size(0), b.size(1), b.size(2)},
-          ToMatrix(Quat{b.rotation(0), b.rotation(1), b.rotation(2), b.rotation(3)})};
-}
 
 // The box of `instance` nearest in time to `t`.
 const v1::Box& NearestBox(const v1::Instance& instance, int64_t t) {

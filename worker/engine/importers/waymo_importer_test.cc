@@ -17,6 +17,7 @@
 #include "tests/test_util.h"
 #include "worker/engine/camera/camera_model.h"
 #include "worker/engine/importers/box_geometry.h"
+#include "worker/engine/importers/box_test_util.h"
 #include "worker/engine/importers/crc32c.h"
 #include "worker/engine/importers/tfrecord_reader.h"
 
@@ -24,6 +25,7 @@ namespace pf {
 namespace {
 
 namespace v1 = pointforward::v1;
+using testing::BoxFromProto;
 namespace waymo = pointforward::waymo;
 
 constexpr char kSegment[] = "pvps_data_one_frame.tfrecord";
@@ -36,12 +38,6 @@ waymo::Frame ReadFrame(const std::string& path) {
   waymo::Frame frame;
   EXPECT_TRUE(frame.ParseFromString(record));
   return frame;
-}
-
-OrientedBox BoxFromProto(const v1::Box& b) {
-  return {{b.center(0), b.center(1), b.center(2)},
-          {b.size(0), b.size(1), b.size(2)},
-          ToMatrix(Quat{b.rotation(0), b.rotation(1), b.rotation(2), b.rotation(3)})};
 }
 
 TEST(WaymoImporter, OpenCvToWaymoAxes) {

@@ -31,12 +31,6 @@ void SetTransform(const Rigid& t, waymo::Transform* out) {
   for (double v : t.ToRowMajor()) out->add_transform(v);
 }
 
-Mat3 RotZ(double a) {
-  Mat3 r;
-  r.m = {{{std::cos(a), -std::sin(a), 0}, {std::sin(a), std::cos(a), 0}, {0, 0, 1}}};
-  return r;
-}
-
 // A frame with one TOP laser turned 30 degrees about z, 1 m ahead and 2 m up,
 // beams at -0.1 and +0.1 rad, a 2 x 4 range image of 10 m returns (intensity
 // = 0.25 * column) except one pixel without a return.
@@ -46,7 +40,7 @@ waymo::Frame MakeFrame() {
   cal->set_name(waymo::LaserName::TOP);
   cal->add_beam_inclinations(-0.1);
   cal->add_beam_inclinations(0.1);
-  SetTransform(Rigid{RotZ(M_PI / 6), Vec3{1, 0, 2}}, cal->mutable_extrinsic());
+  SetTransform(Rigid{RotationZ(M_PI / 6), Vec3{1, 0, 2}}, cal->mutable_extrinsic());
   std::vector<float> values;
   for (int row = 0; row < 2; ++row) {
     for (int col = 0; col < 4; ++col) {

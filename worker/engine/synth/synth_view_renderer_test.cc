@@ -15,7 +15,7 @@ namespace {
 
 namespace v1 = pointforward::v1;
 
-SynthOptions SmallOptions() {
+SynthOptions SmallRendererOptions() {
   SynthOptions options;
   options.seed = 2;
   options.num_frames = 6;
@@ -25,8 +25,8 @@ SynthOptions SmallOptions() {
   return options;
 }
 
-SynthScene SmallScene() {
-  auto scene = GenerateSynthScene(SmallOptions());
+SynthScene SmallRendererScene() {
+  auto scene = GenerateSynthScene(SmallRendererOptions());
   EXPECT_TRUE(scene.ok());
   return *scene;
 }
@@ -42,12 +42,12 @@ std::string PoseJson(const Rigid& pose) {
 std::string ResolveError(const std::string& json) {
   auto request = ParseRenderViews(json, "views.json");
   if (!request.ok()) return std::string(request.status().message());
-  const auto resolved = ResolveViews(*request, SmallScene());
+  const auto resolved = ResolveViews(*request, SmallRendererScene());
   return resolved.ok() ? "" : std::string(resolved.status().message());
 }
 
 TEST(SynthViewRenderer, ErrorsNameTheField) {
-  const SynthScene scene = SmallScene();
+  const SynthScene scene = SmallRendererScene();
   const std::string pose = PoseJson(scene.WorldFromCamera(1, 0));
   const std::string view = R"({"camera": "cam_front", "worldFromCamera": )" + pose + "}";
   EXPECT_EQ(ResolveError(R"({"views": [)" + view + "]}"), "");
@@ -99,7 +99,7 @@ TEST(SynthViewRenderer, ResolvesCamerasOfTheRequestAndOfTheClip) {
               {"camera": "cam_left", "worldFromCamera": [1,0,0,0, 0,1,0,0, 0,0,1,2, 0,0,0,1]}]})";
   auto request = ParseRenderViews(json, "v.json");
   ASSERT_TRUE(request.ok()) << request.status();
-  const auto resolved = ResolveViews(*request, SmallScene());
+  const auto resolved = ResolveViews(*request, SmallRendererScene());
   ASSERT_TRUE(resolved.ok()) << resolved.status();
   ASSERT_EQ(resolved->views.size(), 2u);
   EXPECT_EQ(resolved->views[0].name, "a");
@@ -113,9 +113,9 @@ TEST(SynthViewRenderer, ResolvesCamerasOfTheRequestAndOfTheClip) {
 // depth equal to the ray caster's at that pose, and the removed vehicle gone.
 TEST(SynthViewRenderer, RendersShiftedViewsWithEdits) {
   const std::string clip_dir = testing::MakeTempDir("synth_render_clip");
-  const SynthOptions options = SmallOptions();
+  const SynthOptions options = SmallRendererOptions();
   ASSERT_TRUE(WriteFileAtomic(clip_dir + "/synth.json", SynthParamsToJson(options)).ok());
-  const SynthScene scene = SmallScene();
+  const SynthScene scene = SmallRendererScene();
   const double t = 0.5;
   Rigid shifted = scene.WorldFromCamera(1, t);
   shifted.translation.y += 3.5;  // One lane to the left.
