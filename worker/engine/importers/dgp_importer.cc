@@ -33,28 +33,9 @@ namespace v1 = pointforward::v1;
 
 // DGP's annotation type ids (dgp/proto/annotations.proto).
 constexpr char kBoundingBox3dKey[] = "1";
-constexpr double kQuatNormTolerance = 1e-3;
-
 // Reads {"rotation": {qw, qx, qy, qz}, "translation": {x, y, z}}.
 absl::StatusOr<Rigid> PoseFromJson(const Json& pose, const std::string& where) {
-  ASSIGN_OR_RETURN(const Json* r, JsonMember(pose, "rotation", where));
-  ASSIGN_OR_RETURN(const Json* t, JsonMember(pose, "translation", where));
-  const std::string rw = where + ".rotation", tw = where + ".translation";
-  Quat q;
-  ASSIGN_OR_RETURN(q.w, JsonNumber(*r, "qw", rw));
-  ASSIGN_OR_RETURN(q.x, JsonNumber(*r, "qx", rw));
-  ASSIGN_OR_RETURN(q.y, JsonNumber(*r, "qy", rw));
-  ASSIGN_OR_RETURN(q.z, JsonNumber(*r, "qz", rw));
-  if (std::abs(QuatNorm(q) - 1.0) > kQuatNormTolerance) {
-    return absl::InvalidArgumentError(
-        absl::StrCat(rw, ": not a unit quaternion (norm ", QuatNorm(q), ")"));
-  }
-  Rigid out;
-  out.rotation = ToMatrix(q);
-  ASSIGN_OR_RETURN(out.translation.x, JsonNumber(*t, "x", tw));
-  ASSIGN_OR_RETURN(out.translation.y, JsonNumber(*t, "y", tw));
-  ASSIGN_OR_RETURN(out.translation.z, JsonNumber(*t, "z", tw));
-  return out;
+  return JsonPose(pose, {"rotation", "qw", "qx", "qy", "qz", "translation"}, where);
 }
 
 // Intrinsics of one sensor of a calibration file.

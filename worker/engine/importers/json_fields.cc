@@ -53,4 +53,27 @@ absl::StatusOr<const Json*> JsonArray(const Json& j, const std::string& key,
   return v;
 }
 
+absl::StatusOr<Rigid> JsonPose(const Json& pose, const JsonPoseKeys& keys, const std::string& where,
+                               double tolerance) {
+  ASSIGN_OR_RETURN(const Json* r, JsonMember(pose, keys.rotation, where));
+  ASSIGN_OR_RETURN(const Json* t, JsonMember(pose, keys.translation, where));
+  const std::string rw = absl::StrCat(where, ".", keys.rotation);
+  const std::string tw = absl::StrCat(where, ".", keys.translation);
+  Quat q;
+  ASSIGN_OR_RETURN(q.w, JsonNumber(*r, keys.w, rw));
+  ASSIGN_OR_RETURN(q.x, JsonNumber(*r, keys.x, rw));
+  ASSIGN_OR_RETURN(q.y, JsonNumber(*r, keys.y, rw));
+  ASSIGN_OR_RETURN(q.z, JsonNumber(*r, keys.z, rw));
+  if (std::abs(QuatNorm(q) - 1.0) > tolerance) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(rw, ": not a unit quaternion (norm ", QuatNorm(q), ")"));
+  }
+  Rigid out;
+  out.rotation = ToMatrix(QuatNormalized(q));
+  ASSIGN_OR_RETURN(out.translation.x, JsonNumber(*t, "x", tw));
+  ASSIGN_OR_RETURN(out.translation.y, JsonNumber(*t, "y", tw));
+  ASSIGN_OR_RETURN(out.translation.z, JsonNumber(*t, "z", tw));
+  return out;
+}
+
 }  // namespace pf

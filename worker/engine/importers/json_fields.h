@@ -8,6 +8,7 @@
 #include <string>
 
 #include "absl/status/statusor.h"
+#include "common/geometry.h"
 
 namespace pf {
 
@@ -29,6 +30,20 @@ absl::StatusOr<std::string> JsonString(const Json& j, const std::string& key,
                                        const std::string& where);
 absl::StatusOr<const Json*> JsonArray(const Json& j, const std::string& key,
                                       const std::string& where);
+
+// The member names of a pose object: a quaternion object and a translation
+// object {x, y, z}.
+struct JsonPoseKeys {
+  const char* rotation;       // e.g. "rotation" (DGP), "heading" (PandaSet).
+  const char *w, *x, *y, *z;  // The quaternion's members.
+  const char* translation;    // e.g. "translation", "position".
+};
+
+// Reads a rigid pose {ROTATION: {W, X, Y, Z}, TRANSLATION: {x, y, z}} named by
+// `keys`; the quaternion must have unit norm within `tolerance` (it is then
+// normalised). INVALID_ARGUMENT naming the field otherwise.
+absl::StatusOr<Rigid> JsonPose(const Json& pose, const JsonPoseKeys& keys, const std::string& where,
+                               double tolerance = 1e-3);
 
 }  // namespace pf
 

@@ -40,7 +40,6 @@ constexpr int kPicklesBadInput = 2;
 constexpr int kPicklesNoPandas = 3;
 // Columns of the reader's LiDAR arrays: x, y, z, i, t, d.
 constexpr int kLidarColumns = 6;
-constexpr double kPandasetQuatTolerance = 1e-3;
 constexpr int kPandasetJpegQuality = 95;
 // The id PandaSet writes when a cuboid has no sibling.
 constexpr char kNoSibling[] = "-";
@@ -58,24 +57,7 @@ std::optional<int> FrameNumberOf(const std::string& name, const std::string& suf
 
 // Reads {position {x, y, z}, heading {w, x, y, z}} (heading a unit quaternion).
 absl::StatusOr<Rigid> PandasetPose(const Json& pose, const std::string& where) {
-  ASSIGN_OR_RETURN(const Json* p, JsonMember(pose, "position", where));
-  ASSIGN_OR_RETURN(const Json* h, JsonMember(pose, "heading", where));
-  const std::string pw = where + ".position", hw = where + ".heading";
-  Quat q;
-  ASSIGN_OR_RETURN(q.w, JsonNumber(*h, "w", hw));
-  ASSIGN_OR_RETURN(q.x, JsonNumber(*h, "x", hw));
-  ASSIGN_OR_RETURN(q.y, JsonNumber(*h, "y", hw));
-  ASSIGN_OR_RETURN(q.z, JsonNumber(*h, "z", hw));
-  if (std::abs(QuatNorm(q) - 1.0) > kPandasetQuatTolerance) {
-    return absl::InvalidArgumentError(
-        absl::StrCat(hw, ": not a unit quaternion (norm ", QuatNorm(q), ")"));
-  }
-  Rigid out;
-  out.rotation = ToMatrix(QuatNormalized(q));
-  ASSIGN_OR_RETURN(out.translation.x, JsonNumber(*p, "x", pw));
-  ASSIGN_OR_RETURN(out.translation.y, JsonNumber(*p, "y", pw));
-  ASSIGN_OR_RETURN(out.translation.z, JsonNumber(*p, "z", pw));
-  return out;
+  return JsonPose(pose, {"heading", "w", "x", "y", "z", "position"}, where);
 }
 
 // The per-frame lists of a sensor directory: poses.json and timestamps.json,
