@@ -53,6 +53,10 @@ RUN apt-get update \
       libtorch1.13 libopenblas0-pthread \
  && rm -rf /var/lib/apt/lists/*
 COPY --from=build /src/build/bin/pf /src/build/bin/pf-server /src/build/bin/pf-worker /usr/local/bin/
+# `pf import pandaset` runs its pickle reader from beside the pf binary. The
+# reader needs python3 and python3-pandas, which this image leaves out (the
+# server and worker never import): pf then says which package to install.
+COPY --from=build /src/build/bin/pandaset_pickles.py /usr/local/bin/
 # A non-root user; /var/lib/pf (the SQLite file and blob directory of a
 # single-container run, or the mount point of the shared blob volume) is its
 # own, so a fresh named volume mounted there inherits the ownership.

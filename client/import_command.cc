@@ -1,10 +1,13 @@
-// pf import waymo|dgp: turns a driving log into a clip directory and prints
-// one summary line (warnings, if any, go to stderr).
+// pf import waymo|dgp|pandaset: turns a driving log into a clip directory
+// and prints one summary line (warnings, if any, go to stderr).
 //
 //   pf import waymo SEGMENT.tfrecord --out DIR [--cameras FRONT,FRONT_LEFT]
-//       [--start-us T --duration-us D] [--roles paper|all-context]
+//       [--start-us T --duration-us D] [--roles paper|all-context|alternate]
 //   pf import dgp SCENE_DIR --out DIR [--cameras CAMERA_01,...] [...same]
+//   pf import pandaset SEQ_DIR --out DIR [--cameras front_camera,...]
+//       [--frames A:B] [--scale S] [--roles ...]
 #include <cstdio>
+#include <filesystem>
 #include <string>
 #include <vector>
 
@@ -17,6 +20,7 @@
 #include "common/status_macros.h"
 #include "worker/engine/importers/clip_output.h"
 #include "worker/engine/importers/dgp_importer.h"
+#include "worker/engine/importers/pandaset_importer.h"
 #include "worker/engine/importers/waymo_importer.h"
 
 namespace pf {
@@ -24,10 +28,35 @@ namespace {
 
 constexpr char kImportUsage[] =
     "usage: pf import waymo SEGMENT.tfrecord --out DIR [--cameras A,B] "
-    "[--start-us T] [--duration-us D] [--roles paper|all-context]\n"
+    "[--start-us T] [--duration-us D] [--roles paper|all-context|alternate]\n"
     "       pf import dgp SCENE_DIR --out DIR [--cameras A,B] [--start-us T] "
-    "[--duration-us D] [--roles paper|all-context]\n"
-    "T and D are microseconds from the log's first timestamp.";
+    "[--duration-us D] [--roles paper|all-context|alternate]\n"
+    "       pf import pandaset SEQ_DIR --out DIR [--cameras A,B] [--frames A:B] "
+    "[--scale S] [--roles paper|all-context|alternate]\n"
+    "T and D are microseconds from the log's first timestamp; --frames A:B takes "
+    "PandaSet frames A to B-1; 0 < S <= 1 resizes the images.";
+
+// Returns the directory of the running binary (from /proc/self/exe).
+std::string ExecutableDir() {
+  std::error_code ec;
+  const std::filesystem::path exe = std::filesystem::read_symlink("/proc/self/exe", ec);
+  return ec ? std::string(".") : exe.parent_path().string();
+}
+
+absl::StatusOr<PandasetOptions> ParsePandasetOptions(const CommandLine& cl) {
+  PandasetOptions options;
+  if (cl.Has("frames")) {
+    ASSIGN_OR_RETURN(options.frames, ParseFrameRange(cl.Get("frames")));
+  }
+  ASSIGN_OR_RETURN(options.scale, cl.GetDouble("scale", 1.0));
+  if (!(options.scale > 0 && options.scale <= 1)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("--scale: must be in (0, 1], got ", cl.Get("scale")));
+  }
+  // Installed beside pf: build/bin, or /usr/local/bin in the container image.
+  options.module = (std::filesystem::path(ExecutableDir()) / kPandasetPicklesModule).string();
+  return options;
+}
 
 absl::StatusOr<ImportOptions> ParseOptions(const CommandLine& cl) {
   ImportOptions options;
@@ -47,25 +76,41 @@ absl::StatusOr<ImportOptions> ParseOptions(const CommandLine& cl) {
 }
 
 absl::StatusOr<std::string> Import(const std::vector<std::string>& args) {
-  ASSIGN_OR_RETURN(CommandLine cl, CommandLine::Parse(args, {"out", "cameras", "start-us",
-                                                             "duration-us", "roles"}));
+  ASSIGN_OR_RETURN(CommandLine cl,
+                   CommandLine::Parse(args, {"out", "cameras", "start-us", "duration-us", "roles",
+                                             "frames", "scale"}));
   if (cl.positional().size() != 2) {
-    return absl::InvalidArgumentError(
-        absl::StrCat(cl.positional().empty() ? "expected a format (waymo or dgp) and a source path"
-                                             : "expected a source path after the format",
-                     "\n", kImportUsage));
+    return absl::InvalidArgumentError(absl::StrCat(
+        cl.positional().empty() ? "expected a format (waymo, dgp or pandaset) and a source path"
+                                : "expected a source path after the format",
+        "\n", kImportUsage));
   }
   const std::string& format = cl.positional()[0];
   const std::string& source = cl.positional()[1];
   ASSIGN_OR_RETURN(ImportOptions options, ParseOptions(cl));
+  const bool pandaset = format == "pandaset";
+  for (const char* flag : {"frames", "scale"}) {
+    if (!pandaset && cl.Has(flag)) {
+      return absl::InvalidArgumentError(absl::StrCat("--", flag, " is for pandaset only"));
+    }
+  }
+  for (const char* flag : {"start-us", "duration-us"}) {
+    if (pandaset && cl.Has(flag)) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("--", flag, " is not for pandaset: choose frames with --frames A:B"));
+    }
+  }
   ImportResult result;
   if (format == "waymo") {
     ASSIGN_OR_RETURN(result, ImportWaymo(source, options));
   } else if (format == "dgp") {
     ASSIGN_OR_RETURN(result, ImportDgp(source, options));
+  } else if (pandaset) {
+    ASSIGN_OR_RETURN(PandasetOptions pandaset_options, ParsePandasetOptions(cl));
+    ASSIGN_OR_RETURN(result, ImportPandaset(source, options, pandaset_options));
   } else {
     return absl::InvalidArgumentError(
-        absl::StrCat("unknown format '", format, "' (waymo or dgp)\n", kImportUsage));
+        absl::StrCat("unknown format '", format, "' (waymo, dgp or pandaset)\n", kImportUsage));
   }
   for (const std::string& warning : result.warnings) {
     std::fprintf(stderr, "pf import: warning: %s\n", warning.c_str());

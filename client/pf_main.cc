@@ -33,9 +33,11 @@ commands:
   validate CLIP.json [--allow-outside-paths]
         check a clip manifest; one summary line, or every problem
   import waymo SEGMENT.tfrecord --out DIR [--cameras A,B] [--start-us T --duration-us D]
-              [--roles paper|all-context]
+              [--roles paper|all-context|alternate]
   import dgp SCENE_DIR --out DIR [--cameras A,B] [--start-us T --duration-us D]
-              [--roles paper|all-context]
+              [--roles paper|all-context|alternate]
+  import pandaset SEQ_DIR --out DIR [--cameras A,B] [--frames A:B] [--scale S]
+              [--roles paper|all-context|alternate]
         turn a driving log into a clip
   scene info SCENE | scene export SCENE --ply OUT.ply [--time-us T]
         inspect or export a Gaussian scene

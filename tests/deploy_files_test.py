@@ -600,6 +600,16 @@ class DockerfileTest(unittest.TestCase):
         self.assertIn("USER pf", body)
         self.assertIn("COPY --from=build /src/build/bin/pf /src/build/bin/pf-server /src/build/bin/pf-worker",
                       body)
+        # pf import pandaset's pickle reader lies beside pf, where pf looks for
+        # it (CMake copies it into build/bin).
+        self.assertIn("COPY --from=build /src/build/bin/pf /src/build/bin/pf-server /src/build/bin/pf-worker "
+                      "/usr/local/bin/", body)
+        self.assertIn("COPY --from=build /src/build/bin/pandaset_pickles.py /usr/local/bin/", body)
+        self.assertIn('configure_file(pandaset_pickles.py "${CMAKE_BINARY_DIR}/bin/pandaset_pickles.py" COPYONLY)',
+                      read("worker", "engine", "importers", "CMakeLists.txt"))
+        self.assertIn('kPandasetPicklesModule[] = "pandaset_pickles.py"',
+                      read("worker", "engine", "importers", "pandaset_importer.h"))
+        self.assertIn("python3-pandas", read("scripts", "install-deps.sh"))
         self.assertEqual(stages["server"][0], "runtime")
         self.assertEqual(stages["worker"][0], "runtime")
         self.assertIn('ENTRYPOINT ["pf-server"]', stages["server"][1])

@@ -1,6 +1,6 @@
-// `pf import` run as a process on the real samples: both import into clips
-// that `pf validate` accepts, with one summary line; user errors give clear
-// messages and the bad-input exit code.
+// `pf import` run as a process on the real samples: Waymo, DGP and PandaSet
+// import into clips that `pf validate` accepts, with one summary line; user
+// errors give clear messages and the bad-input exit code.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -57,6 +57,57 @@ TEST(ImportCli, DgpCameraSubsetAndAllContextRoles) {
                                "CAMERA_01,CAMERA_05", "--roles", "all-context"});
   ASSERT_EQ(run.exit_code, 0) << run.err;
   EXPECT_TRUE(Contains(run.out, "2 cameras, 6 frames (6 context, 0 target)")) << run.out;
+}
+
+// Two frames of the PandaSet sample at half resolution, alternating roles:
+// pf finds its pickle reader beside itself (build/bin).
+TEST(ImportCli, PandasetSequenceImportsIntoAValidClip) {
+  PF_REQUIRE_DATA(dir, "pandaset_002");
+  const std::string out = testing::MakeTempDir("import_cli_pandaset") + "/clip";
+  const auto run = RunCommand({BinPath("pf"), "import", "pandaset", dir, "--out", out, "--frames",
+                               "46:48", "--cameras", "front_camera,back_camera", "--scale", "0.5",
+                               "--roles", "alternate"});
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_TRUE(Contains(run.out, out + "/clip.json: 2 cameras, 4 frames (2 context, 2 target)"))
+      << run.out;
+  EXPECT_TRUE(Contains(run.out, "33 instances (66 boxes), 2 LiDAR sweeps")) << run.out;
+  EXPECT_EQ(std::count(run.out.begin(), run.out.end(), '\n'), 1) << run.out;
+  EXPECT_TRUE(Contains(run.err, "pf import: warning: 61 stationary tracks")) << run.err;
+  // The reader's scratch files are gone.
+  for (const auto& entry : fs::directory_iterator(out)) {
+    EXPECT_NE(entry.path().filename().string().rfind(".pandaset", 0), 0u) << entry.path();
+  }
+
+  const auto validate = RunCommand({BinPath("pf"), "validate", out + "/clip.json"});
+  EXPECT_EQ(validate.exit_code, 0) << validate.out << validate.err;
+  EXPECT_TRUE(Contains(validate.out, "valid: 2 cameras, 4 frames (2 CONTEXT, 2 TARGET)"))
+      << validate.out;
+}
+
+TEST(ImportCli, PandasetBadFlagsAreBadInputNamingThem) {
+  PF_REQUIRE_DATA(dir, "pandaset_002");
+  const std::string out = testing::MakeTempDir("import_cli_pandaset_bad");
+  const auto camera = RunCommand(
+      {BinPath("pf"), "import", "pandaset", dir, "--out", out, "--cameras", "front,back_camera"});
+  EXPECT_EQ(camera.exit_code, 2);
+  EXPECT_TRUE(Contains(camera.err,
+                       "pf import: --cameras front: no such camera in the sequence (have "
+                       "back_camera, front_camera, front_left_camera, front_right_camera, "
+                       "left_camera, right_camera)"))
+      << camera.err;
+  const auto scale =
+      RunCommand({BinPath("pf"), "import", "pandaset", dir, "--out", out, "--scale", "2"});
+  EXPECT_EQ(scale.exit_code, 2);
+  EXPECT_TRUE(Contains(scale.err, "--scale: must be in (0, 1], got 2")) << scale.err;
+  const auto frames =
+      RunCommand({BinPath("pf"), "import", "pandaset", dir, "--out", out, "--frames", "53"});
+  EXPECT_EQ(frames.exit_code, 2);
+  EXPECT_TRUE(Contains(frames.err, "--frames: '53' is not A:B")) << frames.err;
+  const auto start =
+      RunCommand({BinPath("pf"), "import", "pandaset", dir, "--out", out, "--start-us", "5"});
+  EXPECT_EQ(start.exit_code, 2);
+  EXPECT_TRUE(Contains(start.err, "--start-us is not for pandaset")) << start.err;
+  EXPECT_FALSE(fs::exists(out + "/clip.json"));
 }
 
 TEST(ImportCli, UnknownCameraIsBadInputListingTheCameras) {

@@ -1,6 +1,8 @@
 // Image reading and writing on OpenImageIO.
 #include "worker/engine/image/image_io.h"
 
+#include <OpenImageIO/imagebuf.h>
+#include <OpenImageIO/imagebufalgo.h>
 #include <OpenImageIO/imageio.h>
 
 #include <algorithm>
@@ -142,6 +144,30 @@ absl::Status WriteDepthExr(const std::string& path, const ImageF& depth) {
   spec.channelnames = {"Z"};
   spec.attribute("compression", "zip");
   return WriteWithOiio(path, spec, TypeDesc::FLOAT, depth.pixels.data());
+}
+
+absl::Status ResizeImageFile(const std::string& src_path, const std::string& dst_path, int width,
+                             int height, int jpeg_quality) {
+  if (width <= 0 || height <= 0) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(dst_path, ": resize to ", width, "x", height, ": size must be positive"));
+  }
+  ASSIGN_OR_RETURN(ImageF source, ReadImage(src_path));
+  const ImageSpec source_spec(source.width, source.height, source.channels, TypeDesc::FLOAT);
+  const OIIO::ImageBuf in(source_spec, source.pixels.data());
+  OIIO::ImageBuf out(ImageSpec(width, height, source.channels, TypeDesc::FLOAT));
+  // The box filter's width is in output pixels: 1 covers each output pixel's
+  // footprint in the input.
+  if (!OIIO::ImageBufAlgo::resize(out, in, "box", 1.0f)) {
+    return absl::InternalError(absl::StrCat(src_path, ": resize failed: ", out.geterror()));
+  }
+  std::vector<uint8_t> bytes(size_t(width) * height * source.channels);
+  if (!out.get_pixels(OIIO::ROI::All(), TypeDesc::UINT8, bytes.data())) {
+    return absl::InternalError(absl::StrCat(src_path, ": resize failed: ", out.geterror()));
+  }
+  ImageSpec spec(width, height, source.channels, TypeDesc::UINT8);
+  spec.attribute("compression", absl::StrCat("jpeg:", jpeg_quality));
+  return WriteWithOiio(dst_path, spec, TypeDesc::UINT8, bytes.data());
 }
 
 absl::Status WriteDepthPng16(const std::string& path, const ImageF& depth) {

@@ -61,6 +61,15 @@ absl::Status WritePng(const std::string& path, const ImageF& image);
 // compression), atomically. Used for depth maps.
 absl::Status WriteDepthExr(const std::string& path, const ImageF& depth);
 
+// Writes the image at `src_path` resized to `width` x `height` with an area
+// (box) filter: each output pixel averages the input pixels its footprint
+// covers (the filter is one output pixel wide). The output is 8-bit with the
+// input's channels, its format chosen by `dst_path`'s extension (JPEG at
+// quality `jpeg_quality`), written atomically. Errors as ReadImage for the
+// input; INVALID_ARGUMENT for a non-positive size.
+absl::Status ResizeImageFile(const std::string& src_path, const std::string& dst_path, int width,
+                             int height, int jpeg_quality = 95);
+
 // Writes a 16-bit PNG depth map (value = metres * 256, clamped to 65535, 0 for
 // unknown or non-finite), atomically.
 absl::Status WriteDepthPng16(const std::string& path, const ImageF& depth);

@@ -27,6 +27,38 @@ TEST(ImageIo, PngRoundTripKeepsSizeAndEightBitValues) {
   }
 }
 
+// Halving and thirding average each output pixel's 2x2 / 3x3 block of input
+// pixels (area filter), not a neighbourhood reaching beyond it.
+TEST(ImageIo, ResizeAveragesEachOutputPixelsFootprint) {
+  ImageF image(6, 6, 3);
+  for (int y = 0; y < 6; ++y)
+    for (int x = 0; x < 6; ++x)
+      for (int c = 0; c < 3; ++c) image.at(x, y, c) = ((x * 37 + y * 91 + c * 53) % 256) / 255.f;
+  const std::string src = ::testing::TempDir() + "/resize_src.png";
+  ASSERT_TRUE(WritePng(src, image).ok());
+  for (int factor : {2, 3}) {
+    const std::string dst = ::testing::TempDir() + "/resize_" + std::to_string(factor) + ".png";
+    const int n = 6 / factor;
+    ASSERT_TRUE(ResizeImageFile(src, dst, n, n).ok());
+    auto small = ReadImage(dst, 3);
+    ASSERT_TRUE(small.ok()) << small.status();
+    ASSERT_EQ(small->width, n);
+    ASSERT_EQ(small->height, n);
+    for (int y = 0; y < n; ++y) {
+      for (int x = 0; x < n; ++x) {
+        for (int c = 0; c < 3; ++c) {
+          double mean = 0;
+          for (int j = 0; j < factor; ++j)
+            for (int i = 0; i < factor; ++i) mean += image.at(x * factor + i, y * factor + j, c);
+          mean /= factor * factor;
+          EXPECT_NEAR(small->at(x, y, c), mean, 0.6 / 255) << factor << " " << x << "," << y;
+        }
+      }
+    }
+  }
+  EXPECT_EQ(ResizeImageFile(src, src + ".png", 0, 3).code(), absl::StatusCode::kInvalidArgument);
+}
+
 TEST(ImageIo, DepthExrAndPng16RoundTrip) {
   ImageF depth(4, 2, 1);
   for (int i = 0; i < 8; ++i) depth.pixels[i] = i == 3 ? 0.f : 1.5f + 10.25f * i;

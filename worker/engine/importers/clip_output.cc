@@ -46,6 +46,35 @@ std::string SummarizeClip(const pointforward::v1::Clip& clip) {
                       clip.lidar_size(), " LiDAR sweeps");
 }
 
+void SetRowMajor(const Rigid& t, google::protobuf::RepeatedField<double>* out) {
+  out->Clear();
+  for (double v : t.ToRowMajor()) out->Add(v);
+}
+
+void AddBox(int64_t timestamp_us, const Rigid& world_from_box, const Vec3& size,
+            pointforward::v1::Instance* instance) {
+  pointforward::v1::Box* box = instance->add_boxes();
+  box->set_timestamp_us(timestamp_us);
+  const Vec3& c = world_from_box.translation;
+  const Quat q = FromMatrix(world_from_box.rotation);
+  for (double v : {c.x, c.y, c.z}) box->add_center(v);
+  for (double v : {size.x, size.y, size.z}) box->add_size(v);
+  for (double v : {q.w, q.x, q.y, q.z}) box->add_rotation(v);
+}
+
+absl::Status AddLidarSweep(const std::vector<float>& points, const std::string& out_dir,
+                           const std::string& relative, int64_t timestamp_us,
+                           const Rigid& world_from_sensor, pointforward::v1::Clip* clip) {
+  RETURN_IF_ERROR(WriteFileAtomic((std::filesystem::path(out_dir) / relative).string(),
+                                  std::string_view(reinterpret_cast<const char*>(points.data()),
+                                                   points.size() * sizeof(float))));
+  pointforward::v1::LidarSweep* sweep = clip->add_lidar();
+  sweep->set_timestamp_us(timestamp_us);
+  sweep->set_points(relative);
+  SetRowMajor(world_from_sensor, sweep->mutable_world_from_sensor());
+  return absl::OkStatus();
+}
+
 bool InTimeWindow(const ImportOptions& options, int64_t t0, int64_t t) {
   const int64_t offset = t - t0;
   if (offset < options.start_us) return false;

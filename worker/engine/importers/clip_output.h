@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "absl/status/statusor.h"
+#include "common/geometry.h"
 #include "pointforward/v1/clip.pb.h"
 #include "worker/engine/importers/frame_roles.h"
 
@@ -41,6 +42,21 @@ absl::StatusOr<std::string> WriteClipManifest(const pointforward::v1::Clip& clip
 // Returns e.g. "5 cameras, 15 frames (8 context, 7 target), timestamps
 // [t0, t1] us, 12 instances, 3 LiDAR sweeps".
 std::string SummarizeClip(const pointforward::v1::Clip& clip);
+
+// Sets `out` to the 16 row-major numbers of `t` (a manifest pose).
+void SetRowMajor(const Rigid& t, google::protobuf::RepeatedField<double>* out);
+
+// Appends a box at `timestamp_us` to `instance`: centre and box-to-world
+// rotation from `world_from_box`, `size` = (length, width, height).
+void AddBox(int64_t timestamp_us, const Rigid& world_from_box, const Vec3& size,
+            pointforward::v1::Instance* instance);
+
+// Writes `points` (float32 x, y, z, intensity records in the sensor frame)
+// to `out_dir`/`relative` atomically and appends a sweep of them at
+// `timestamp_us` with `world_from_sensor` to `clip`.
+absl::Status AddLidarSweep(const std::vector<float>& points, const std::string& out_dir,
+                           const std::string& relative, int64_t timestamp_us,
+                           const Rigid& world_from_sensor, pointforward::v1::Clip* clip);
 
 // Returns true if `t` (microseconds) is inside the window of `options`
 // relative to the first timestamp `t0`.

@@ -21,6 +21,7 @@
 #include "common/status_macros.h"
 #include "pointforward/v1/clip.pb.h"
 #include "worker/engine/importers/jpeg_header.h"
+#include "worker/engine/importers/json_fields.h"
 #include "worker/engine/importers/npy.h"
 #include "worker/engine/importers/zip_reader.h"
 
@@ -29,81 +30,12 @@ namespace {
 
 namespace fs = std::filesystem;
 namespace v1 = pointforward::v1;
-using Json = nlohmann::json;
 
 // DGP's annotation type ids (dgp/proto/annotations.proto).
 constexpr char kBoundingBox3dKey[] = "1";
-constexpr double kQuatNormTolerance = 1e-3;
-
-// ---- JSON access that names the field instead of throwing. ----
-
-absl::StatusOr<Json> LoadJson(const std::string& path) {
-  ASSIGN_OR_RETURN(std::string text, ReadFileToString(path));
-  Json j = Json::parse(text, /*cb=*/nullptr, /*allow_exceptions=*/false);
-  if (j.is_discarded()) return absl::InvalidArgumentError(absl::StrCat(path, ": malformed JSON"));
-  return j;
-}
-
-absl::StatusOr<const Json*> Member(const Json& j, const std::string& key,
-                                   const std::string& where) {
-  if (!j.is_object()) return absl::InvalidArgumentError(absl::StrCat(where, ": not an object"));
-  const auto it = j.find(key);
-  if (it == j.end()) {
-    return absl::InvalidArgumentError(absl::StrCat(where, ".", key, ": missing"));
-  }
-  return &*it;
-}
-
-absl::StatusOr<double> Number(const Json& j, const std::string& key, const std::string& where) {
-  ASSIGN_OR_RETURN(const Json* v, Member(j, key, where));
-  if (!v->is_number())
-    return absl::InvalidArgumentError(absl::StrCat(where, ".", key, ": not a number"));
-  const double d = v->get<double>();
-  if (!std::isfinite(d))
-    return absl::InvalidArgumentError(absl::StrCat(where, ".", key, ": not finite"));
-  return d;
-}
-
-absl::StatusOr<std::string> String(const Json& j, const std::string& key,
-                                   const std::string& where) {
-  ASSIGN_OR_RETURN(const Json* v, Member(j, key, where));
-  if (!v->is_string())
-    return absl::InvalidArgumentError(absl::StrCat(where, ".", key, ": not a string"));
-  return v->get<std::string>();
-}
-
-absl::StatusOr<const Json*> Array(const Json& j, const std::string& key, const std::string& where) {
-  ASSIGN_OR_RETURN(const Json* v, Member(j, key, where));
-  if (!v->is_array())
-    return absl::InvalidArgumentError(absl::StrCat(where, ".", key, ": not an array"));
-  return v;
-}
-
 // Reads {"rotation": {qw, qx, qy, qz}, "translation": {x, y, z}}.
 absl::StatusOr<Rigid> PoseFromJson(const Json& pose, const std::string& where) {
-  ASSIGN_OR_RETURN(const Json* r, Member(pose, "rotation", where));
-  ASSIGN_OR_RETURN(const Json* t, Member(pose, "translation", where));
-  const std::string rw = where + ".rotation", tw = where + ".translation";
-  Quat q;
-  ASSIGN_OR_RETURN(q.w, Number(*r, "qw", rw));
-  ASSIGN_OR_RETURN(q.x, Number(*r, "qx", rw));
-  ASSIGN_OR_RETURN(q.y, Number(*r, "qy", rw));
-  ASSIGN_OR_RETURN(q.z, Number(*r, "qz", rw));
-  if (std::abs(QuatNorm(q) - 1.0) > kQuatNormTolerance) {
-    return absl::InvalidArgumentError(
-        absl::StrCat(rw, ": not a unit quaternion (norm ", QuatNorm(q), ")"));
-  }
-  Rigid out;
-  out.rotation = ToMatrix(q);
-  ASSIGN_OR_RETURN(out.translation.x, Number(*t, "x", tw));
-  ASSIGN_OR_RETURN(out.translation.y, Number(*t, "y", tw));
-  ASSIGN_OR_RETURN(out.translation.z, Number(*t, "z", tw));
-  return out;
-}
-
-void SetRowMajor(const Rigid& t, google::protobuf::RepeatedField<double>* out) {
-  out->Clear();
-  for (double v : t.ToRowMajor()) out->Add(v);
+  return JsonPose(pose, {"rotation", "qw", "qx", "qy", "qz", "translation"}, where);
 }
 
 // Intrinsics of one sensor of a calibration file.
@@ -169,11 +101,12 @@ absl::Status DgpImport::LoadOntology(const Json& scene) {
                    Referenced(absl::StrCat("ontology/", key->get<std::string>(), ".json"),
                               absl::StrCat(scene_json_, ": ontologies.1")));
   ASSIGN_OR_RETURN(Json ontology, LoadJson(path));
-  ASSIGN_OR_RETURN(const Json* items, Array(ontology, "items", path));
+  ASSIGN_OR_RETURN(const Json* items, JsonArray(ontology, "items", path));
   for (size_t i = 0; i < items->size(); ++i) {
     const std::string where = absl::StrCat(path, ": items[", i, "]");
-    ASSIGN_OR_RETURN(double id, Number((*items)[i], "id", where));
-    ASSIGN_OR_RETURN(class_names_[static_cast<int64_t>(id)], String((*items)[i], "name", where));
+    ASSIGN_OR_RETURN(double id, JsonNumber((*items)[i], "id", where));
+    ASSIGN_OR_RETURN(class_names_[static_cast<int64_t>(id)],
+                     JsonString((*items)[i], "name", where));
   }
   return absl::OkStatus();
 }
@@ -193,8 +126,8 @@ absl::StatusOr<const Json*> DgpImport::Calibration(const std::string& key) {
 absl::StatusOr<DgpIntrinsics> DgpImport::IntrinsicsOf(const Json& calibration,
                                                       const std::string& sensor,
                                                       const std::string& where) {
-  ASSIGN_OR_RETURN(const Json* names, Array(calibration, "names", where));
-  ASSIGN_OR_RETURN(const Json* intrinsics, Array(calibration, "intrinsics", where));
+  ASSIGN_OR_RETURN(const Json* names, JsonArray(calibration, "names", where));
+  ASSIGN_OR_RETURN(const Json* intrinsics, JsonArray(calibration, "intrinsics", where));
   for (size_t i = 0; i < names->size(); ++i) {
     if (!(*names)[i].is_string() || (*names)[i].get<std::string>() != sensor) continue;
     if (i >= intrinsics->size()) {
@@ -204,12 +137,12 @@ absl::StatusOr<DgpIntrinsics> DgpImport::IntrinsicsOf(const Json& calibration,
     const Json& k = (*intrinsics)[i];
     const std::string kw = absl::StrCat(where, ".intrinsics[", i, "]");
     DgpIntrinsics out;
-    ASSIGN_OR_RETURN(out.fx, Number(k, "fx", kw));
-    ASSIGN_OR_RETURN(out.fy, Number(k, "fy", kw));
-    ASSIGN_OR_RETURN(out.cx, Number(k, "cx", kw));
-    ASSIGN_OR_RETURN(out.cy, Number(k, "cy", kw));
+    ASSIGN_OR_RETURN(out.fx, JsonNumber(k, "fx", kw));
+    ASSIGN_OR_RETURN(out.fy, JsonNumber(k, "fy", kw));
+    ASSIGN_OR_RETURN(out.cx, JsonNumber(k, "cx", kw));
+    ASSIGN_OR_RETURN(out.cy, JsonNumber(k, "cy", kw));
     if (k.contains("skew")) {
-      ASSIGN_OR_RETURN(double skew, Number(k, "skew", kw));
+      ASSIGN_OR_RETURN(double skew, JsonNumber(k, "skew", kw));
       if (skew != 0) {
         return absl::UnimplementedError(
             absl::StrCat(kw, ".skew: ", skew, " is not supported (only 0)"));
@@ -226,8 +159,8 @@ absl::StatusOr<DgpIntrinsics> DgpImport::IntrinsicsOf(const Json& calibration,
 absl::Status DgpImport::AddImage(const Json& image, const std::string& camera, int64_t timestamp,
                                  const Json& calibration, const std::string& where) {
   ASSIGN_OR_RETURN(DgpIntrinsics k, IntrinsicsOf(calibration, camera, where + ": calibration"));
-  ASSIGN_OR_RETURN(double width, Number(image, "width", where));
-  ASSIGN_OR_RETURN(double height, Number(image, "height", where));
+  ASSIGN_OR_RETURN(double width, JsonNumber(image, "width", where));
+  ASSIGN_OR_RETURN(double height, JsonNumber(image, "height", where));
   const auto known = camera_intrinsics_.find(camera);
   if (known == camera_intrinsics_.end()) {
     camera_intrinsics_[camera] = k;
@@ -248,7 +181,7 @@ absl::Status DgpImport::AddImage(const Json& image, const std::string& camera, i
         absl::StrCat(where, ": the calibration of ", camera,
                      " changes within the scene; one calibration per camera is supported"));
   }
-  ASSIGN_OR_RETURN(std::string filename, String(image, "filename", where));
+  ASSIGN_OR_RETURN(std::string filename, JsonString(image, "filename", where));
   ASSIGN_OR_RETURN(std::string path, Referenced(filename, where));
   ASSIGN_OR_RETURN(std::string bytes, ReadFileToString(path));
   ASSIGN_OR_RETURN(JpegSize size, ReadJpegSize(bytes, path));
@@ -257,7 +190,7 @@ absl::Status DgpImport::AddImage(const Json& image, const std::string& camera, i
                                                    size.height, " but the datum says ", width, "x",
                                                    height));
   }
-  ASSIGN_OR_RETURN(const Json* pose, Member(image, "pose", where));
+  ASSIGN_OR_RETURN(const Json* pose, JsonMember(image, "pose", where));
   ASSIGN_OR_RETURN(Rigid world_from_camera, PoseFromJson(*pose, where + ".pose"));
   const std::string relative = absl::StrCat("images/", camera, "_", timestamp, ".jpg");
   RETURN_IF_ERROR(WriteFileAtomic((fs::path(options_.out_dir) / relative).string(), bytes));
@@ -271,7 +204,7 @@ absl::Status DgpImport::AddImage(const Json& image, const std::string& camera, i
 
 absl::Status DgpImport::AddPointCloud(const Json& cloud, const std::string& sensor,
                                       int64_t timestamp, const std::string& where) {
-  ASSIGN_OR_RETURN(const Json* pose, Member(cloud, "pose", where));
+  ASSIGN_OR_RETURN(const Json* pose, JsonMember(cloud, "pose", where));
   ASSIGN_OR_RETURN(Rigid world_from_sensor, PoseFromJson(*pose, where + ".pose"));
   // Columns: X, Y, Z and optionally INTENSITY.
   std::vector<std::string> format;
@@ -285,7 +218,7 @@ absl::Status DgpImport::AddPointCloud(const Json& cloud, const std::string& sens
                                                  absl::StrJoin(format, ", "),
                                                  "] is not supported (X, Y, Z[, INTENSITY])"));
   }
-  ASSIGN_OR_RETURN(std::string filename, String(cloud, "filename", where));
+  ASSIGN_OR_RETURN(std::string filename, JsonString(cloud, "filename", where));
   ASSIGN_OR_RETURN(std::string path, Referenced(filename, where));
   ASSIGN_OR_RETURN(ZipReader npz, ZipReader::Open(path));
   ASSIGN_OR_RETURN(std::string npy, npz.Read("data.npy"));
@@ -304,14 +237,9 @@ absl::Status DgpImport::AddPointCloud(const Json& cloud, const std::string& sens
     out[4 * i + 2] = static_cast<float>(p[2]);
     out[4 * i + 3] = has_intensity ? static_cast<float>(p[3]) : 0.0f;
   }
-  const std::string relative = absl::StrCat("lidar/", sensor, "_", timestamp, ".bin");
-  RETURN_IF_ERROR(WriteFileAtomic(
-      (fs::path(options_.out_dir) / relative).string(),
-      std::string_view(reinterpret_cast<const char*>(out.data()), out.size() * sizeof(float))));
-  v1::LidarSweep* sweep = clip_.add_lidar();
-  sweep->set_timestamp_us(timestamp);
-  sweep->set_points(relative);
-  SetRowMajor(world_from_sensor, sweep->mutable_world_from_sensor());
+  RETURN_IF_ERROR(AddLidarSweep(out, options_.out_dir,
+                                absl::StrCat("lidar/", sensor, "_", timestamp, ".bin"), timestamp,
+                                world_from_sensor, &clip_));
 
   if (const auto annotations = cloud.find("annotations");
       annotations != cloud.end() && annotations->is_object() &&
@@ -331,26 +259,26 @@ absl::Status DgpImport::AddBoxes(const std::string& relative, const Rigid& world
   if (!box_timestamps_.insert(timestamp).second) return absl::OkStatus();  // One set per time.
   ASSIGN_OR_RETURN(std::string path, Referenced(relative, where));
   ASSIGN_OR_RETURN(Json file, LoadJson(path));
-  ASSIGN_OR_RETURN(const Json* annotations, Array(file, "annotations", path));
+  ASSIGN_OR_RETURN(const Json* annotations, JsonArray(file, "annotations", path));
   for (size_t i = 0; i < annotations->size(); ++i) {
     const Json& a = (*annotations)[i];
     const std::string aw = absl::StrCat(path, ": annotations[", i, "]");
-    ASSIGN_OR_RETURN(const Json* instance_id, Member(a, "instance_id", aw));
+    ASSIGN_OR_RETURN(const Json* instance_id, JsonMember(a, "instance_id", aw));
     if (!instance_id->is_number_integer()) {
       return absl::InvalidArgumentError(absl::StrCat(aw, ".instance_id: not an integer"));
     }
-    ASSIGN_OR_RETURN(double class_id, Number(a, "class_id", aw));
-    ASSIGN_OR_RETURN(const Json* b, Member(a, "box", aw));
+    ASSIGN_OR_RETURN(double class_id, JsonNumber(a, "class_id", aw));
+    ASSIGN_OR_RETURN(const Json* b, JsonMember(a, "box", aw));
     const std::string bw = aw + ".box";
     Vec3 size;
-    ASSIGN_OR_RETURN(size.x, Number(*b, "length", bw));
-    ASSIGN_OR_RETURN(size.y, Number(*b, "width", bw));
-    ASSIGN_OR_RETURN(size.z, Number(*b, "height", bw));
+    ASSIGN_OR_RETURN(size.x, JsonNumber(*b, "length", bw));
+    ASSIGN_OR_RETURN(size.y, JsonNumber(*b, "width", bw));
+    ASSIGN_OR_RETURN(size.z, JsonNumber(*b, "height", bw));
     if (!(size.x > 0 && size.y > 0 && size.z > 0)) {
       return absl::InvalidArgumentError(
           absl::StrCat(bw, ": length, width, height must be positive"));
     }
-    ASSIGN_OR_RETURN(const Json* pose, Member(*b, "pose", bw));
+    ASSIGN_OR_RETURN(const Json* pose, JsonMember(*b, "pose", bw));
     ASSIGN_OR_RETURN(Rigid sensor_from_box, PoseFromJson(*pose, bw + ".pose"));
     const Rigid world_from_box = world_from_sensor * sensor_from_box;
     const std::string id = instance_id->dump();  // Exact digits, even beyond 2^53.
@@ -360,15 +288,7 @@ absl::Status DgpImport::AddBoxes(const std::string& relative, const Rigid& world
     instance.set_category(name != class_names_.end()
                               ? name->second
                               : absl::StrCat("class_", static_cast<int64_t>(class_id)));
-    v1::Box* box = instance.add_boxes();
-    box->set_timestamp_us(timestamp);
-    const Quat q = FromMatrix(world_from_box.rotation);
-    for (double v : {world_from_box.translation.x, world_from_box.translation.y,
-                     world_from_box.translation.z}) {
-      box->add_center(v);
-    }
-    for (double v : {size.x, size.y, size.z}) box->add_size(v);
-    for (double v : {q.w, q.x, q.y, q.z}) box->add_rotation(v);
+    AddBox(timestamp, world_from_box, size, &instance);
   }
   return absl::OkStatus();
 }
@@ -376,20 +296,20 @@ absl::Status DgpImport::AddBoxes(const std::string& relative, const Rigid& world
 absl::StatusOr<ImportResult> DgpImport::Run() {
   ASSIGN_OR_RETURN(Json scene, LoadJson(scene_json_));
   RETURN_IF_ERROR(LoadOntology(scene));
-  ASSIGN_OR_RETURN(const Json* data, Array(scene, "data", scene_json_));
-  ASSIGN_OR_RETURN(const Json* samples, Array(scene, "samples", scene_json_));
+  ASSIGN_OR_RETURN(const Json* data, JsonArray(scene, "data", scene_json_));
+  ASSIGN_OR_RETURN(const Json* samples, JsonArray(scene, "samples", scene_json_));
 
   // Datums by key, and the camera names the scene has.
   std::map<std::string, const Json*> datums;
   std::set<std::string> scene_cameras;
   for (size_t i = 0; i < data->size(); ++i) {
     const std::string where = absl::StrCat(scene_json_, ": data[", i, "]");
-    ASSIGN_OR_RETURN(std::string key, String((*data)[i], "key", where));
+    ASSIGN_OR_RETURN(std::string key, JsonString((*data)[i], "key", where));
     datums[key] = &(*data)[i];
-    ASSIGN_OR_RETURN(const Json* datum, Member((*data)[i], "datum", where));
-    ASSIGN_OR_RETURN(const Json* id, Member((*data)[i], "id", where));
+    ASSIGN_OR_RETURN(const Json* datum, JsonMember((*data)[i], "datum", where));
+    ASSIGN_OR_RETURN(const Json* id, JsonMember((*data)[i], "id", where));
     if (datum->contains("image")) {
-      ASSIGN_OR_RETURN(std::string name, String(*id, "name", where + ".id"));
+      ASSIGN_OR_RETURN(std::string name, JsonString(*id, "name", where + ".id"));
       scene_cameras.insert(name);
     }
   }
@@ -409,14 +329,14 @@ absl::StatusOr<ImportResult> DgpImport::Run() {
   for (size_t s = 0; s < samples->size(); ++s) {
     const Json& sample = (*samples)[s];
     const std::string sw = absl::StrCat(scene_json_, ": samples[", s, "]");
-    ASSIGN_OR_RETURN(const Json* sample_id, Member(sample, "id", sw));
-    ASSIGN_OR_RETURN(std::string sample_time, String(*sample_id, "timestamp", sw + ".id"));
+    ASSIGN_OR_RETURN(const Json* sample_id, JsonMember(sample, "id", sw));
+    ASSIGN_OR_RETURN(std::string sample_time, JsonString(*sample_id, "timestamp", sw + ".id"));
     ASSIGN_OR_RETURN(int64_t sample_us, ParseDgpTimestamp(sample_time, sw + ".id.timestamp"));
     if (!t0) t0 = sample_us;
     if (!InTimeWindow(options_, *t0, sample_us)) continue;
-    ASSIGN_OR_RETURN(std::string calibration_key, String(sample, "calibration_key", sw));
+    ASSIGN_OR_RETURN(std::string calibration_key, JsonString(sample, "calibration_key", sw));
     ASSIGN_OR_RETURN(const Json* calibration, Calibration(calibration_key));
-    ASSIGN_OR_RETURN(const Json* keys, Array(sample, "datum_keys", sw));
+    ASSIGN_OR_RETURN(const Json* keys, JsonArray(sample, "datum_keys", sw));
     for (const Json& key : *keys) {
       const auto it = key.is_string() ? datums.find(key.get<std::string>()) : datums.end();
       if (it == datums.end()) {
@@ -425,8 +345,8 @@ absl::StatusOr<ImportResult> DgpImport::Run() {
       }
       const Json& entry = *it->second;  // "id" and "datum" checked above.
       const Json& id = entry.at("id");
-      ASSIGN_OR_RETURN(std::string name, String(id, "name", sw + " datum"));
-      ASSIGN_OR_RETURN(std::string time, String(id, "timestamp", sw + " datum " + name));
+      ASSIGN_OR_RETURN(std::string name, JsonString(id, "name", sw + " datum"));
+      ASSIGN_OR_RETURN(std::string time, JsonString(id, "timestamp", sw + " datum " + name));
       const std::string where = absl::StrCat(scene_json_, ": datum ", name, " at ", time);
       ASSIGN_OR_RETURN(int64_t timestamp, ParseDgpTimestamp(time, where + ".id.timestamp"));
       const Json& datum = entry.at("datum");

@@ -1,4 +1,5 @@
-// Role assignment: nearest frame per camera to each context instant.
+// Role assignment: nearest frame per camera to each context instant, every
+// frame, or every other frame per camera.
 #include "worker/engine/importers/frame_roles.h"
 
 #include <algorithm>
@@ -38,8 +39,9 @@ int NearestFrame(const pointforward::v1::Clip& clip, const std::vector<int>& ind
 absl::StatusOr<RolePolicy> ParseRolePolicy(const std::string& text) {
   if (text == "paper") return RolePolicy::kPaper;
   if (text == "all-context") return RolePolicy::kAllContext;
+  if (text == "alternate") return RolePolicy::kAlternate;
   return absl::InvalidArgumentError(
-      absl::StrCat("--roles: '", text, "' is not one of paper, all-context"));
+      absl::StrCat("--roles: '", text, "' is not one of paper, all-context, alternate"));
 }
 
 void AssignRoles(RolePolicy policy, pointforward::v1::Clip* clip) {
@@ -55,6 +57,17 @@ void AssignRoles(RolePolicy policy, pointforward::v1::Clip* clip) {
     start = std::min(start, clip->frames(i).timestamp_us());
     by_camera[clip->frames(i).camera()].push_back(i);
     clip->mutable_frames(i)->set_role(Frame::TARGET);
+  }
+  if (policy == RolePolicy::kAlternate) {
+    for (auto& [camera, indices] : by_camera) {
+      std::stable_sort(indices.begin(), indices.end(), [&](int a, int b) {
+        return clip->frames(a).timestamp_us() < clip->frames(b).timestamp_us();
+      });
+      for (size_t k = 0; k < indices.size(); k += 2) {
+        clip->mutable_frames(indices[k])->set_role(Frame::CONTEXT);
+      }
+    }
+    return;
   }
   for (const auto& [camera, indices] : by_camera) {
     bool any = false;

@@ -7,6 +7,8 @@
 // instant is taken when it is within 250 ms of it (ties go to the earlier
 // frame); a camera with no frame that close to any instant (it starts late,
 // or the log is sparse) still gets its frame nearest to the clip start.
+// Other policies: every frame context, or per camera alternating context and
+// target frames in time order.
 #ifndef POINTFORWARD_WORKER_ENGINE_IMPORTERS_FRAME_ROLES_H_
 #define POINTFORWARD_WORKER_ENGINE_IMPORTERS_FRAME_ROLES_H_
 
@@ -20,9 +22,11 @@ namespace pf {
 enum class RolePolicy {
   kPaper,       // Context at 0, 0.5, 1.0, 1.5 s; the rest targets.
   kAllContext,  // Every frame is context.
+  kAlternate,   // Per camera, in time order: even index context, odd target.
 };
 
-// Parses "paper" or "all-context"; INVALID_ARGUMENT naming --roles otherwise.
+// Parses "paper", "all-context" or "alternate"; INVALID_ARGUMENT naming
+// --roles otherwise.
 absl::StatusOr<RolePolicy> ParseRolePolicy(const std::string& text);
 
 // Sets the role of every frame of `clip` by `policy`.

@@ -1,4 +1,5 @@
-// Tests of CONTEXT/TARGET assignment by the paper's protocol.
+// Tests of CONTEXT/TARGET assignment: the paper's protocol, all context, and
+// alternating frames per camera.
 #include "worker/engine/importers/frame_roles.h"
 
 #include <gtest/gtest.h>
@@ -82,9 +83,26 @@ TEST(FrameRoles, AllContextPolicyAndParsing) {
   EXPECT_EQ(ContextIndices(clip), (std::vector<int>{0, 1, 2}));
   EXPECT_EQ(*ParseRolePolicy("paper"), RolePolicy::kPaper);
   EXPECT_EQ(*ParseRolePolicy("all-context"), RolePolicy::kAllContext);
+  EXPECT_EQ(*ParseRolePolicy("alternate"), RolePolicy::kAlternate);
   const auto bad = ParseRolePolicy("everything");
   EXPECT_EQ(bad.status().code(), absl::StatusCode::kInvalidArgument);
   EXPECT_NE(std::string(bad.status().message()).find("--roles"), std::string::npos);
+}
+
+TEST(FrameRoles, AlternatePolicyTakesEveryOtherFramePerCameraInTimeOrder) {
+  // Frames listed out of time order; camera B has an odd count and runs 30 ms
+  // behind A.
+  Clip clip = MakeClip({{"A", 200'000},
+                        {"A", 0},
+                        {"B", 30'000},
+                        {"A", 100'000},
+                        {"B", 130'000},
+                        {"A", 300'000},
+                        {"B", 230'000}});
+  AssignRoles(RolePolicy::kAlternate, &clip);
+  // A in time order: 0 (index 1), 100k (3), 200k (0), 300k (5): context 1, 0.
+  // B: 30k (2), 130k (4), 230k (6): context 2, 6.
+  EXPECT_EQ(ContextIndices(clip), (std::vector<int>{0, 1, 2, 6}));
 }
 
 }  // namespace

@@ -48,18 +48,6 @@ std::string LabelCategory(waymo::Label::Type type) {
   }
 }
 
-void SetRowMajor(const Rigid& t, google::protobuf::RepeatedField<double>* out) {
-  out->Clear();
-  for (double v : t.ToRowMajor()) out->Add(v);
-}
-
-Mat3 RotationAboutZ(double angle) {
-  Mat3 r;
-  const double c = std::cos(angle), s = std::sin(angle);
-  r.m = {{{c, -s, 0}, {s, c, 0}, {0, 0, 1}}};
-  return r;
-}
-
 // True if a laser of `frame` carries only the deprecated uncompressed range
 // image, which we do not read.
 bool HasUncompressedRangeImages(const waymo::Frame& frame) {
@@ -186,13 +174,10 @@ absl::Status WaymoImport::AddBoxes(const waymo::Frame& frame, const std::string&
     v1::Instance& instance = instances_[label.id()];
     instance.set_id(label.id());
     instance.set_category(LabelCategory(label.type()));
-    v1::Box* box = instance.add_boxes();
-    box->set_timestamp_us(frame.timestamp_micros());
-    const Vec3 center = world_from_vehicle * Vec3{b.center_x(), b.center_y(), b.center_z()};
-    const Quat q = FromMatrix(world_from_vehicle.rotation * RotationAboutZ(b.heading()));
-    for (double v : {center.x, center.y, center.z}) box->add_center(v);
-    for (double v : {b.length(), b.width(), b.height()}) box->add_size(v);
-    for (double v : {q.w, q.x, q.y, q.z}) box->add_rotation(v);
+    const Rigid vehicle_from_box{RotationZ(b.heading()),
+                                 {b.center_x(), b.center_y(), b.center_z()}};
+    AddBox(frame.timestamp_micros(), world_from_vehicle * vehicle_from_box,
+           {b.length(), b.width(), b.height()}, &instance);
   }
   return absl::OkStatus();
 }
@@ -207,15 +192,9 @@ absl::Status WaymoImport::AddLidar(const waymo::Frame& frame, const std::string&
                         absl::StrCat(where, ": ", std::string(points.status().message())));
   }
   // One sweep per frame: every laser's first returns in the vehicle frame.
-  const std::string relative = absl::StrCat("lidar/LIDAR_", frame.timestamp_micros(), ".bin");
-  RETURN_IF_ERROR(WriteFileAtomic((std::filesystem::path(options_.out_dir) / relative).string(),
-                                  std::string_view(reinterpret_cast<const char*>(points->data()),
-                                                   points->size() * sizeof(float))));
-  v1::LidarSweep* sweep = clip_.add_lidar();
-  sweep->set_timestamp_us(frame.timestamp_micros());
-  sweep->set_points(relative);
-  SetRowMajor(world_from_vehicle, sweep->mutable_world_from_sensor());
-  return absl::OkStatus();
+  return AddLidarSweep(*points, options_.out_dir,
+                       absl::StrCat("lidar/LIDAR_", frame.timestamp_micros(), ".bin"),
+                       frame.timestamp_micros(), world_from_vehicle, &clip_);
 }
 
 absl::StatusOr<ImportResult> WaymoImport::Finish() {
