@@ -35,14 +35,17 @@
 // render is (the same figures, the ego mask honoured): "nearest", the
 // CONTEXT image of the frame's camera nearest in time, unchanged; "warp", the
 // two nearest forward-warped with the clip's depth (depth maps, else LiDAR,
-// completed by IP-Basic), nothing of the reconstruction. Each frame's
+// completed by IP-Basic), nothing of the reconstruction; moving actors are
+// warped where the context frame saw them. Each frame's
 // "baselines" has their figures and the CONTEXT "frames" they used (the warp's
 // nearer first); the top-level "baselines" their means, with the keys of
 // "mean". Their depthRmse is over pixels where both the frame and the
 // baseline have depth (nearest: the context frame's own depth map, else
 // null); holeFraction is the share of pixels neither warp reached (filled from
 // the nearest one reached; nearest: 0); filledPsnr equals psnr (they are
-// opaque). baselineSeconds: the time spent making and measuring them.
+// opaque). baselineSeconds: the time spent making and measuring them. The
+// summary line of `pf eval` names them beside ours: "mean PSNR x dB
+// (nearest y, warp z)", and the same for SSIM.
 //
 // Extra views (`pf eval --views VIEWS.json --truth DIR`, ExtraViews below):
 // after the TARGET frames, every view of a RenderViews file (what
