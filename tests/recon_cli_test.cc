@@ -100,7 +100,36 @@ TEST_F(ReconCli, EvalReportHasEveryTargetFrameWithFigures) {
     ASSERT_TRUE(sheet.ok()) << sheet.status();
     EXPECT_EQ(sheet->width, 3 * 192);
     EXPECT_EQ(sheet->height, 144);
+    // The baselines, measured the same way, from the same camera's CONTEXT
+    // frames (at 0 and 0.5 s) nearest in time.
+    const nlohmann::json& nearest = frame["baselines"]["nearest"];
+    const nlohmann::json& warp = frame["baselines"]["warp"];
+    for (const nlohmann::json* b : {&nearest, &warp}) {
+      EXPECT_TRUE((*b)["psnr"].is_number());
+      EXPECT_GT((*b)["psnr"].get<double>(), 10.0);
+      EXPECT_GT((*b)["ssim"].get<double>(), 0.0);
+      EXPECT_LE((*b)["ssim"].get<double>(), 1.0);
+      EXPECT_TRUE((*b)["depthRmse"].is_number());  // The context frames have depth maps.
+      EXPECT_GE((*b)["holeFraction"].get<double>(), 0.0);
+      EXPECT_LT((*b)["holeFraction"].get<double>(), 0.5);
+      for (const nlohmann::json& source : (*b)["frames"])
+        EXPECT_EQ(source["camera"], frame["camera"]);
+    }
+    const int64_t t = frame["timestampUs"].get<int64_t>();
+    const int64_t nearer = t <= 250000 ? 0 : 500000;
+    ASSERT_EQ(nearest["frames"].size(), 1u);
+    EXPECT_EQ(nearest["frames"][0]["timestampUs"].get<int64_t>(), nearer);
+    ASSERT_EQ(warp["frames"].size(), 2u);
+    EXPECT_EQ(warp["frames"][0]["timestampUs"].get<int64_t>(), nearer);
   }
+  // Ours ahead of the forward warp, the warp ahead of the unchanged frame
+  // (measured 26.2, 23.2 and 19.7 dB).
+  const nlohmann::json& baselines = report["baselines"];
+  EXPECT_GT(report["mean"]["psnr"].get<double>(), baselines["warp"]["psnr"].get<double>() + 1.0);
+  EXPECT_GT(baselines["warp"]["psnr"].get<double>(),
+            baselines["nearest"]["psnr"].get<double>() + 2.0);
+  EXPECT_GT(baselines["warp"]["ssim"].get<double>(), baselines["nearest"]["ssim"].get<double>());
+  EXPECT_TRUE(report["baselineSeconds"].is_number());
   const nlohmann::json& mean = report["mean"];
   // Floors measured on this clip (docs/QUALITY.md), with a margin: a broken
   // pose, colour or canonical frame drops PSNR far below them.
@@ -469,6 +498,14 @@ TEST_F(ReconCli, LidarOnlyDepthGainsFromTheGroundPlaneAndTheFacades) {
   EXPECT_LT(both["mean"]["depthRmse"].get<double>(),
             0.85 * ground["mean"]["depthRmse"].get<double>());
   EXPECT_GT(both["mean"]["psnr"].get<double>(), ground["mean"]["psnr"].get<double>());
+  // The warp baseline lifts the context frames with their LiDAR, completed
+  // (measured 22.6 dB against 19.7 for the unchanged frame); the context
+  // frames have no depth map, so the unchanged frame has no depth figure.
+  const nlohmann::json& baselines = both["baselines"];
+  EXPECT_GT(baselines["warp"]["psnr"].get<double>(),
+            baselines["nearest"]["psnr"].get<double>() + 2.0);
+  EXPECT_TRUE(baselines["warp"]["depthRmse"].is_number());
+  EXPECT_TRUE(baselines["nearest"]["depthRmse"].is_null());
 }
 
 TEST_F(ReconCli, BadFlagsAreBadInputNamingTheFlag) {

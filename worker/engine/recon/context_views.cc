@@ -5,6 +5,7 @@
 // break it (see image_io.h).
 #include <algorithm>
 #include <map>
+#include <set>
 
 #include "absl/strings/str_cat.h"
 #include "common/status_macros.h"
@@ -39,10 +40,18 @@ absl::Status WithField(const absl::Status& status, const std::string& where) {
 
 }  // namespace
 
-absl::StatusOr<std::vector<ContextView>> LoadViews(const LoadedClip& loaded,
-                                                   FrameSelection selection,
-                                                   const LoadViewsOptions& options) {
+absl::StatusOr<std::vector<ContextView>> LoadFrames(const LoadedClip& loaded,
+                                                    const std::vector<int>& frame_indices,
+                                                    const LoadViewsOptions& options) {
   const Clip& clip = loaded.clip;
+  std::set<std::string> cameras_used;
+  for (int f : frame_indices) {
+    if (f < 0 || f >= clip.frames_size()) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("frames: no frame ", f, " (the clip has ", clip.frames_size(), ")"));
+    }
+    cameras_used.insert(clip.frames(f).camera());
+  }
   std::map<std::string, CameraModel> cameras;
   std::map<std::string, std::vector<uint8_t>> ego_masks;
   for (int c = 0; c < clip.cameras_size(); ++c) {
@@ -50,7 +59,7 @@ absl::StatusOr<std::vector<ContextView>> LoadViews(const LoadedClip& loaded,
     if (!model.ok()) return WithField(model.status(), absl::StrCat("cameras[", c, "]"));
     cameras[clip.cameras(c).id()] = *model;
     const std::string& mask_file = clip.cameras(c).ego_mask();
-    if (mask_file.empty()) continue;
+    if (mask_file.empty() || !cameras_used.contains(clip.cameras(c).id())) continue;
     const std::string where = absl::StrCat("cameras[", c, "].egoMask");
     absl::StatusOr<std::string> mask_path =
         ResolveClipPath(loaded, mask_file, options.allow_outside_paths);
@@ -61,9 +70,8 @@ absl::StatusOr<std::vector<ContextView>> LoadViews(const LoadedClip& loaded,
     ego_masks[clip.cameras(c).id()] = EgoMaskFromImage(*mask);
   }
   std::vector<ContextView> views;
-  for (int f = 0; f < clip.frames_size(); ++f) {
+  for (int f : frame_indices) {
     const Frame& frame = clip.frames(f);
-    if (!IsSelected(frame, selection)) continue;
     const std::string where = absl::StrCat("frames[", f, "]");
     auto camera = cameras.find(frame.camera());
     if (camera == cameras.end()) {
@@ -105,6 +113,16 @@ absl::StatusOr<std::vector<ContextView>> LoadViews(const LoadedClip& loaded,
     views.push_back(std::move(view));
   }
   return views;
+}
+
+absl::StatusOr<std::vector<ContextView>> LoadViews(const LoadedClip& loaded,
+                                                   FrameSelection selection,
+                                                   const LoadViewsOptions& options) {
+  std::vector<int> selected;
+  for (int f = 0; f < loaded.clip.frames_size(); ++f) {
+    if (IsSelected(loaded.clip.frames(f), selection)) selected.push_back(f);
+  }
+  return LoadFrames(loaded, selected, options);
 }
 
 absl::StatusOr<std::vector<ContextView>> LoadContextViews(const LoadedClip& loaded,

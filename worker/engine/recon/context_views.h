@@ -62,6 +62,14 @@ absl::StatusOr<std::vector<ContextView>> LoadViews(const LoadedClip& loaded,
                                                    FrameSelection selection,
                                                    const LoadViewsOptions& options = {});
 
+// Decodes the frames `frame_indices` (indices into clip.frames, any role) of
+// `loaded`, in that order; errors as LoadViews, and INVALID_ARGUMENT naming
+// `frames` for an index out of range. Only the ego masks of their cameras are
+// read.
+absl::StatusOr<std::vector<ContextView>> LoadFrames(const LoadedClip& loaded,
+                                                    const std::vector<int>& frame_indices,
+                                                    const LoadViewsOptions& options = {});
+
 // LoadViews(loaded, FrameSelection::kContext, options).
 absl::StatusOr<std::vector<ContextView>> LoadContextViews(const LoadedClip& loaded,
                                                           const LoadViewsOptions& options = {});

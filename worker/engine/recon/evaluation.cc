@@ -14,6 +14,7 @@
 #include "common/status_macros.h"
 #include "pointforward/v1/clip.pb.h"
 #include "pointforward/v1/views.pb.h"
+#include "worker/engine/recon/eval_baselines.h"
 #include "worker/engine/recon/image_metrics.h"
 #include "worker/engine/recon/recon_flags.h"
 #include "worker/engine/recon/scene_graph.h"
@@ -52,57 +53,110 @@ nlohmann::ordered_json MeanJson(const MeanMetrics& mean) {
           {"filledPsnr", OptionalNumber(mean.filled_psnr)}};
 }
 
-// Measures `buffers` against `truth_rgb` (and `truth_depth` when it has
-// pixels); `dynamic_mask` selects the pixels of dynamicPsnr (none: left out).
+// Returns the pixels off the ego body: 1 where `ego` is 0; empty (all) when
+// `ego` is.
+std::vector<uint8_t> ScenePixels(const std::vector<uint8_t>& ego) {
+  std::vector<uint8_t> scene(ego.size());
+  for (size_t i = 0; i < ego.size(); ++i) scene[i] = ego[i] == 0;
+  return scene;
+}
+
+// Measures the opaque colour `image` (clamped to [0, 1] here) and its
+// `depth` ([H, W, 1] z; empty: none) against `truth_rgb` (and `truth_depth`
+// when it has pixels): psnr, psnrUnclamped, ssim, depthRmse (over the pixels
+// where the truth has depth; also only where `depth` has, with
+// `depth_where_known`), dynamicPsnr over `dynamic_mask` (none: left out).
 // Pixels where `ego` (empty: none) is set are the ego vehicle's body: left
 // out of every figure (SSIM: the windows centred on them).
-FrameMetrics Measure(const ImageF& truth_rgb, const ImageF& truth_depth,
-                     const RenderBuffers& buffers, std::vector<uint8_t> dynamic_mask,
-                     const std::vector<uint8_t>& ego, ImageF* render) {
+FrameMetrics MeasureImage(const ImageF& truth_rgb, const ImageF& truth_depth, ImageF* image,
+                          const ImageF& depth, bool depth_where_known,
+                          std::vector<uint8_t> dynamic_mask, const std::vector<uint8_t>& ego) {
   FrameMetrics m;
-  *render = ImageF(buffers.width, buffers.height, 3);
-  render->pixels = buffers.rgb;
-  const size_t pixels = buffers.alpha.size();
-  std::vector<uint8_t> scene_pixels;  // Not the ego body; empty: all.
-  if (!ego.empty()) {
-    scene_pixels.resize(pixels);
-    for (size_t i = 0; i < pixels; ++i) {
-      scene_pixels[i] = ego[i] == 0;
-      m.ego_pixels += ego[i] != 0;
-      if (ego[i] != 0 && !dynamic_mask.empty()) dynamic_mask[i] = 0;
-    }
+  const std::vector<uint8_t> scene_pixels = ScenePixels(ego);
+  for (size_t i = 0; i < ego.size(); ++i) {
+    m.ego_pixels += ego[i] != 0;
+    if (ego[i] != 0 && !dynamic_mask.empty()) dynamic_mask[i] = 0;
   }
   // The truth is a PNG or JPEG, in [0, 1]. The render is measured as an
   // image, the way its PNG preview and the contact sheet show it: clamped to
   // that range (the colour fit overshoots where discs overlap, and no value
   // above 1 shows brighter). Clamping never moves a pixel away from a truth
   // inside the range. psnrUnclamped keeps the raw render's figure.
-  m.psnr_unclamped = Psnr(truth_rgb, *render, scene_pixels).value_or(0.0);
-  for (float& v : render->pixels) v = std::clamp(v, 0.f, 1.f);
-  m.psnr = Psnr(truth_rgb, *render, scene_pixels).value_or(0.0);
-  m.ssim = Ssim(truth_rgb, *render, scene_pixels).value_or(0.0);
-  if (truth_depth.width > 0) {
-    ImageF depth(buffers.width, buffers.height, 1);
-    depth.pixels = buffers.depth;
+  m.psnr_unclamped = Psnr(truth_rgb, *image, scene_pixels).value_or(0.0);
+  for (float& v : image->pixels) v = std::clamp(v, 0.f, 1.f);
+  m.psnr = Psnr(truth_rgb, *image, scene_pixels).value_or(0.0);
+  m.ssim = Ssim(truth_rgb, *image, scene_pixels).value_or(0.0);
+  if (truth_depth.width > 0 && depth.width > 0) {
     ImageF truth = truth_depth;
-    for (size_t i = 0; i < ego.size(); ++i) {
-      if (ego[i] != 0) truth.pixels[i] = 0.f;  // 0: no truth there.
+    for (size_t i = 0; i < truth.pixels.size(); ++i) {
+      // 0: no truth there.
+      if ((!ego.empty() && ego[i] != 0) || (depth_where_known && !(depth.pixels[i] > 0.f))) {
+        truth.pixels[i] = 0.f;
+      }
     }
     m.depth_rmse = DepthRmse(truth, depth);
   }
   for (uint8_t v : dynamic_mask) m.dynamic_pixels += v != 0;
-  if (m.dynamic_pixels > 0) m.dynamic_psnr = Psnr(truth_rgb, *render, dynamic_mask);
+  if (m.dynamic_pixels > 0) m.dynamic_psnr = Psnr(truth_rgb, *image, dynamic_mask);
+  return m;
+}
+
+// Measures `buffers` as MeasureImage does (depthRmse over every pixel where
+// the truth has depth), and the render's holes: filledPsnr, holeFraction.
+FrameMetrics Measure(const ImageF& truth_rgb, const ImageF& truth_depth,
+                     const RenderBuffers& buffers, std::vector<uint8_t> dynamic_mask,
+                     const std::vector<uint8_t>& ego, ImageF* render) {
+  *render = ImageF(buffers.width, buffers.height, 3);
+  render->pixels = buffers.rgb;
+  ImageF depth(buffers.width, buffers.height, 1);
+  depth.pixels = buffers.depth;
+  FrameMetrics m =
+      MeasureImage(truth_rgb, truth_depth, render, depth, false, std::move(dynamic_mask), ego);
   ImageF filled(buffers.width, buffers.height, 3);
   filled.pixels = FillUncovered(buffers.rgb, buffers.alpha, buffers.width, buffers.height);
   for (float& v : filled.pixels) v = std::clamp(v, 0.f, 1.f);
+  const std::vector<uint8_t> scene_pixels = ScenePixels(ego);
   m.filled_psnr = Psnr(truth_rgb, filled, scene_pixels).value_or(0.0);
   int64_t holes = 0;
+  const size_t pixels = buffers.alpha.size();
   for (size_t i = 0; i < pixels; ++i) {
     holes += buffers.alpha[i] < kCoveredAlpha && (ego.empty() || ego[i] == 0);
   }
   m.hole_fraction =
       double(holes) / double(std::max<int64_t>(1, static_cast<int64_t>(pixels) - m.ego_pixels));
   return m;
+}
+
+// Measures the baselines of `target` (`dynamic_mask` as for its render).
+void MeasureBaselines(const ContextView& target, const FrameBaselines& b,
+                      const std::vector<uint8_t>& dynamic_mask, const pointforward::v1::Clip& clip,
+                      FrameMetrics* nearest, FrameMetrics* warp) {
+  auto sources = [&](const std::vector<int>& frames) {
+    std::vector<FrameMetrics::Source> out;
+    for (int f : frames) out.push_back({clip.frames(f).camera(), clip.frames(f).timestamp_us()});
+    return out;
+  };
+  ImageF image = b.nearest_rgb;
+  *nearest = MeasureImage(target.rgb, target.depth, &image, b.nearest_depth, true, dynamic_mask,
+                          target.ego);
+  nearest->filled_psnr = nearest->psnr;
+  nearest->sources = sources(b.nearest_frames);
+  image = b.warp.rgb;
+  *warp =
+      MeasureImage(target.rgb, target.depth, &image, b.warp.depth, true, dynamic_mask, target.ego);
+  warp->filled_psnr = warp->psnr;
+  int64_t holes = 0;
+  for (size_t i = 0; i < b.warp.covered.size(); ++i) {
+    holes += !b.warp.covered[i] && !target.is_ego(i);
+  }
+  warp->hole_fraction =
+      double(holes) /
+      double(std::max<int64_t>(1, static_cast<int64_t>(b.warp.covered.size()) - warp->ego_pixels));
+  warp->sources = sources(b.warp_frames);
+  for (FrameMetrics* m : {nearest, warp}) {
+    m->camera = target.camera_id;
+    m->timestamp_us = target.timestamp_us;
+  }
 }
 
 // An extra view with the paths of its truth files, checked to exist (the
@@ -412,8 +466,28 @@ std::string EvalReportJson(const EvalReport& report) {
   for (const auto& [name, seconds] : report.stats.stage_seconds) stages[name] = seconds;
   j["stageSeconds"] = stages;
   j["mean"] = MeanJson(report.mean);
+  const bool baselines =
+      report.nearest.size() == report.frames.size() && report.warp.size() == report.frames.size();
+  if (baselines) {
+    j["baselines"] = {{"nearest", MeanJson(report.nearest_mean)},
+                      {"warp", MeanJson(report.warp_mean)}};
+    j["baselineSeconds"] = report.baseline_seconds;
+  }
+  // A baseline's figures and the frames it was made from.
+  auto baseline_json = [](const FrameMetrics& b) {
+    nlohmann::ordered_json out;
+    AddFigures(b, &out);
+    out["holeFraction"] = b.hole_fraction;
+    nlohmann::ordered_json sources = nlohmann::ordered_json::array();
+    for (const FrameMetrics::Source& s : b.sources) {
+      sources.push_back({{"camera", s.camera}, {"timestampUs", s.timestamp_us}});
+    }
+    out["frames"] = sources;
+    return out;
+  };
   nlohmann::ordered_json frames = nlohmann::ordered_json::array();
-  for (const FrameMetrics& f : report.frames) {
+  for (size_t i = 0; i < report.frames.size(); ++i) {
+    const FrameMetrics& f = report.frames[i];
     nlohmann::ordered_json frame;
     frame["camera"] = f.camera;
     frame["timestampUs"] = f.timestamp_us;
@@ -421,6 +495,10 @@ std::string EvalReportJson(const EvalReport& report) {
     frame["dynamicPixels"] = f.dynamic_pixels;
     frame["holeFraction"] = f.hole_fraction;
     frame["contactSheet"] = f.contact_sheet;
+    if (baselines) {
+      frame["baselines"] = {{"nearest", baseline_json(report.nearest[i])},
+                            {"warp", baseline_json(report.warp[i])}};
+    }
     frames.push_back(std::move(frame));
   }
   j["frames"] = frames;
@@ -499,6 +577,7 @@ absl::StatusOr<EvalReport> EvaluateClip(const LoadedClip& loaded, const ReconOpt
   RenderOptions render_options;
   render_options.features = false;
   render_options.instance = false;
+  EvalBaselines baselines(loaded, view_options);
   for (size_t t = 0; t < targets.size(); ++t) {
     const ContextView& target = targets[t];
     const auto start = std::chrono::steady_clock::now();
@@ -506,11 +585,10 @@ absl::StatusOr<EvalReport> EvaluateClip(const LoadedClip& loaded, const ReconOpt
                                                    target.timestamp_us, {}, render_options));
     const double render_seconds = SecondsSince(start);
     const auto metrics_start = std::chrono::steady_clock::now();
-    std::vector<uint8_t> mask =
+    const std::vector<uint8_t> mask =
         DynamicMask(target.camera, target.world_from_camera, scene.instances, target.timestamp_us);
     ImageF render;
-    FrameMetrics m =
-        Measure(target.rgb, target.depth, buffers, std::move(mask), target.ego, &render);
+    FrameMetrics m = Measure(target.rgb, target.depth, buffers, mask, target.ego, &render);
     m.render_seconds = render_seconds;
     report.render_seconds += m.render_seconds;
     m.camera = target.camera_id;
@@ -518,15 +596,27 @@ absl::StatusOr<EvalReport> EvaluateClip(const LoadedClip& loaded, const ReconOpt
     m.contact_sheet = absl::StrCat(target.camera_id, "_", target.timestamp_us, ".png");
     RETURN_IF_ERROR(
         WritePng(absl::StrCat(out_dir, "/", m.contact_sheet), ContactSheet(target.rgb, render)));
+    const double metrics_seconds = SecondsSince(metrics_start);
+    const auto baseline_start = std::chrono::steady_clock::now();
+    ASSIGN_OR_RETURN(const FrameBaselines frame_baselines, baselines.Make(target));
+    FrameMetrics nearest, warp;
+    MeasureBaselines(target, frame_baselines, mask, loaded.clip, &nearest, &warp);
+    const double baseline_seconds = SecondsSince(baseline_start);
+    report.baseline_seconds += baseline_seconds;
     if (options.progress) {
       options.progress(absl::StrCat("target ", t + 1, "/", targets.size(), " ", m.contact_sheet,
-                                    ": PSNR ", m.psnr, " dB, SSIM ", m.ssim, " (render ",
-                                    m.render_seconds, " s, metrics ", SecondsSince(metrics_start),
-                                    " s)"));
+                                    ": PSNR ", m.psnr, " dB (nearest ", nearest.psnr, ", warp ",
+                                    warp.psnr, "), SSIM ", m.ssim, " (render ", m.render_seconds,
+                                    " s, metrics ", metrics_seconds, " s, baselines ",
+                                    baseline_seconds, " s)"));
     }
     report.frames.push_back(std::move(m));
+    report.nearest.push_back(std::move(nearest));
+    report.warp.push_back(std::move(warp));
   }
   report.mean = MeanOf(report.frames);
+  report.nearest_mean = MeanOf(report.nearest);
+  report.warp_mean = MeanOf(report.warp);
   if (extra_views.has_value()) {
     RETURN_IF_ERROR(
         EvaluateExtraViews(scene, *extra_views, extra->lane_shift, options, out_dir, &report));

@@ -13,9 +13,14 @@
 //    "instances": n, "contextViews": n, "ns": n, "nd": n,
 //    "stageSeconds": {"load": s, ...},
 //    "mean": {"psnr": x, "ssim": x, "depthRmse": x, "dynamicPsnr": x},
+//    "baselines": {"nearest": {...}, "warp": {...}}, "baselineSeconds": s,
 //    "frames": [{"camera": "...", "timestampUs": t, "psnr": x, "ssim": x,
 //                "depthRmse": x, "dynamicPsnr": x, "dynamicPixels": n,
-//                "holeFraction": x, "contactSheet": "cam_t.png"}, ...]}
+//                "holeFraction": x, "contactSheet": "cam_t.png",
+//                "baselines": {"nearest": {"psnr": x, ..., "holeFraction": x,
+//                                          "frames": [{"camera": "...",
+//                                                      "timestampUs": t}]},
+//                              "warp": {...}}}, ...]}
 // depthRmse is over pixels where the target frame has depth (frames without
 // a depth map leave it out); dynamicPsnr over pixels whose ray crosses an
 // instance box at the frame's time (left out where there are none);
@@ -25,6 +30,22 @@
 // A camera with an ego mask (Camera.ego_mask) has its masked pixels left
 // out of every figure of its frames (SSIM: the windows centred on them;
 // holeFraction is over the other pixels) and their count as "egoPixels".
+//
+// Baselines (eval_baselines.h), measured on every TARGET frame as the
+// render is (the same figures, the ego mask honoured): "nearest", the
+// CONTEXT image of the frame's camera nearest in time, unchanged; "warp", the
+// two nearest forward-warped with the clip's depth (depth maps, else LiDAR,
+// completed by IP-Basic), nothing of the reconstruction; moving actors are
+// warped where the context frame saw them. Each frame's
+// "baselines" has their figures and the CONTEXT "frames" they used (the warp's
+// nearer first); the top-level "baselines" their means, with the keys of
+// "mean". Their depthRmse is over pixels where both the frame and the
+// baseline have depth (nearest: the context frame's own depth map, else
+// null); holeFraction is the share of pixels neither warp reached (filled from
+// the nearest one reached; nearest: 0); filledPsnr equals psnr (they are
+// opaque). baselineSeconds: the time spent making and measuring them. The
+// summary line of `pf eval` names them beside ours: "mean PSNR x dB
+// (nearest y, warp z)", and the same for SSIM.
 //
 // Extra views (`pf eval --views VIEWS.json --truth DIR`, ExtraViews below):
 // after the TARGET frames, every view of a RenderViews file (what
@@ -88,6 +109,12 @@ struct FrameMetrics {
   std::string contact_sheet;  // File name inside the output directory.
   double render_seconds = 0;
   std::optional<double> shift_m;  // Lane-shift views: the sideways shift in metres.
+  // Baselines: the CONTEXT frames they were made from.
+  struct Source {
+    std::string camera;
+    int64_t timestamp_us = 0;
+  };
+  std::vector<Source> sources;
 };
 
 struct MeanMetrics {
@@ -126,6 +153,11 @@ struct EvalReport {
   double render_seconds = 0;
   std::vector<FrameMetrics> frames;
   MeanMetrics mean;
+  // The baselines of each TARGET frame, in the order of `frames`, and their
+  // means.
+  std::vector<FrameMetrics> nearest, warp;
+  MeanMetrics nearest_mean, warp_mean;
+  double baseline_seconds = 0;
   std::vector<FrameMetrics> views;  // Extra views; empty without ExtraViews.
   MeanMetrics views_mean;
   std::optional<LaneShiftSpec> lane_shift;
