@@ -53,7 +53,11 @@ shows it (the truth is a PNG or JPEG); "psnrUnclamped" the raw float render;
 "filledPsnr" the render composited over a push-pull fill of itself, as the
 "filled" layer is (pixels the scene does not cover take the colour around
 them); "holeFraction" is the share of pixels with alpha < 0.5. SSIM and
-dynamicPsnr are of the clamped render too.
+dynamicPsnr are of the clamped render too. Every colour figure compares
+sRGB-encoded images ("metricsColour": "srgb"), whatever the working space.
+Where the clip has LiDAR, "lidarAbsRel" is the mean |depth - LiDAR| / LiDAR
+over the target time's own LiDAR points that the image has depth at, and
+"lidarCoverage" the share of those points it has depth at.
 
 Every TARGET frame is also measured against two baselines made from the clip
 alone, reported beside ours ("baselines" in report.json and in each frame):
@@ -65,7 +69,8 @@ the nearest pixel. Moving actors are warped as if they stood still.
 reconstruction flags (as pf reconstruct):
   --model analytic|pixel-aligned  --ns N --nd N  --fusion softmax|average|no-depth
   --no-lifespan  --refine N  --splat-sigma S  --low-pass PX2  --hidden-band PX
-  --no-ground-fill  --no-facades  --device cpu|cuda[:N]  --allow-outside-paths
+  --no-ground-fill  --no-facades  --colour gradients|flat  --working-space srgb|linear
+  --device cpu|cuda[:N]  --allow-outside-paths
 
 extra views (views not in the clip, e.g. extrapolated poses):
   --views VIEWS.json   a RenderViews file, as pf render --cameras and

@@ -3,7 +3,7 @@
 //                [--no-lifespan] [--refine N] [--splat-sigma S] [--low-pass PX2]
 //                [--hidden-band PX] [--no-ground-fill] [--no-facades]
 //                [--device cpu|cuda[:N]] [--colour gradients|flat]
-//                [--allow-outside-paths]
+//                [--working-space srgb|linear] [--allow-outside-paths]
 // Checks the clip as pf validate does, then builds a Gaussian scene from the
 // clip's CONTEXT frames (worker/engine/recon/reconstruction.h) and writes it
 // with SaveScene. Progress per stage goes to stderr, a summary to stdout.
@@ -31,7 +31,8 @@ constexpr char kReconstructUsage[] =
     "usage: pf reconstruct CLIP.json --out SCENE [--model analytic|pixel-aligned] "
     "[--ns N --nd N] [--fusion softmax|average|no-depth] [--no-lifespan] [--refine N] "
     "[--splat-sigma S] [--low-pass PX2] [--hidden-band PX] [--no-ground-fill] [--no-facades] "
-    "[--device cpu|cuda[:N]] [--allow-outside-paths]";
+    "[--device cpu|cuda[:N]] [--colour gradients|flat] [--working-space srgb|linear] "
+    "[--allow-outside-paths]";
 
 absl::Status ReconstructCommand(const CommandLine& cl) {
   if (cl.positional().size() != 1) return absl::InvalidArgumentError(kReconstructUsage);

@@ -42,7 +42,7 @@ absl::Status RenderCommand(const CommandLine& cl) {
   std::fprintf(stderr, "pf render: %zu gaussians (%s), %zu views, %zu edits\n", opened.scene.size(),
                opened.format.c_str(), request.views.size(), request.edits.size());
 
-  const SceneLabel label{opened.scene_id, opened.model};
+  const SceneLabel label{opened.scene_id, opened.model, opened.scene.colour_encoding};
   RenderOptions options;
   options.features = channels.features;
   options.depth = channels.depth;
@@ -70,7 +70,8 @@ absl::Status RenderCommand(const CommandLine& cl) {
     entry.render_ms = render_ms;
     RETURN_IF_ERROR(
         WriteRenderExr(absl::StrCat(out_dir, "/", entry.exr), *buffers, channels, view, label));
-    RETURN_IF_ERROR(WritePreviewPng(absl::StrCat(out_dir, "/", entry.png), *buffers));
+    RETURN_IF_ERROR(
+        WritePreviewPng(absl::StrCat(out_dir, "/", entry.png), *buffers, label.colour_encoding));
     std::fprintf(stderr, "[%zu/%zu] %s: %dx%d at %lld us, %.1f ms -> %s\n", i + 1,
                  request.views.size(), view.name.c_str(), buffers->width, buffers->height,
                  static_cast<long long>(view.timestamp_us), render_ms, entry.exr.c_str());

@@ -506,6 +506,23 @@ TEST_F(ReconCli, LidarOnlyDepthGainsFromTheGroundPlaneAndTheFacades) {
             baselines["nearest"]["psnr"].get<double>() + 2.0);
   EXPECT_TRUE(baselines["warp"]["depthRmse"].is_number());
   EXPECT_TRUE(baselines["nearest"]["depthRmse"].is_null());
+  // Depth against each target time's own LiDAR: ours and the warp's; the
+  // unchanged frame has no depth.
+  for (const nlohmann::json* mean : {&both["mean"], &baselines["warp"]}) {
+    ASSERT_TRUE((*mean)["lidarAbsRel"].is_number()) << *mean;
+    EXPECT_GT((*mean)["lidarAbsRel"].get<double>(), 0.0);
+    EXPECT_LT((*mean)["lidarAbsRel"].get<double>(), 0.15);
+    EXPECT_GT((*mean)["lidarCoverage"].get<double>(), 0.8);
+  }
+  EXPECT_TRUE(baselines["nearest"]["lidarAbsRel"].is_null());
+  // Blending in linear light: the figures still compare sRGB-encoded images
+  // (were the linear render compared as it is, PSNR would drop by many dB).
+  const nlohmann::json linear = eval("eval_linear", {"--working-space", "linear"});
+  EXPECT_EQ(both["workingSpace"], "srgb");
+  EXPECT_EQ(linear["workingSpace"], "linear");
+  EXPECT_EQ(linear["metricsColour"], "srgb");
+  EXPECT_GT(linear["mean"]["psnr"].get<double>(), both["mean"]["psnr"].get<double>() - 1.0);
+  EXPECT_EQ(linear["baselines"]["warp"]["psnr"], baselines["warp"]["psnr"]);
 }
 
 TEST_F(ReconCli, BadFlagsAreBadInputNamingTheFlag) {

@@ -272,7 +272,7 @@ absl::StatusOr<ReconstructOutput> RunReconstruction(
   absl::StatusOr<LoadedClip> loaded = LoadClip(manifest);
   if (!loaded.ok()) return StatusWithContext(loaded.status(), "clip.manifest");
   RETURN_IF_ERROR(CheckAllFilesUploaded(loaded->clip, work.clip()));
-  ASSIGN_OR_RETURN(const ReconInputs inputs, LoadReconInputs(*loaded, options.allow_outside_paths));
+  ASSIGN_OR_RETURN(const ReconInputs inputs, LoadReconInputs(*loaded, options));
   RETURN_IF_ERROR(CheckCancelled(cancelled, "before reconstructing"));
   stages.Begin("depth");
   ASSIGN_OR_RETURN(const ReconResult result, ReconstructInputs(inputs, options));
@@ -337,7 +337,7 @@ absl::StatusOr<RenderChunkOutput> RenderChunk(const pb::RenderWork& work, const 
   RETURN_IF_ERROR(MakeDirs(out_dir));
 
   // From here on, the same steps as client/render_command.cc.
-  const SceneLabel label{opened.scene_id, opened.model};
+  const SceneLabel label{opened.scene_id, opened.model, opened.scene.colour_encoding};
   RenderOptions options;
   options.features = channels.features;
   options.depth = channels.depth;
@@ -363,7 +363,7 @@ absl::StatusOr<RenderChunkOutput> RenderChunk(const pb::RenderWork& work, const 
     const std::string exr_path = absl::StrCat(out_dir, "/", entry.exr);
     const std::string png_path = absl::StrCat(out_dir, "/", entry.png);
     RETURN_IF_ERROR(WriteRenderExr(exr_path, *buffers, channels, view, label));
-    RETURN_IF_ERROR(WritePreviewPng(png_path, *buffers));
+    RETURN_IF_ERROR(WritePreviewPng(png_path, *buffers, label.colour_encoding));
     out.files.push_back({entry.exr, exr_path, view.name});
     out.files.push_back({entry.png, png_path, view.name});
     entries.push_back(std::move(entry));

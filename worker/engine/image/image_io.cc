@@ -67,9 +67,15 @@ absl::StatusOr<ImageInfo> ReadImageInfo(const std::string& path) {
   return info;
 }
 
-absl::StatusOr<ImageF> ReadImage(const std::string& path, int channels) {
+namespace {
+
+// Decodes the image at `path` as ReadImage does; `float_values` says whether
+// the file stores float (or half) values.
+absl::StatusOr<ImageF> DecodeImage(const std::string& path, int channels, bool* float_values) {
   ASSIGN_OR_RETURN(auto in, OpenInput(path));
   const ImageSpec& spec = in->spec();
+  const auto base = TypeDesc::BASETYPE(spec.format.basetype);
+  *float_values = base == TypeDesc::FLOAT || base == TypeDesc::HALF || base == TypeDesc::DOUBLE;
   ImageF stored(spec.width, spec.height, spec.nchannels);
   if (!in->read_image(0, 0, 0, spec.nchannels, TypeDesc::FLOAT, stored.pixels.data())) {
     return absl::InvalidArgumentError(absl::StrCat(path, ": cannot decode: ", in->geterror()));
@@ -93,6 +99,24 @@ absl::StatusOr<ImageF> ReadImage(const std::string& path, int channels) {
     }
   }
   return out;
+}
+
+}  // namespace
+
+absl::StatusOr<ImageF> ReadImage(const std::string& path, int channels) {
+  bool float_values = false;
+  return DecodeImage(path, channels, &float_values);
+}
+
+absl::StatusOr<ImageF> ReadColourImage(const std::string& path, int channels,
+                                       std::optional<ColourEncoding> stored, ColourEncoding to) {
+  bool float_values = false;
+  ASSIGN_OR_RETURN(ImageF image, DecodeImage(path, channels, &float_values));
+  const ColourEncoding from =
+      stored.value_or(float_values ? ColourEncoding::kLinear : ColourEncoding::kSrgb);
+  ConvertColours(image.pixels.data(), size_t(image.width) * image.height, image.channels,
+                 std::min(image.channels, 3), from, to);
+  return image;
 }
 
 absl::StatusOr<ImageF> ReadDepth(const std::string& path) {

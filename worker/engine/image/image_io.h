@@ -9,11 +9,13 @@
 #define POINTFORWARD_WORKER_ENGINE_IMAGE_IMAGE_IO_H_
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
+#include "common/colour_space.h"
 
 namespace pf {
 
@@ -47,6 +49,14 @@ absl::StatusOr<ImageInfo> ReadImageInfo(const std::string& path);
 // that many channels (extra ones dropped; a single grey channel repeated;
 // missing alpha filled with 1).
 absl::StatusOr<ImageF> ReadImage(const std::string& path, int channels = 0);
+
+// Reads the colour image at `path` as ReadImage does and returns its colour
+// channels (the first three; alpha is left alone) in `to`. `stored` is the
+// encoding of the file's values (a camera's declared colour space); without
+// it, float and half files (EXR) hold linear light and integer ones (PNG,
+// JPEG) sRGB-encoded values.
+absl::StatusOr<ImageF> ReadColourImage(const std::string& path, int channels,
+                                       std::optional<ColourEncoding> stored, ColourEncoding to);
 
 // Reads a depth map in metres along z: a float EXR (first channel) or a 16-bit
 // PNG whose value / 256 is metres. 0 (or a non-finite value) means unknown.

@@ -59,6 +59,39 @@ TEST(ImageIo, ResizeAveragesEachOutputPixelsFootprint) {
   EXPECT_EQ(ResizeImageFile(src, src + ".png", 0, 3).code(), absl::StatusCode::kInvalidArgument);
 }
 
+TEST(ImageIo, ColourImagesDecodeToTheAskedEncoding) {
+  const std::string dir = ::testing::TempDir();
+  ImageF ramp(256, 1, 3);
+  for (int x = 0; x < 256; ++x)
+    for (int c = 0; c < 3; ++c) ramp.at(x, 0, c) = x / 255.f;
+  const std::string png = dir + "/ramp.png";
+  ASSERT_TRUE(WritePng(png, ramp).ok());
+  // An 8-bit PNG holds sRGB-encoded values unless its camera says otherwise.
+  absl::StatusOr<ImageF> linear = ReadColourImage(png, 3, std::nullopt, ColourEncoding::kLinear);
+  absl::StatusOr<ImageF> kept = ReadColourImage(png, 3, std::nullopt, ColourEncoding::kSrgb);
+  absl::StatusOr<ImageF> declared =
+      ReadColourImage(png, 3, ColourEncoding::kLinear, ColourEncoding::kLinear);
+  ASSERT_TRUE(linear.ok() && kept.ok() && declared.ok());
+  for (int x = 0; x < 256; ++x) {
+    EXPECT_NEAR(linear->at(x, 0, 1), SrgbToLinear(x / 255.f), 1e-6) << x;
+    EXPECT_NEAR(kept->at(x, 0, 1), x / 255.f, 1e-6) << x;
+    EXPECT_NEAR(declared->at(x, 0, 1), x / 255.f, 1e-6) << x;
+  }
+  // A float EXR holds linear light: it reads back unchanged as linear, and
+  // encoded as sRGB when asked.
+  ImageF light(3, 1, 1);
+  light.pixels = {0.0f, 0.18f, 4.0f};
+  const std::string exr = dir + "/light.exr";
+  ASSERT_TRUE(WriteDepthExr(exr, light).ok());
+  absl::StatusOr<ImageF> same = ReadColourImage(exr, 3, std::nullopt, ColourEncoding::kLinear);
+  absl::StatusOr<ImageF> encoded = ReadColourImage(exr, 3, std::nullopt, ColourEncoding::kSrgb);
+  ASSERT_TRUE(same.ok() && encoded.ok());
+  for (int x = 0; x < 3; ++x) {
+    EXPECT_EQ(same->at(x, 0, 0), light.pixels[x]);
+    EXPECT_FLOAT_EQ(encoded->at(x, 0, 2), LinearToSrgb(light.pixels[x]));
+  }
+}
+
 TEST(ImageIo, DepthExrAndPng16RoundTrip) {
   ImageF depth(4, 2, 1);
   for (int i = 0; i < 8; ++i) depth.pixels[i] = i == 3 ? 0.f : 1.5f + 10.25f * i;

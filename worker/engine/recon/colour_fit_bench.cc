@@ -80,8 +80,11 @@ absl::Status Run(const std::vector<std::string>& args) {
     return std::find(parts.begin(), parts.end(), part) != parts.end();
   };
   ASSIGN_OR_RETURN(LoadedClip clip, LoadClip(cl.Get("clip")));
-  ASSIGN_OR_RETURN(ReconInputs inputs, LoadReconInputs(clip, /*allow_outside_paths=*/true));
   ASSIGN_OR_RETURN(GaussianScene scene, LoadScene(cl.Get("scene")));
+  ReconOptions load_options;
+  load_options.allow_outside_paths = true;
+  load_options.colour_encoding = scene.colour_encoding;  // The fit's colours are the scene's.
+  ASSIGN_OR_RETURN(ReconInputs inputs, LoadReconInputs(clip, load_options));
 
   RefinementOptions options;
   options.iterations = static_cast<int>(iterations);

@@ -5,6 +5,7 @@
 // break it (see image_io.h).
 #include <algorithm>
 #include <map>
+#include <optional>
 #include <set>
 
 #include "absl/strings/str_cat.h"
@@ -21,6 +22,18 @@ using pointforward::v1::Frame;
 bool IsSelected(const Frame& frame, FrameSelection selection) {
   const bool is_target = frame.role() == Frame::TARGET;
   return selection == FrameSelection::kTarget ? is_target : !is_target;
+}
+
+// The encoding a camera declares for its images; nullopt: by file format.
+std::optional<ColourEncoding> DeclaredEncoding(const pointforward::v1::Camera& camera) {
+  switch (camera.color_space()) {
+    case pointforward::v1::Camera::SRGB:
+      return ColourEncoding::kSrgb;
+    case pointforward::v1::Camera::LINEAR:
+      return ColourEncoding::kLinear;
+    default:
+      return std::nullopt;
+  }
 }
 
 absl::Status CheckSize(const ImageF& image, const CameraModel& camera, const std::string& where) {
@@ -53,11 +66,13 @@ absl::StatusOr<std::vector<ContextView>> LoadFrames(const LoadedClip& loaded,
     cameras_used.insert(clip.frames(f).camera());
   }
   std::map<std::string, CameraModel> cameras;
+  std::map<std::string, std::optional<ColourEncoding>> encodings;
   std::map<std::string, std::vector<uint8_t>> ego_masks;
   for (int c = 0; c < clip.cameras_size(); ++c) {
     absl::StatusOr<CameraModel> model = CameraModelFromProto(clip.cameras(c));
     if (!model.ok()) return WithField(model.status(), absl::StrCat("cameras[", c, "]"));
     cameras[clip.cameras(c).id()] = *model;
+    encodings[clip.cameras(c).id()] = DeclaredEncoding(clip.cameras(c));
     const std::string& mask_file = clip.cameras(c).ego_mask();
     if (mask_file.empty() || !cameras_used.contains(clip.cameras(c).id())) continue;
     const std::string where = absl::StrCat("cameras[", c, "].egoMask");
@@ -96,7 +111,8 @@ absl::StatusOr<std::vector<ContextView>> LoadFrames(const LoadedClip& loaded,
     absl::StatusOr<std::string> image_path =
         ResolveClipPath(loaded, frame.image(), options.allow_outside_paths);
     if (!image_path.ok()) return WithField(image_path.status(), where + ".image");
-    absl::StatusOr<ImageF> rgb = ReadImage(*image_path, 3);
+    absl::StatusOr<ImageF> rgb = ReadColourImage(*image_path, 3, encodings[frame.camera()],
+                                                 options.colour_encoding);
     if (!rgb.ok()) return WithField(rgb.status(), where + ".image");
     RETURN_IF_ERROR(CheckSize(*rgb, view.camera, where + ".image"));
     view.rgb = *std::move(rgb);

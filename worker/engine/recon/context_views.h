@@ -30,7 +30,7 @@ struct ContextView {
   CameraModel camera;
   Rigid world_from_camera;
   int64_t timestamp_us = 0;
-  ImageF rgb;    // [H, W, 3] in [0, 1].
+  ImageF rgb;    // [H, W, 3] in [0, 1], in LoadViewsOptions::colour_encoding.
   ImageF depth;  // [H, W, 1] metres along z, 0 unknown; empty (width 0) when the frame has none.
   // [H, W] 1 on the ego vehicle's body (Camera.ego_mask), 0 elsewhere; empty
   // when the camera has no mask. Such pixels are never lifted; they neither
@@ -51,6 +51,10 @@ enum class FrameSelection { kContext, kTarget };
 struct LoadViewsOptions {
   bool read_depth = true;  // Read the frames' depth maps when they name one.
   bool allow_outside_paths = false;
+  // The encoding ContextView::rgb holds: each image is converted from its
+  // camera's colour space (Camera.color_space; unspecified: by its file
+  // format, image_io.h ReadColourImage).
+  ColourEncoding colour_encoding = ColourEncoding::kSrgb;
 };
 
 // Decodes the frames of `loaded` with the selected role, in manifest order.

@@ -78,6 +78,10 @@ ImageF WarpSourceDepth(const ContextView& view, const std::vector<LidarSweepData
   if (view.depth.width > 0) {
     return IsSparseDepth(view.depth) ? CompleteDepthIpBasic(view.depth) : view.depth;
   }
+  return CompleteDepthIpBasic(SweepDepth(view, sweeps));
+}
+
+ImageF SweepDepth(const ContextView& view, const std::vector<LidarSweepData>& sweeps) {
   const int nearest = NearestSweep(sweeps, view.timestamp_us);
   if (nearest < 0) return ImageF(view.width(), view.height(), 1);
   const int64_t gap = std::abs(sweeps[nearest].timestamp_us - view.timestamp_us);
@@ -90,7 +94,7 @@ ImageF WarpSourceDepth(const ContextView& view, const std::vector<LidarSweepData
       if (d > 0.f && (sparse.pixels[i] == 0.f || d < sparse.pixels[i])) sparse.pixels[i] = d;
     }
   }
-  return CompleteDepthIpBasic(sparse);
+  return sparse;
 }
 
 WarpedView ForwardWarp(const ContextView& source, const ImageF& depth, const CameraModel& camera,
@@ -250,12 +254,24 @@ absl::StatusOr<const EvalBaselines::Source*> EvalBaselines::SourceFor(int frame)
   ASSIGN_OR_RETURN(std::vector<ContextView> views, LoadFrames(loaded_, {frame}, options_));
   Source source;
   source.view = std::move(views.front());
-  if (source.view.depth.width == 0 && loaded_.clip.lidar_size() > 0 && !sweeps_.has_value()) {
-    ASSIGN_OR_RETURN(sweeps_, LoadLidarSweeps(loaded_, options_.allow_outside_paths));
+  if (source.view.depth.width == 0) {
+    ASSIGN_OR_RETURN(const std::vector<LidarSweepData>* sweeps, Sweeps());
+    source.depth = WarpSourceDepth(source.view, *sweeps);
+  } else {
+    source.depth = WarpSourceDepth(source.view, {});
   }
-  static const std::vector<LidarSweepData> kNoSweeps;
-  source.depth = WarpSourceDepth(source.view, sweeps_.has_value() ? *sweeps_ : kNoSweeps);
   return &sources_.emplace(frame, std::move(source)).first->second;
+}
+
+absl::StatusOr<const std::vector<LidarSweepData>*> EvalBaselines::Sweeps() {
+  if (!sweeps_.has_value()) {
+    if (loaded_.clip.lidar_size() == 0) {
+      sweeps_.emplace();
+    } else {
+      ASSIGN_OR_RETURN(sweeps_, LoadLidarSweeps(loaded_, options_.allow_outside_paths));
+    }
+  }
+  return &*sweeps_;
 }
 
 absl::StatusOr<FrameBaselines> EvalBaselines::Make(const ContextView& target) {
@@ -281,6 +297,10 @@ absl::StatusOr<FrameBaselines> EvalBaselines::Make(const ContextView& target) {
     b.warp_frames.push_back(frame);
   }
   b.warp = CombineWarps(warps);
+  if (loaded_.clip.lidar_size() > 0) {
+    ASSIGN_OR_RETURN(const std::vector<LidarSweepData>* sweeps, Sweeps());
+    b.target_lidar = SweepDepth(target, *sweeps);
+  }
   for (auto it = sources_.begin(); it != sources_.end();) {
     const auto last = last_target_.find(it->first);
     const bool needed = last != last_target_.end() && last->second > target.frame_index;

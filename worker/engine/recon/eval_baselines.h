@@ -50,6 +50,11 @@ std::vector<int> NearestContextFrames(const pointforward::v1::Clip& clip, int ta
 // into it and completed, else none at all.
 ImageF WarpSourceDepth(const ContextView& view, const std::vector<LidarSweepData>& sweeps);
 
+// Returns the points of the LiDAR sweeps nearest in time to `view` (as
+// WarpSourceDepth chooses them) projected into it: [H, W, 1] z depth, the
+// nearest point per pixel, 0 none (everywhere when there is no sweep).
+ImageF SweepDepth(const ContextView& view, const std::vector<LidarSweepData>& sweeps);
+
 // One image warped into another view.
 struct WarpedView {
   ImageF rgb;    // [H, W, 3]; 0 where nothing landed.
@@ -83,6 +88,9 @@ struct FrameBaselines {
   std::vector<int> nearest_frames;  // Indices into clip.frames.
   WarpedView warp;
   std::vector<int> warp_frames;  // Nearer first.
+  // The target's own LiDAR (SweepDepth of the target view), the truth of
+  // lidarAbsRel; width 0 when the clip has no LiDAR.
+  ImageF target_lidar;
 };
 
 // Makes the baselines of a clip's TARGET frames. Keeps each CONTEXT frame it
@@ -103,6 +111,8 @@ class EvalBaselines {
     ImageF depth;  // WarpSourceDepth.
   };
   absl::StatusOr<const Source*> SourceFor(int frame);
+  // The clip's LiDAR sweeps, read at first call.
+  absl::StatusOr<const std::vector<LidarSweepData>*> Sweeps();
 
   const LoadedClip& loaded_;
   LoadViewsOptions options_;

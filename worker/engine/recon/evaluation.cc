@@ -10,10 +10,12 @@
 #include <set>
 
 #include "absl/strings/str_cat.h"
+#include "common/colour_space.h"
 #include "common/file_util.h"
 #include "common/status_macros.h"
 #include "pointforward/v1/clip.pb.h"
 #include "pointforward/v1/views.pb.h"
+#include "worker/engine/recon/depth_completion.h"
 #include "worker/engine/recon/eval_baselines.h"
 #include "worker/engine/recon/image_metrics.h"
 #include "worker/engine/recon/recon_flags.h"
@@ -38,6 +40,8 @@ void AddFigures(const FrameMetrics& f, nlohmann::ordered_json* out) {
   (*out)["psnrUnclamped"] = f.psnr_unclamped;
   (*out)["ssim"] = f.ssim;
   (*out)["depthRmse"] = OptionalNumber(f.depth_rmse);
+  (*out)["lidarAbsRel"] = OptionalNumber(f.lidar_abs_rel);
+  (*out)["lidarCoverage"] = OptionalNumber(f.lidar_coverage);
   (*out)["dynamicPsnr"] = OptionalNumber(f.dynamic_psnr);
   (*out)["filledPsnr"] = f.filled_psnr;
   if (f.ego_pixels > 0) (*out)["egoPixels"] = f.ego_pixels;
@@ -48,6 +52,8 @@ nlohmann::ordered_json MeanJson(const MeanMetrics& mean) {
           {"psnrUnclamped", OptionalNumber(mean.psnr_unclamped)},
           {"ssim", OptionalNumber(mean.ssim)},
           {"depthRmse", OptionalNumber(mean.depth_rmse)},
+          {"lidarAbsRel", OptionalNumber(mean.lidar_abs_rel)},
+          {"lidarCoverage", OptionalNumber(mean.lidar_coverage)},
           {"dynamicPsnr", OptionalNumber(mean.dynamic_psnr)},
           {"holeFraction", OptionalNumber(mean.hole_fraction)},
           {"filledPsnr", OptionalNumber(mean.filled_psnr)}};
@@ -101,19 +107,26 @@ FrameMetrics MeasureImage(const ImageF& truth_rgb, const ImageF& truth_depth, Im
   return m;
 }
 
-// Measures `buffers` as MeasureImage does (depthRmse over every pixel where
-// the truth has depth), and the render's holes: filledPsnr, holeFraction.
+// Measures `buffers` (colours in `encoding`) as MeasureImage does against the
+// sRGB-encoded `truth_rgb`, the render encoded as sRGB first (not clamped,
+// for psnrUnclamped); depthRmse over every pixel where the truth has depth;
+// and the render's holes: filledPsnr, holeFraction.
 FrameMetrics Measure(const ImageF& truth_rgb, const ImageF& truth_depth,
-                     const RenderBuffers& buffers, std::vector<uint8_t> dynamic_mask,
-                     const std::vector<uint8_t>& ego, ImageF* render) {
+                     const RenderBuffers& buffers, ColourEncoding encoding,
+                     std::vector<uint8_t> dynamic_mask, const std::vector<uint8_t>& ego,
+                     ImageF* render) {
   *render = ImageF(buffers.width, buffers.height, 3);
   render->pixels = buffers.rgb;
+  ConvertColours(render->pixels.data(), buffers.alpha.size(), 3, 3, encoding,
+                 ColourEncoding::kSrgb);
   ImageF depth(buffers.width, buffers.height, 1);
   depth.pixels = buffers.depth;
   FrameMetrics m =
       MeasureImage(truth_rgb, truth_depth, render, depth, false, std::move(dynamic_mask), ego);
   ImageF filled(buffers.width, buffers.height, 3);
   filled.pixels = FillUncovered(buffers.rgb, buffers.alpha, buffers.width, buffers.height);
+  ConvertColours(filled.pixels.data(), buffers.alpha.size(), 3, 3, encoding,
+                 ColourEncoding::kSrgb);
   for (float& v : filled.pixels) v = std::clamp(v, 0.f, 1.f);
   const std::vector<uint8_t> scene_pixels = ScenePixels(ego);
   m.filled_psnr = Psnr(truth_rgb, filled, scene_pixels).value_or(0.0);
@@ -125,6 +138,17 @@ FrameMetrics Measure(const ImageF& truth_rgb, const ImageF& truth_depth,
   m.hole_fraction =
       double(holes) / double(std::max<int64_t>(1, static_cast<int64_t>(pixels) - m.ego_pixels));
   return m;
+}
+
+// Sets the LiDAR figures of `m` for the z depth `depth` against `lidar`
+// (FrameBaselines::target_lidar); unset when `lidar` has no point.
+void MeasureLidarDepth(const ImageF& depth, const ImageF& lidar, FrameMetrics* m) {
+  if (lidar.width == 0 || depth.width != lidar.width || depth.height != lidar.height) return;
+  const DepthErrors errors = MeasureDepthCompletion(depth, lidar);
+  const int64_t points = errors.points + errors.missing;
+  if (points == 0) return;
+  m->lidar_coverage = double(errors.points) / double(points);
+  if (errors.points > 0) m->lidar_abs_rel = errors.abs_rel;
 }
 
 // Measures the baselines of `target` (`dynamic_mask` as for its render).
@@ -153,6 +177,7 @@ void MeasureBaselines(const ContextView& target, const FrameBaselines& b,
       double(holes) /
       double(std::max<int64_t>(1, static_cast<int64_t>(b.warp.covered.size()) - warp->ego_pixels));
   warp->sources = sources(b.warp_frames);
+  MeasureLidarDepth(b.warp.depth, b.target_lidar, warp);
   for (FrameMetrics* m : {nearest, warp}) {
     m->camera = target.camera_id;
     m->timestamp_us = target.timestamp_us;
@@ -243,7 +268,8 @@ absl::Status EvaluateExtraViews(const GaussianScene& scene, const CheckedViews& 
                          view.timestamp_us);
     }
     ImageF render;
-    FrameMetrics m = Measure(truth_rgb, truth_depth, *buffers, std::move(mask), {}, &render);
+    FrameMetrics m = Measure(truth_rgb, truth_depth, *buffers, scene.colour_encoding,
+                             std::move(mask), {}, &render);
     m.name = view.name;
     m.camera = view.camera_id;
     m.timestamp_us = view.timestamp_us;
@@ -307,6 +333,8 @@ MeanMetrics MeanOf(const std::vector<FrameMetrics>& frames) {
       average([](const FrameMetrics& f) { return std::optional<double>(f.psnr_unclamped); });
   mean.ssim = average([](const FrameMetrics& f) { return std::optional<double>(f.ssim); });
   mean.depth_rmse = average([](const FrameMetrics& f) { return f.depth_rmse; });
+  mean.lidar_abs_rel = average([](const FrameMetrics& f) { return f.lidar_abs_rel; });
+  mean.lidar_coverage = average([](const FrameMetrics& f) { return f.lidar_coverage; });
   mean.dynamic_psnr = average([](const FrameMetrics& f) { return f.dynamic_psnr; });
   mean.hole_fraction =
       average([](const FrameMetrics& f) { return std::optional<double>(f.hole_fraction); });
@@ -455,6 +483,10 @@ std::string EvalReportJson(const EvalReport& report) {
   // What the scene has, not what was asked: --refine 0, or a fit over the
   // memory bound, leaves it flat.
   j["colour"] = report.stats.colour_gradients ? "gradients" : "flat";
+  // Colours are blended and fitted in workingSpace; every figure is measured
+  // on the sRGB-encoded [0, 1] images (metricsColour), as the papers do.
+  j["workingSpace"] = ColourEncodingName(report.options.colour_encoding);
+  j["metricsColour"] = "srgb";
   j["staticGaussians"] = report.stats.static_gaussians;
   j["dynamicGaussians"] = report.stats.dynamic_gaussians;
   j["farGaussians"] = report.stats.far_gaussians;
@@ -588,7 +620,8 @@ absl::StatusOr<EvalReport> EvaluateClip(const LoadedClip& loaded, const ReconOpt
     const std::vector<uint8_t> mask =
         DynamicMask(target.camera, target.world_from_camera, scene.instances, target.timestamp_us);
     ImageF render;
-    FrameMetrics m = Measure(target.rgb, target.depth, buffers, mask, target.ego, &render);
+    FrameMetrics m =
+        Measure(target.rgb, target.depth, buffers, scene.colour_encoding, mask, target.ego, &render);
     m.render_seconds = render_seconds;
     report.render_seconds += m.render_seconds;
     m.camera = target.camera_id;
@@ -601,6 +634,9 @@ absl::StatusOr<EvalReport> EvaluateClip(const LoadedClip& loaded, const ReconOpt
     ASSIGN_OR_RETURN(const FrameBaselines frame_baselines, baselines.Make(target));
     FrameMetrics nearest, warp;
     MeasureBaselines(target, frame_baselines, mask, loaded.clip, &nearest, &warp);
+    ImageF depth(buffers.width, buffers.height, 1);
+    depth.pixels = buffers.depth;
+    MeasureLidarDepth(depth, frame_baselines.target_lidar, &m);
     const double baseline_seconds = SecondsSince(baseline_start);
     report.baseline_seconds += baseline_seconds;
     if (options.progress) {

@@ -97,6 +97,10 @@ struct FrameMetrics {
   double psnr_unclamped = 0;  // Of the raw float render.
   double ssim = 0;
   std::optional<double> depth_rmse;
+  // Mean |depth - LiDAR| / LiDAR over the target's own LiDAR points
+  // (eval_baselines.h SweepDepth) where the image has depth; lidarCoverage:
+  // the share of those points where it has. Unset without LiDAR.
+  std::optional<double> lidar_abs_rel, lidar_coverage;
   std::optional<double> dynamic_psnr;
   int64_t dynamic_pixels = 0;
   double hole_fraction = 0;  // Pixels the render covers with alpha < 0.5.
@@ -118,8 +122,8 @@ struct FrameMetrics {
 };
 
 struct MeanMetrics {
-  std::optional<double> psnr, psnr_unclamped, ssim, depth_rmse, dynamic_psnr, hole_fraction,
-      filled_psnr;
+  std::optional<double> psnr, psnr_unclamped, ssim, depth_rmse, lidar_abs_rel, lidar_coverage,
+      dynamic_psnr, hole_fraction, filled_psnr;
 };
 
 // The views a lane shift made: each camera's pose at `time_us` moved

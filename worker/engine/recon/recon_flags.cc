@@ -10,7 +10,7 @@ namespace pf {
 const std::set<std::string>& ReconValueFlags() {
   static const std::set<std::string> flags = {"model",    "ns",     "nd",          "fusion",
                                               "device",   "refine", "hidden-band", "splat-sigma",
-                                              "low-pass", "colour"};
+                                              "low-pass", "colour", "working-space"};
   return flags;
 }
 
@@ -81,6 +81,8 @@ absl::StatusOr<ReconOptions> ReconOptionsFromFlags(const CommandLine& cl) {
   if (cl.Has("colour")) {
     ASSIGN_OR_RETURN(options.colour_gradients, ParseColourModel(cl.Get("colour"), "--colour"));
   }
+  ASSIGN_OR_RETURN(options.colour_encoding,
+                   ParseColourEncoding(cl.Get("working-space", "srgb"), "--working-space"));
   ASSIGN_OR_RETURN(options.device, ParseComputeDevice(cl.Get("device", "cpu"), "--device"));
   RETURN_IF_ERROR(CheckComputeDevice(options.device, "--device"));
   return options;

@@ -19,6 +19,9 @@
 //   --colour gradients|flat          a colour gradient across each Gaussian or one
 //                                    colour (colour_refinement.h; default gradients
 //                                    for analytic, flat for pixel-aligned)
+//   --working-space srgb|linear      the colour encoding the context images are
+//                                    decoded to and the scene's colours are fitted
+//                                    in (default srgb; docs/SCENE_FORMAT.md, "Colour")
 //   --device cpu|cuda[:N]              where fusion's tensor work runs (compute_device.h)
 //   --allow-outside-paths            accept manifest paths that are absolute or leave
 //                                    the clip's directory (as pf validate does)

@@ -68,10 +68,13 @@ absl::Status SetTracksFromClip(const pointforward::v1::Clip& clip, ReconInputs* 
   return absl::OkStatus();
 }
 
-absl::StatusOr<ReconInputs> LoadReconInputs(const LoadedClip& loaded, bool allow_outside_paths) {
+absl::StatusOr<ReconInputs> LoadReconInputs(const LoadedClip& loaded,
+                                            const ReconOptions& options) {
   ReconInputs inputs;
   LoadViewsOptions view_options;
-  view_options.allow_outside_paths = allow_outside_paths;
+  view_options.allow_outside_paths = options.allow_outside_paths;
+  view_options.colour_encoding = options.colour_encoding;
+  inputs.colour_encoding = options.colour_encoding;
   ASSIGN_OR_RETURN(inputs.views, LoadContextViews(loaded, view_options));
   if (inputs.views.empty()) {
     return absl::InvalidArgumentError("frames: the clip has no CONTEXT frame to reconstruct from");
@@ -81,7 +84,7 @@ absl::StatusOr<ReconInputs> LoadReconInputs(const LoadedClip& loaded, bool allow
   const bool need_lidar = std::any_of(inputs.views.begin(), inputs.views.end(),
                                       [](const ContextView& v) { return v.depth.width == 0; });
   if (need_lidar) {
-    ASSIGN_OR_RETURN(inputs.sweeps, LoadLidarSweeps(loaded, allow_outside_paths));
+    ASSIGN_OR_RETURN(inputs.sweeps, LoadLidarSweeps(loaded, options.allow_outside_paths));
   }
   return inputs;
 }
@@ -201,6 +204,7 @@ absl::StatusOr<ReconResult> ReconstructInputs(const ReconInputs& inputs,
   for (size_t v = 0; v < num_views; ++v) times[v] = views[v].timestamp_us;
   result.scene =
       DecodeGaussians(queries, fused, times, inputs.time_origin_us, tracks, options.decoder);
+  result.scene.colour_encoding = inputs.colour_encoding;
   for (size_t i = 0; i < queries.size(); ++i) {
     if (queries.owners[i] == 0) {
       ++stats.static_gaussians;
@@ -243,7 +247,7 @@ bool ColourGradientsFor(const ReconOptions& options) {
 absl::StatusOr<ReconResult> Reconstruct(const LoadedClip& loaded, const ReconOptions& options) {
   const auto start = std::chrono::steady_clock::now();
   if (options.progress) options.progress("loading context frames");
-  ASSIGN_OR_RETURN(ReconInputs inputs, LoadReconInputs(loaded, options.allow_outside_paths));
+  ASSIGN_OR_RETURN(ReconInputs inputs, LoadReconInputs(loaded, options));
   const double load_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   ASSIGN_OR_RETURN(ReconResult result, ReconstructInputs(inputs, options));

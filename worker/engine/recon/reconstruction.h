@@ -64,6 +64,10 @@ struct ReconOptions {
   bool fill_static_budget = true;  // SamplingOptions::fill_static_budget.
   int hidden_band_px = 256;        // SamplingOptions::behind_band_px (0: none).
   bool allow_outside_paths = false;
+  // The working colour encoding: the context images are decoded to it, and
+  // the scene's colours are in it (GaussianScene::colour_encoding). Renders
+  // convert to linear for EXR and to sRGB for PNG either way.
+  ColourEncoding colour_encoding = ColourEncoding::kSrgb;
   // Where fusion's tensor work runs (compute_device.h); without LibTorch in
   // the build only the CPU, with the C++ kernel.
   ComputeDevice device;
@@ -102,6 +106,7 @@ struct ReconInputs {
   std::vector<LidarSweepData> sweeps;
   std::vector<InstanceTrack> tracks;  // Only tracks with boxes.
   int64_t time_origin_us = 0;
+  ColourEncoding colour_encoding = ColourEncoding::kSrgb;  // Of the views' rgb.
 };
 
 // Sets inputs->tracks to the tracks of `clip` that have boxes and
@@ -109,10 +114,11 @@ struct ReconInputs {
 // ClipTimeOrigin): what a reconstruction takes of a clip beside its frames.
 absl::Status SetTracksFromClip(const pointforward::v1::Clip& clip, ReconInputs* inputs);
 
-// Loads the CONTEXT frames, LiDAR sweeps and tracks of `loaded`.
-// INVALID_ARGUMENT when the clip has no CONTEXT frame; errors of the loaders
-// otherwise.
-absl::StatusOr<ReconInputs> LoadReconInputs(const LoadedClip& loaded, bool allow_outside_paths);
+// Loads the CONTEXT frames (in options.colour_encoding), LiDAR sweeps and
+// tracks of `loaded` (options.allow_outside_paths says which paths may be
+// read). INVALID_ARGUMENT when the clip has no CONTEXT frame; errors of the
+// loaders otherwise.
+absl::StatusOr<ReconInputs> LoadReconInputs(const LoadedClip& loaded, const ReconOptions& options);
 
 // Reconstructs decoded inputs. INVALID_ARGUMENT for no views or non-positive
 // budgets given explicitly; FAILED_PRECONDITION for a device this process

@@ -30,6 +30,7 @@
 #include <string>
 #include <vector>
 
+#include "common/colour_space.h"
 #include "common/geometry.h"
 
 namespace pf {
@@ -60,6 +61,11 @@ struct GaussianScene {
   float low_pass = kThreeDgsLowPass;  // Screen-space low-pass, pixels^2, in [0, kMaxLowPass].
   // Scene time of t = 0 for `times`; lifespans are in seconds.
   int64_t time_origin_us = 0;
+  // What the colours (SH or the first three feature channels, and their
+  // gradients) encode, so a render's colour is too: sRGB-encoded values (3DGS
+  // scenes; reconstructions in the sRGB working space) or linear light.
+  // Render outputs convert from it (render_outputs.h).
+  ColourEncoding colour_encoding = ColourEncoding::kSrgb;
 
   std::vector<float> means;           // [N, 3]
   std::vector<float> rotations;       // [N, 4] (w, x, y, z), any norm > 0

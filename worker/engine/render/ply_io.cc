@@ -369,10 +369,12 @@ class BodyReader {
   size_t pos_;
 };
 
-// Our header comment: "pointforward time_origin_us=T sh_degree=D low_pass=S"
-// (low_pass since scene file version 2; files without it keep the 3DGS one).
+// Our header comment: "pointforward time_origin_us=T sh_degree=D low_pass=S
+// colour_encoding=E" (low_pass since scene file version 2; files without it
+// keep the 3DGS one; colour_encoding since version 4, else srgb).
 void ParseOurComment(const std::vector<std::string>& comments, int64_t* time_origin_us,
-                     std::optional<int>* sh_degree, float* low_pass) {
+                     std::optional<int>* sh_degree, float* low_pass,
+                     ColourEncoding* colour_encoding) {
   for (const std::string& comment : comments) {
     std::vector<std::string> words = absl::StrSplit(comment, ' ', absl::SkipWhitespace());
     if (words.empty() || words[0] != kCommentTag) continue;
@@ -381,6 +383,10 @@ void ParseOurComment(const std::vector<std::string>& comments, int64_t* time_ori
       if (kv.first == "low_pass") {
         float s = 0;
         if (absl::SimpleAtof(kv.second, &s)) *low_pass = s;
+        continue;
+      }
+      if (kv.first == "colour_encoding") {
+        if (kv.second == "linear") *colour_encoding = ColourEncoding::kLinear;
         continue;
       }
       int64_t value = 0;
@@ -405,7 +411,9 @@ absl::StatusOr<std::string> EncodePly(const GaussianScene& scene, const PlyExpor
   std::string header =
       absl::StrCat("ply\nformat binary_little_endian 1.0\ncomment ", kCommentTag,
                    " time_origin_us=", scene.time_origin_us, " sh_degree=", scene.sh_degree,
-                   " low_pass=", scene.low_pass, "\nelement vertex ", n, "\n");
+                   " low_pass=", scene.low_pass,
+                   " colour_encoding=", ColourEncodingName(scene.colour_encoding),
+                   "\nelement vertex ", n, "\n");
   for (const std::string& name : names) absl::StrAppend(&header, "property float ", name, "\n");
   absl::StrAppend(&header, "end_header\n");
 
@@ -441,9 +449,11 @@ absl::StatusOr<std::string> EncodePly(const GaussianScene& scene, const PlyExpor
         for (int j = 1; j < k; ++j) row[p++] = sh[c * k + j];
       }
     } else {
+      // f_dc holds the sRGB-encoded colour, which viewers show as it is.
       const float* f = &scene.features[i * scene.num_channels];
       for (int c = 0; c < 3; ++c) {
-        const float value = f[std::min(c, scene.num_channels - 1)];
+        const float value = ConvertColour(f[std::min(c, scene.num_channels - 1)],
+                                          scene.colour_encoding, ColourEncoding::kSrgb);
         row[p++] = static_cast<float>((value - 0.5) / kShC0);
       }
     }
@@ -562,7 +572,8 @@ absl::StatusOr<GaussianScene> DecodePly(const std::string& bytes, const std::str
 
   GaussianScene scene;
   std::optional<int> stored_degree;
-  ParseOurComment(header.comments, &scene.time_origin_us, &stored_degree, &scene.low_pass);
+  ParseOurComment(header.comments, &scene.time_origin_us, &stored_degree, &scene.low_pass,
+                  &scene.colour_encoding);
   // Our export of a scene without SH writes degree-0 f_dc; restore "no SH".
   if (degree == 0 && stored_degree == -1) degree = -1;
   scene.sh_degree = degree;
@@ -598,7 +609,10 @@ absl::StatusOr<GaussianScene> DecodePly(const std::string& bytes, const std::str
     }
     float* features = &scene.features[i * scene.num_channels];
     if (extra_features.empty()) {
-      for (int c = 0; c < 3; ++c) features[c] = colour[c];
+      // f_dc and red/green/blue hold sRGB-encoded colour; a linear scene of ours decodes it.
+      for (int c = 0; c < 3; ++c) {
+        features[c] = ConvertColour(colour[c], ColourEncoding::kSrgb, scene.colour_encoding);
+      }
     } else {
       for (int c = 0; c < scene.num_channels; ++c) {
         features[c] = static_cast<float>(row[extra_features[c]]);

@@ -14,7 +14,10 @@
 //   - Colour: a scene with SH writes its coefficients; one without writes
 //     f_dc from the first three feature channels, inverting the degree-0
 //     evaluation rgb = 0.5 + C0 * f_dc (C0 = 0.28209479177387814), so viewers
-//     show the right colours.
+//     show the right colours. f_dc holds the sRGB-encoded colour, which is
+//     what 3DGS tools train and viewers display: a linear scene's colours are
+//     encoded first (GaussianScene::colour_encoding). pf_feature_* and
+//     pf_colour_gradient_* stay in the scene's encoding.
 //   - Instances: PLY has no scene graph, so each instance's Gaussians are
 //     written in world space, placed by the instance's box pose at
 //     PlyExportOptions::timestamp_us (default: the scene's time_origin_us).
@@ -23,17 +26,19 @@
 //     the features cannot be recovered from f_dc (SH present, or N_c != 3),
 //     pf_time and pf_lifespan when any lifespan is finite,
 //     pf_colour_gradient_0..5 when the scene has colour gradients (all six
-//     are needed on import), and a header line
-//     `comment pointforward time_origin_us=T sh_degree=D low_pass=S` so that
-//     our own import restores those fields (a PLY without it gets the 3DGS
-//     low-pass, 0.3, which is what other tools trained it under).
+//     are needed on import), and a header line `comment pointforward
+//     time_origin_us=T sh_degree=D low_pass=S colour_encoding=srgb|linear` so
+//     that our own import restores those fields (a PLY without it gets the
+//     3DGS low-pass, 0.3, which is what other tools trained it under, and sRGB
+//     colours).
 //
 // Import reads binary (little- or big-endian) and ASCII PLY, in any property
 // order and with any extra properties or elements (list properties are
 // skipped in elements other than `vertex`). x, y, z, opacity, scale_0..2
 // and rot_0..3 are required; colour comes from f_dc_0..2 (+ f_rest_*), else
 // from red, green, blue (8-bit or float). Without pf_feature_* the features
-// are the 3 channels 0.5 + C0 * f_dc.
+// are the 3 channels 0.5 + C0 * f_dc, sRGB-encoded, decoded to linear when our
+// comment says the scene was linear.
 #ifndef POINTFORWARD_WORKER_ENGINE_RENDER_PLY_IO_H_
 #define POINTFORWARD_WORKER_ENGINE_RENDER_PLY_IO_H_
 

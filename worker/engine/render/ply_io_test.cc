@@ -148,6 +148,32 @@ TEST(PlyExport, WithoutShWritesDcFromFirstThreeFeatures) {
   }
 }
 
+TEST(PlyExport, LinearSceneWritesItsSrgbEncodedColourAndReadsBackLinear) {
+  GaussianScene scene = MakeScene(-1, 3);
+  scene.colour_encoding = ColourEncoding::kLinear;
+  scene.features[0] = 0.2f;
+  scene.features[1] = 0.5f;
+  scene.features[2] = 0.0031308f;
+  const std::string ply = *EncodePly(scene);
+  const ParsedPly parsed = ParseOurPly(ply);
+  // f_dc carries what a viewer shows: the sRGB-encoded colour.
+  EXPECT_NEAR(parsed.at(0, "f_dc_0"), (0.48452920 - 0.5) / kShC0, 1e-5);
+  EXPECT_NEAR(parsed.at(0, "f_dc_1"), (0.73535698 - 0.5) / kShC0, 1e-5);
+  EXPECT_NEAR(parsed.at(0, "f_dc_2"), (0.04044994 - 0.5) / kShC0, 1e-5);
+  EXPECT_NE(ply.find("colour_encoding=linear"), std::string::npos);
+  absl::StatusOr<GaussianScene> back = DecodePly(ply, "mem.ply");
+  ASSERT_TRUE(back.ok()) << back.status();
+  EXPECT_EQ(back->colour_encoding, ColourEncoding::kLinear);
+  ExpectNear(back->features, scene.features, 2e-6f, "features");
+  // A PLY without our comment (a 3DGS tool's) is sRGB.
+  std::string foreign = ply;
+  foreign.replace(foreign.find("colour_encoding=linear"), 22, "colour_encoding=other!");
+  absl::StatusOr<GaussianScene> srgb = DecodePly(foreign, "mem.ply");
+  ASSERT_TRUE(srgb.ok()) << srgb.status();
+  EXPECT_EQ(srgb->colour_encoding, ColourEncoding::kSrgb);
+  EXPECT_NEAR(srgb->features[0], 0.48452920f, 1e-5);
+}
+
 TEST(PlyRoundTrip, ShSceneArraysAreExact) {
   GaussianScene scene = MakeScene(2, 5);
   scene.time_origin_us = 123456789;

@@ -54,12 +54,13 @@ std::array<float, 16> ExrWorldToCamera(const Rigid& world_from_camera) {
 }
 
 std::vector<ChannelSource> Sources(const RenderBuffers& buffers, const OutputChannels& channels,
+                                   const std::vector<float>& linear_rgb,
                                    const std::vector<float>& filled) {
   std::vector<ChannelSource> sources;
   if (channels.rgb) {
     for (int c = 0; c < 3; ++c) {
       sources.push_back(
-          {std::string(1, "RGB"[c]), TypeDesc::HALF, buffers.rgb.data() + c, nullptr, 3});
+          {std::string(1, "RGB"[c]), TypeDesc::HALF, linear_rgb.data() + c, nullptr, 3});
     }
   }
   if (channels.alpha) sources.push_back({"A", TypeDesc::HALF, buffers.alpha.data(), nullptr, 1});
@@ -141,13 +142,13 @@ absl::Status WriteRenderExr(const std::string& path, const RenderBuffers& buffer
     RETURN_IF_ERROR(CheckLayer("features", buffers.features.size(), pixels * buffers.channels));
   }
   if (channels.instance) RETURN_IF_ERROR(CheckLayer("instance", buffers.instance.size(), pixels));
-  std::vector<float> filled;
-  if (channels.filled) {
-    RETURN_IF_ERROR(CheckLayer("rgb", buffers.rgb.size(), 3 * pixels));
+  std::vector<float> linear_rgb, filled;
+  if (channels.rgb || channels.filled) {
     RETURN_IF_ERROR(CheckLayer("alpha", buffers.alpha.size(), pixels));
-    filled = FillUncovered(buffers.rgb, buffers.alpha, buffers.width, buffers.height);
+    linear_rgb = LinearRgb(buffers, scene.colour_encoding);
   }
-  const std::vector<ChannelSource> sources = Sources(buffers, channels, filled);
+  if (channels.filled) filled = FillUncovered(linear_rgb, buffers.alpha, buffers.width, buffers.height);
+  const std::vector<ChannelSource> sources = Sources(buffers, channels, linear_rgb, filled);
   if (sources.empty()) {
     return absl::InvalidArgumentError(absl::StrCat(path, ": no output layer selected"));
   }
@@ -193,6 +194,12 @@ absl::Status WriteRenderExr(const std::string& path, const RenderBuffers& buffer
   spec.attribute("pf:model", scene.model);
   spec.attribute("pf:version", SoftwareVersion());
   spec.attribute("software", absl::StrCat("PointForward ", SoftwareVersion()));
+  // RGB is scene-linear light with Rec. 709 / sRGB primaries and a D65 white
+  // (OpenEXR's chromaticities attribute, x y of red, green, blue, white).
+  spec.attribute("oiio:ColorSpace", "Linear");
+  static constexpr float kRec709Chromaticities[8] = {0.64f, 0.33f,   0.30f,   0.60f,
+                                                     0.15f, 0.06f, 0.3127f, 0.3290f};
+  spec.attribute("chromaticities", TypeDesc(TypeDesc::FLOAT, 8), kRec709Chromaticities);
 
   // Pack the pixels in the file's native per-channel layout, one channel at
   // a time.
@@ -246,12 +253,33 @@ absl::Status WriteRenderExr(const std::string& path, const RenderBuffers& buffer
   return CommitTempFile(temp, path);
 }
 
-absl::Status WritePreviewPng(const std::string& path, const RenderBuffers& buffers) {
+std::vector<float> LinearRgb(const RenderBuffers& buffers, ColourEncoding encoding) {
+  if (encoding == ColourEncoding::kLinear) return buffers.rgb;
+  std::vector<float> linear(buffers.rgb.size());
+  for (size_t i = 0; i < buffers.alpha.size(); ++i) {
+    const float alpha = buffers.alpha[i];
+    for (int c = 0; c < 3; ++c) {
+      const float premultiplied = buffers.rgb[3 * i + c];
+      linear[3 * i + c] = alpha > 0.f ? alpha * SrgbToLinear(premultiplied / alpha) : 0.f;
+    }
+  }
+  return linear;
+}
+
+ImageF DisplayRgb(const RenderBuffers& buffers, ColourEncoding encoding) {
+  ImageF image(buffers.width, buffers.height, 3);
+  for (size_t i = 0; i < image.pixels.size(); ++i) {
+    const float v = std::clamp(buffers.rgb[i], 0.f, 1.f);
+    image.pixels[i] = encoding == ColourEncoding::kLinear ? LinearToSrgb(v) : v;
+  }
+  return image;
+}
+
+absl::Status WritePreviewPng(const std::string& path, const RenderBuffers& buffers,
+                             ColourEncoding encoding) {
   const size_t pixels = static_cast<size_t>(buffers.width) * buffers.height;
   RETURN_IF_ERROR(CheckLayer("rgb", buffers.rgb.size(), 3 * pixels));
-  ImageF image(buffers.width, buffers.height, 3);
-  for (size_t i = 0; i < 3 * pixels; ++i) image.pixels[i] = std::clamp(buffers.rgb[i], 0.f, 1.f);
-  return WritePng(path, image);
+  return WritePng(path, DisplayRgb(buffers, encoding));
 }
 
 std::string ManifestJson(const SceneLabel& scene, const std::vector<ManifestEntry>& entries) {

@@ -4,17 +4,21 @@
 //
 // EXR (scanline, ZIP compression), channels in this order, each only when
 // selected by OutputChannels:
-//   R, G, B   half   colour premultiplied by alpha (rgb)
+//   R, G, B   half   colour premultiplied by alpha, scene-linear light
+//                    (Rec. 709 primaries, D65): a scene whose colours are
+//                    sRGB-encoded has each pixel's colour decoded,
+//                    alpha * EOTF(rgb / alpha) (rgb)
 //   A         half   alpha (alpha)
 //   Z         float  expected depth along the camera z axis in metres,
 //                    normalised by alpha; 0 where nothing was hit (depth)
 //   feature.000 .. feature.NNN
-//             half   the scene's N_c feature channels, premultiplied by alpha
-//                    (features)
+//             half   the scene's N_c feature channels, premultiplied by alpha,
+//                    as the scene holds them (for a reconstructed scene the
+//                    first three are its colour in its own encoding) (features)
 //   instance  uint   owner of the largest contributor: 0 background or empty,
 //                    k the scene's k-th instance (instance)
 //   filled.R, filled.G, filled.B
-//             half   opaque colour: rgb where alpha >= 0.5, elsewhere rgb
+//             half   opaque colour, linear as R, G, B: rgb where alpha >= 0.5, elsewhere rgb
 //                    composited over a push-pull fill of itself, so pixels
 //                    the scene does not cover take the colour around them
 //                    instead of black (hole_fill.h; filled; only when asked
@@ -36,8 +40,11 @@
 //   pf:timestampUs     string, the same as decimal digits
 //   pf:sceneId, pf:model, pf:version  strings
 //   software           "PointForward <version>"
-// The PNG preview is the premultiplied colour clamped to [0, 1], i.e. the
-// un-premultiplied colour composited over black, 8-bit RGB.
+//   chromaticities     the OpenEXR standard attribute: Rec. 709 / sRGB
+//                      primaries and D65 white, with oiio:ColorSpace "Linear"
+// The PNG preview is what a display shows: the premultiplied colour (the
+// un-premultiplied colour composited over black) clamped to [0, 1],
+// sRGB-encoded, 8-bit RGB (DisplayRgb).
 #ifndef POINTFORWARD_WORKER_ENGINE_RENDER_RENDER_OUTPUTS_H_
 #define POINTFORWARD_WORKER_ENGINE_RENDER_RENDER_OUTPUTS_H_
 
@@ -47,6 +54,8 @@
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
+#include "common/colour_space.h"
+#include "worker/engine/image/image_io.h"
 #include "worker/engine/render/rasterizer.h"
 #include "worker/engine/render/views.h"
 
@@ -79,6 +88,8 @@ std::vector<std::string> ExrChannelNames(const OutputChannels& channels, int num
 struct SceneLabel {
   std::string scene_id;  // E.g. the scene file's checksum.
   std::string model;     // E.g. "analytic", "3dgs-ply".
+  // What the scene's colours, so the render's rgb, encode (GaussianScene::colour_encoding).
+  ColourEncoding colour_encoding = ColourEncoding::kSrgb;
 };
 
 // Writes the EXR of `buffers` rendered through `view` to `path` atomically.
@@ -88,8 +99,18 @@ absl::Status WriteRenderExr(const std::string& path, const RenderBuffers& buffer
                             const OutputChannels& channels, const RenderView& view,
                             const SceneLabel& scene);
 
-// Writes the 8-bit RGB preview of `buffers` to `path` atomically.
-absl::Status WritePreviewPng(const std::string& path, const RenderBuffers& buffers);
+// Returns the premultiplied colour of `buffers` (rgb, in `encoding`) as
+// scene-linear light, as the EXR holds it: [H, W, 3].
+std::vector<float> LinearRgb(const RenderBuffers& buffers, ColourEncoding encoding);
+
+// Returns what a display shows of `buffers` (rgb, in `encoding`): the
+// premultiplied colour clamped to [0, 1], sRGB-encoded. The PNG preview,
+// and what `pf eval` measures against the camera images.
+ImageF DisplayRgb(const RenderBuffers& buffers, ColourEncoding encoding);
+
+// Writes DisplayRgb(buffers, encoding) to `path` as an 8-bit PNG, atomically.
+absl::Status WritePreviewPng(const std::string& path, const RenderBuffers& buffers,
+                             ColourEncoding encoding);
 
 // One rendered view in the manifest; file names are relative to its directory.
 struct ManifestEntry {

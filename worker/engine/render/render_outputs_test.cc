@@ -45,6 +45,16 @@ RenderBuffers MakeBuffers() {
   return b;
 }
 
+// The premultiplied colour `premultiplied` with coverage `alpha` of an
+// sRGB-encoded scene, as linear light: alpha * EOTF(colour / alpha).
+float LinearOf(float premultiplied, float alpha) {
+  if (alpha <= 0.f) return 0.f;
+  const float encoded = premultiplied / alpha;
+  const float linear =
+      encoded <= 0.04045f ? encoded / 12.92f : std::pow((encoded + 0.055f) / 1.055f, 2.4f);
+  return alpha * linear;
+}
+
 RenderView MakeView() {
   RenderView view;
   view.name = "front_42";
@@ -109,9 +119,12 @@ TEST_F(RenderOutputsTest, ExrHasEveryChannelWithItsTypeValuesAndHeader) {
     return pixels[i * spec.nchannels + index[name]];
   };
   for (size_t i = 0; i < size_t(kWidth) * kHeight; ++i) {
-    EXPECT_NEAR(value(i, "R"), buffers.rgb[3 * i], 1e-3) << i;
-    EXPECT_NEAR(value(i, "G"), buffers.rgb[3 * i + 1], 1e-3) << i;
-    EXPECT_NEAR(value(i, "B"), buffers.rgb[3 * i + 2], 1e-3) << i;
+    // The scene's colours are sRGB-encoded (SceneLabel's default): RGB is linear.
+    for (int c = 0; c < 3; ++c) {
+      EXPECT_NEAR(value(i, std::string(1, "RGB"[c])), LinearOf(buffers.rgb[3 * i + c], buffers.alpha[i]),
+                  1e-3)
+          << i;
+    }
     EXPECT_NEAR(value(i, "A"), buffers.alpha[i], 1e-3) << i;
     EXPECT_EQ(value(i, "Z"), buffers.depth[i]) << i;
     for (int c = 0; c < kChannels; ++c) {
@@ -150,6 +163,15 @@ TEST_F(RenderOutputsTest, ExrHasEveryChannelWithItsTypeValuesAndHeader) {
   EXPECT_EQ(spec.get_string_attribute("pf:sceneId"), "abc123");
   EXPECT_EQ(spec.get_string_attribute("pf:model"), "analytic");
   EXPECT_EQ(spec.get_string_attribute("pf:version"), SoftwareVersion());
+  // Linear Rec. 709: OpenEXR's chromaticities (red, green, blue, white x y).
+  EXPECT_EQ(spec.get_string_attribute("oiio:ColorSpace"), "Linear");
+  const OIIO::ParamValue* chromaticities = spec.find_attribute("chromaticities");
+  ASSERT_NE(chromaticities, nullptr);
+  ASSERT_EQ(chromaticities->type().basetype, TypeDesc::FLOAT);
+  ASSERT_EQ(chromaticities->type().numelements() * chromaticities->nvalues(), 8u);
+  const float* xy = static_cast<const float*>(chromaticities->data());
+  const float rec709[8] = {0.64f, 0.33f, 0.30f, 0.60f, 0.15f, 0.06f, 0.3127f, 0.3290f};
+  for (int i = 0; i < 8; ++i) EXPECT_FLOAT_EQ(xy[i], rec709[i]) << i;
 
   // worldToCamera (Imath row vectors, camera y up): the world point 3 m in
   // front of the camera and 1 m above it maps to camera (0, +1, 3).
@@ -207,8 +229,10 @@ TEST_F(RenderOutputsTest, FilledLayerIsTheRenderOverItsPushPullFill) {
   const OIIO::ImageSpec& spec = in->spec();
   std::vector<float> pixels(size_t(kWidth) * kHeight * spec.nchannels);
   ASSERT_TRUE(in->read_image(0, 0, 0, spec.nchannels, TypeDesc::FLOAT, pixels.data()));
+  std::vector<float> linear(buffers.rgb.size());
+  for (size_t i = 0; i < linear.size(); ++i) linear[i] = LinearOf(buffers.rgb[i], buffers.alpha[i / 3]);
   const std::vector<float> expected =
-      FillUncovered(buffers.rgb, buffers.alpha, buffers.width, buffers.height);
+      FillUncovered(linear, buffers.alpha, buffers.width, buffers.height);
   const int a = spec.channelindex("A");
   int rgb[3];
   for (int c = 0; c < 3; ++c) rgb[c] = spec.channelindex(std::string("filled.") + "RGB"[c]);
@@ -248,7 +272,7 @@ TEST_F(RenderOutputsTest, PreviewIsPremultipliedColourClampedTo8Bit) {
   buffers.rgb[0] = 1.7f;   // Clamped to 1.
   buffers.rgb[1] = -0.2f;  // Clamped to 0.
   const std::string path = dir_ + "/preview.png";
-  ASSERT_TRUE(WritePreviewPng(path, buffers).ok());
+  ASSERT_TRUE(WritePreviewPng(path, buffers, ColourEncoding::kSrgb).ok());
   absl::StatusOr<ImageF> image = ReadImage(path);
   ASSERT_TRUE(image.ok()) << image.status();
   ASSERT_EQ(image->channels, 3);
@@ -260,6 +284,56 @@ TEST_F(RenderOutputsTest, PreviewIsPremultipliedColourClampedTo8Bit) {
       for (int c = 0; c < 3; ++c) {
         if (x == 0 && y == 0) continue;
         EXPECT_NEAR(image->at(x, y, c), buffers.rgb[3 * (y * kWidth + x) + c], 0.5 / 255 + 1e-6);
+      }
+    }
+  }
+}
+
+// A grey ramp of opaque pixels, the way an sRGB-encoded scene (a camera
+// image's values) renders it, and the way a linear scene holds the same grey.
+RenderBuffers GreyRamp(bool linear) {
+  RenderBuffers b;
+  b.width = 256;
+  b.height = 1;
+  b.channels = 3;
+  b.alpha.assign(256, 1.f);
+  b.depth.assign(256, 5.f);
+  b.instance.assign(256, 0);
+  for (int x = 0; x < 256; ++x) {
+    const float encoded = x / 255.f;
+    for (int c = 0; c < 3; ++c) b.rgb.push_back(linear ? SrgbToLinear(encoded) : encoded);
+  }
+  b.features = b.rgb;
+  return b;
+}
+
+TEST_F(RenderOutputsTest, GreyRampComesBackLinearInTheExrAndAsTheInputInThePng) {
+  for (const bool linear_scene : {false, true}) {
+    SCOPED_TRACE(linear_scene ? "linear scene" : "sRGB scene");
+    const RenderBuffers ramp = GreyRamp(linear_scene);
+    const ColourEncoding encoding =
+        linear_scene ? ColourEncoding::kLinear : ColourEncoding::kSrgb;
+    OutputChannels channels;
+    channels.features = channels.instance = false;
+    const std::string exr = dir_ + "/ramp.exr", png = dir_ + "/ramp.png";
+    ASSERT_TRUE(WriteRenderExr(exr, ramp, channels, MakeView(), {"s", "analytic", encoding}).ok());
+    ASSERT_TRUE(WritePreviewPng(png, ramp, encoding).ok());
+    auto in = OIIO::ImageInput::open(exr);
+    ASSERT_TRUE(in);
+    const OIIO::ImageSpec& spec = in->spec();
+    std::vector<float> pixels(size_t(256) * spec.nchannels);
+    ASSERT_TRUE(in->read_image(0, 0, 0, spec.nchannels, TypeDesc::FLOAT, pixels.data()));
+    const int rgb_index[3] = {spec.channelindex("R"), spec.channelindex("G"),
+                              spec.channelindex("B")};
+    absl::StatusOr<ImageF> png_rgb = ReadImage(png, 3);
+    ASSERT_TRUE(png_rgb.ok());
+    for (int x = 0; x < 256; ++x) {
+      // The sRGB EOTF of each input value, to half precision.
+      const double eotf = x / 255.0 <= 0.04045 ? x / 255.0 / 12.92
+                                               : std::pow((x / 255.0 + 0.055) / 1.055, 2.4);
+      for (int c = 0; c < 3; ++c) {
+        EXPECT_NEAR(pixels[x * spec.nchannels + rgb_index[c]], eotf, 1e-3 * eotf + 1e-7) << x;
+        EXPECT_NEAR(png_rgb->at(x, 0, c), x / 255.f, 1e-6) << x;  // The input value.
       }
     }
   }

@@ -210,6 +210,7 @@ absl::Status SaveScene(const GaussianScene& scene, const std::string& path,
   header.Put<int64_t>(scene.time_origin_us);
   header.Put<float>(scene.low_pass);
   header.Put<uint32_t>(scene.has_colour_gradients() ? 1 : 0);
+  header.Put<uint32_t>(scene.colour_encoding == ColourEncoding::kLinear ? 1 : 0);
   header.Put<uint32_t>(static_cast<uint32_t>(scene.instances.size()));
   for (const InstanceTrack& track : scene.instances) {
     header.PutString(track.id);
@@ -332,6 +333,13 @@ absl::StatusOr<SceneFile> ReadSceneFile(const std::string& path) {
   if (colour_gradients > 1) {
     return invalid("header colour_gradients ", colour_gradients, " is neither 0 nor 1");
   }
+  // Version 4 added the colours' encoding (0: sRGB, as every earlier scene; 1: linear).
+  uint32_t linear_colours = 0;
+  if (version >= 4) RETURN_IF_ERROR(header.Get("colour_encoding", &linear_colours));
+  if (linear_colours > 1) {
+    return invalid("header colour_encoding ", linear_colours, " is neither 0 nor 1");
+  }
+  scene.colour_encoding = linear_colours == 1 ? ColourEncoding::kLinear : ColourEncoding::kSrgb;
   if (num_channels < 1 || num_channels > kMaxChannels) {
     return invalid("header num_channels ", num_channels, " is outside [1, ", kMaxChannels, "]");
   }

@@ -26,8 +26,10 @@ inline constexpr char kSceneFileMagic[8] = {'P', 'F', 'S', 'C', 'E', 'N', 'E', '
 // scene's low-pass (GaussianScene::low_pass); version 1 files read as 0.3.
 // Version 3 added colour gradients (GaussianScene::colour_gradients): a flag
 // in the header after the low-pass, the array after the owners; older files
-// read with flat colours.
-inline constexpr uint32_t kSceneFileVersion = 3;
+// read with flat colours. Version 4 added the colours' encoding
+// (GaussianScene::colour_encoding, 0 sRGB, 1 linear) after that flag; older
+// files read as sRGB.
+inline constexpr uint32_t kSceneFileVersion = 4;
 inline constexpr uint32_t kOldestSceneFileVersion = 1;
 
 // A scene as stored: the Gaussians, free-form metadata (e.g. "model",

@@ -1,0 +1,233 @@
+#!/usr/bin/python3
+"""The real-clip evaluation suite: builds clips from the sample data, evaluates each with
+the analytic and the pixel-aligned models, and prints one table (docs/QUALITY.md).
+
+Each clip is imported from ../shared/data (PF_DATA_DIR) with `pf import`, its frame roles
+set by the split below, then `pf eval CLIP --out DIR [--model pixel-aligned]` runs under
+/usr/bin/time for the peak memory. Per clip the table has our PSNR and SSIM, the
+pixel-aligned model's, the baselines every report.json carries (`nearest`: the nearest
+CONTEXT image of the target's camera; `warp`: the two nearest CONTEXT frames forward-warped
+with LiDAR depth completed by IP-Basic), the depth error of our render against the LiDAR
+of the TARGET times, the reconstruction time and the peak memory.
+
+usage: scripts/eval_suite.py [--pf PATH] [--data DIR] [--out DIR] [--clips A,B] [--quick]
+                             [--no-pixel-aligned] [--json FILE] [--list] [--eval-args ARGS]
+  --quick   one tiny PandaSet clip (front camera, frames 30-33, quarter resolution): a
+            check that the suite runs (ctest eval_suite_quick), not a measurement.
+  --eval-args  more flags for every `pf eval`, one string (e.g. "--working-space linear").
+  Exit 0 when every evaluation ran, 1 when one failed, 2 for bad usage, 77 when the
+  sample data is missing (ctest reports the test skipped).
+"""
+import argparse
+import json
+import os
+import subprocess
+import sys
+import time
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+# A split gives each frame its role from (camera, the frame's index among that camera's
+# frames in time order, their count): True for CONTEXT.
+SPLITS = {
+    # DGP samples: 3 timestamps about 1 s apart.
+    "middle": lambda cam, i, n: i != n // 2,           # context first and last, target middle
+    "last": lambda cam, i, n: i < n - 1,                # context all but the last (extrapolation)
+    # PandaSet: context every other frame, the frames between are targets.
+    "alternate": lambda cam, i, n: i % 2 == 0,
+    # Targets on a camera that gives no context: context every other frame of the other
+    # cameras, targets the odd frames of the front camera.
+    "cross_camera": lambda cam, i, n: cam != "front_camera" and i % 2 == 0,
+}
+CROSS_CAMERA_TARGETS = lambda cam, i, n: cam == "front_camera" and i % 2 == 1
+
+# name -> (importer, source under the data dir, extra import flags, split)
+CLIPS = {
+    "dgp01_middle": ("dgp", "dgp_test_scene/scene_01", [], "middle"),
+    "dgp01_last": ("dgp", "dgp_test_scene/scene_01", [], "last"),
+    "dgp02_middle": ("dgp", "dgp_test_scene/scene_02", [], "middle"),
+    "dgp02_last": ("dgp", "dgp_test_scene/scene_02", [], "last"),
+    "pandaset_half": ("pandaset", "pandaset_002", ["--scale", "0.5"], "alternate"),
+    "pandaset_full": ("pandaset", "pandaset_002", [], "alternate"),
+    # The first 8 frames only (24 views): a quicker check of a change.
+    "pandaset_half_8": ("pandaset", "pandaset_002", ["--scale", "0.5", "--frames", "30:38"],
+                        "alternate"),
+    "pandaset_half_cross_camera": ("pandaset", "pandaset_002", ["--scale", "0.5"],
+                                   "cross_camera"),
+}
+QUICK = {
+    "quick": ("pandaset", "pandaset_002",
+              ["--scale", "0.25", "--frames", "30:33", "--cameras", "front_camera"], "alternate"),
+}
+
+
+def run(argv, log):
+    """Runs argv, appending its output to `log`; returns (exit code, seconds)."""
+    start = time.monotonic()
+    with open(log, "a") as out:
+        out.write("$ " + " ".join(argv) + "\n")
+        out.flush()
+        code = subprocess.call(argv, stdout=out, stderr=subprocess.STDOUT)
+    return code, time.monotonic() - start
+
+
+def set_roles(manifest, split):
+    """Rewrites the frame roles of clip.json at `manifest` by `split`."""
+    with open(manifest) as f:
+        clip = json.load(f)
+    by_camera = {}
+    for frame in clip["frames"]:
+        by_camera.setdefault(frame["camera"], []).append(frame)
+    for camera, frames in by_camera.items():
+        frames.sort(key=lambda fr: int(fr["timestampUs"]))
+        for i, frame in enumerate(frames):
+            context = SPLITS[split](camera, i, len(frames))
+            if split == "cross_camera":
+                target = CROSS_CAMERA_TARGETS(camera, i, len(frames))
+                if not context and not target:
+                    frame["role"] = "DROP"
+                    continue
+            frame["role"] = "CONTEXT" if context else "TARGET"
+    clip["frames"] = [fr for fr in clip["frames"] if fr["role"] != "DROP"]
+    with open(manifest, "w") as f:
+        json.dump(clip, f, indent=1)
+    roles = [fr["role"] for fr in clip["frames"]]
+    return roles.count("CONTEXT"), roles.count("TARGET")
+
+
+def peak_gib(time_log):
+    """The peak RSS /usr/bin/time -f '%M' wrote (KiB), in GiB."""
+    try:
+        with open(time_log) as f:
+            return int(f.read().split()[-1]) / 2**20
+    except (OSError, ValueError, IndexError):
+        return None
+
+
+def figure(report, *keys):
+    value = report
+    for key in keys:
+        if not isinstance(value, dict) or value.get(key) is None:
+            return None
+        value = value[key]
+    return value
+
+
+def evaluate(pf, clip_json, out_dir, model, log, eval_args):
+    """Runs pf eval; returns the row's figures for this model, or None when it failed."""
+    time_log = out_dir + ".time"
+    argv = ["/usr/bin/time", "-o", time_log, "-f", "%M", pf, "eval", clip_json, "--out", out_dir]
+    if model != "analytic":
+        argv += ["--model", model]
+    argv += eval_args
+    code, seconds = run(argv, log)
+    if code != 0:
+        return None
+    with open(os.path.join(out_dir, "report.json")) as f:
+        report = json.load(f)
+    return {
+        "psnr": figure(report, "mean", "psnr"),
+        "ssim": figure(report, "mean", "ssim"),
+        "lidarAbsRel": figure(report, "mean", "lidarAbsRel"),
+        "nearestPsnr": figure(report, "baselines", "nearest", "psnr"),
+        "nearestSsim": figure(report, "baselines", "nearest", "ssim"),
+        "warpPsnr": figure(report, "baselines", "warp", "psnr"),
+        "warpSsim": figure(report, "baselines", "warp", "ssim"),
+        "warpLidarAbsRel": figure(report, "baselines", "warp", "lidarAbsRel"),
+        "reconstructSeconds": report.get("reconstructSeconds"),
+        "evalSeconds": seconds,
+        "peakGiB": peak_gib(time_log),
+        "gaussians": report.get("gaussians"),
+    }
+
+
+def fmt(value, digits=2):
+    return "-" if value is None else f"{value:.{digits}f}"
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--pf", default=os.path.join(ROOT, "build", "bin", "pf"))
+    parser.add_argument("--data", default=os.environ.get(
+        "PF_DATA_DIR", os.path.join(ROOT, "..", "shared", "data")))
+    parser.add_argument("--out", default=os.path.join(ROOT, "out", "eval-suite"))
+    parser.add_argument("--clips", default="")
+    parser.add_argument("--quick", action="store_true")
+    parser.add_argument("--no-pixel-aligned", action="store_true")
+    parser.add_argument("--json", default="")
+    parser.add_argument("--list", action="store_true")
+    parser.add_argument("--eval-args", default="")
+    args = parser.parse_args()
+
+    clips = QUICK if args.quick else CLIPS
+    if args.list:
+        for name, (importer, source, flags, split) in clips.items():
+            print(f"{name}: pf import {importer} {source} {' '.join(flags)}; split {split}")
+        return 0
+    names = [c for c in args.clips.split(",") if c] or list(clips)
+    unknown = [n for n in names if n not in clips]
+    if unknown:
+        print(f"eval_suite: unknown clip(s) {', '.join(unknown)} (have {', '.join(clips)})",
+              file=sys.stderr)
+        return 2
+    if not os.path.isfile(args.pf):
+        print(f"eval_suite: no pf at {args.pf} (make build, or --pf PATH)", file=sys.stderr)
+        return 2
+    missing = sorted({clips[n][1] for n in names
+                      if not os.path.isdir(os.path.join(args.data, clips[n][1]))})
+    if missing:
+        print(f"eval_suite: sample data {', '.join(missing)} not found under {args.data}: set "
+              "PF_DATA_DIR (or --data) to the shared/data directory", file=sys.stderr)
+        return 77
+
+    os.makedirs(args.out, exist_ok=True)
+    log = os.path.join(args.out, "suite.log")
+    models = ["analytic"] + ([] if args.no_pixel_aligned else ["pixel-aligned"])
+    rows, failed = [], []
+    for name in names:
+        importer, source, flags, split = clips[name]
+        clip_dir = os.path.join(args.out, name, "clip")
+        subprocess.call(["rm", "-rf", os.path.join(args.out, name)])
+        code, _ = run([args.pf, "import", importer, os.path.join(args.data, source), "--out",
+                       clip_dir] + flags, log)
+        if code != 0:
+            failed.append(f"{name}: pf import exited {code}")
+            continue
+        context, target = set_roles(os.path.join(clip_dir, "clip.json"), split)
+        row = {"clip": name, "context": context, "target": target}
+        for model in models:
+            figures = evaluate(args.pf, os.path.join(clip_dir, "clip.json"),
+                               os.path.join(args.out, name, model), model, log,
+                               args.eval_args.split())
+            if figures is None:
+                failed.append(f"{name}: pf eval --model {model} failed")
+                continue
+            row[model] = figures
+        rows.append(row)
+        print(f"eval_suite: {name} done", file=sys.stderr, flush=True)
+
+    header = ("| clip | context / target views | ours PSNR | pixel-aligned | nearest | warp | "
+              "ours SSIM | nearest SSIM | warp SSIM | depth AbsRel ours / warp | "
+              "reconstruction s | peak GiB | Gaussians |")
+    print(header)
+    print("|" + "---|" * (header.count("|") - 1))
+    for row in rows:
+        ours = row.get("analytic", {})
+        pixel = row.get("pixel-aligned", {})
+        print(f"| {row['clip']} | {row['context']} / {row['target']} | {fmt(ours.get('psnr'))} | "
+              f"{fmt(pixel.get('psnr'))} | {fmt(ours.get('nearestPsnr'))} | "
+              f"{fmt(ours.get('warpPsnr'))} | {fmt(ours.get('ssim'), 3)} | "
+              f"{fmt(ours.get('nearestSsim'), 3)} | {fmt(ours.get('warpSsim'), 3)} | "
+              f"{fmt(ours.get('lidarAbsRel'), 3)} / {fmt(ours.get('warpLidarAbsRel'), 3)} | "
+              f"{fmt(ours.get('reconstructSeconds'), 1)} | {fmt(ours.get('peakGiB'))} | "
+              f"{ours.get('gaussians', '-')} |")
+    if args.json:
+        with open(args.json, "w") as f:
+            json.dump(rows, f, indent=1)
+    for problem in failed:
+        print(f"eval_suite: {problem} (log: {log})", file=sys.stderr)
+    return 1 if failed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
