@@ -336,7 +336,7 @@ absl::StatusOr<RefinementStats> RefineColours(const std::vector<ContextView>& vi
   // gradients, with gradients), the same for the three channels. The
   // colour and its gradients of one disc share every pixel, so their block
   // is far from diagonal, and by the diagonal alone the fit converged
-  // slowly (docs/QUALITY.md, "Colour fit: block preconditioner").
+  // slowly (docs/QUALITY.md, "The method as built").
   std::vector<float> prior(per * n);
   std::vector<float> inverse((kk == 3 ? 6 : 1) * n);
   for (size_t i = 0; i < n; ++i) {

@@ -320,7 +320,7 @@ HiddenFloor FindHiddenFloor(const std::vector<SamplingView>& views) {
 // that only recedes (the road up to a wall) is not told from an occluder,
 // and the query behind it lies under that surface, above the floor, hidden
 // wherever the surface was seen and filling a hole where it was not
-// (docs/QUALITY.md, "Hidden queries behind small depth edges").
+// (docs/QUALITY.md, "What was tried and dropped": the occluder rule).
 bool HiddenCandidate(const SamplingView& sv, int v, size_t i, int32_t source, double min_jump,
                      double focal, double stride, const HiddenFloor& floor, Candidate* out) {
   if (source < 0 || !sv.lifted->valid[i] || sv.depth->is_far(i)) return false;
@@ -366,8 +366,8 @@ bool HiddenCandidate(const SamplingView& sv, int v, size_t i, int32_t source, do
 // borders the occluder (a shop window's band, the kerb, the sky) goes on
 // into the strip it hides. The deepest pixel of a window (`source`) lies in
 // one of its corners, often a storey away: its colour drew streaks of wall
-// across shop fronts (docs/QUALITY.md, "Hidden queries take the nearest
-// background's colour"). Found by stepping from `i` in 8 directions up to
+// across shop fronts (docs/QUALITY.md, "The method as built"). Found by
+// stepping from `i` in 8 directions up to
 // `reach` steps; background is a static pixel on `source`'s layer (far or
 // not) deeper than `i` by more than `min_jump`. The first background pixel
 // beside an edge mixes in the occluder (antialiasing), so the next one is
