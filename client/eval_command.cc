@@ -70,6 +70,7 @@ reconstruction flags (as pf reconstruct):
   --model analytic|pixel-aligned  --ns N --nd N  --fusion softmax|average|no-depth
   --no-lifespan  --refine N  --splat-sigma S  --low-pass PX2  --hidden-band PX
   --no-ground-fill  --no-facades  --colour gradients|flat  --working-space srgb|linear
+  --completion nearest|ip-basic
   --device cpu|cuda[:N]  --allow-outside-paths
 
 extra views (views not in the clip, e.g. extrapolated poses):

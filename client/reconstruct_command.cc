@@ -32,7 +32,7 @@ constexpr char kReconstructUsage[] =
     "[--ns N --nd N] [--fusion softmax|average|no-depth] [--no-lifespan] [--refine N] "
     "[--splat-sigma S] [--low-pass PX2] [--hidden-band PX] [--no-ground-fill] [--no-facades] "
     "[--device cpu|cuda[:N]] [--colour gradients|flat] [--working-space srgb|linear] "
-    "[--allow-outside-paths]";
+    "[--completion nearest|ip-basic] [--allow-outside-paths]";
 
 absl::Status ReconstructCommand(const CommandLine& cl) {
   if (cl.positional().size() != 1) return absl::InvalidArgumentError(kReconstructUsage);

@@ -11,18 +11,25 @@
 //    facades above the LiDAR's top beam, facade_depth.h),
 //    "staticGaussians": n, "dynamicGaussians": n, "farGaussians": n,
 //    "instances": n, "contextViews": n, "ns": n, "nd": n,
+//    "workingSpace": "srgb"|"linear", "metricsColour": "srgb",
 //    "stageSeconds": {"load": s, ...},
-//    "mean": {"psnr": x, "ssim": x, "depthRmse": x, "dynamicPsnr": x},
+//    "mean": {"psnr": x, "ssim": x, "depthRmse": x, "lidarAbsRel": x,
+//             "lidarCoverage": x, "dynamicPsnr": x, ...},
 //    "baselines": {"nearest": {...}, "warp": {...}}, "baselineSeconds": s,
 //    "frames": [{"camera": "...", "timestampUs": t, "psnr": x, "ssim": x,
-//                "depthRmse": x, "dynamicPsnr": x, "dynamicPixels": n,
+//                "depthRmse": x, "lidarAbsRel": x, "lidarCoverage": x,
+//                "dynamicPsnr": x, "dynamicPixels": n,
 //                "holeFraction": x, "contactSheet": "cam_t.png",
 //                "baselines": {"nearest": {"psnr": x, ..., "holeFraction": x,
 //                                          "frames": [{"camera": "...",
 //                                                      "timestampUs": t}]},
 //                              "warp": {...}}}, ...]}
-// depthRmse is over pixels where the target frame has depth (frames without
-// a depth map leave it out); dynamicPsnr over pixels whose ray crosses an
+// Colour figures compare the sRGB-encoded [0, 1] images whatever the working
+// space the colours were blended in. depthRmse is over pixels where the target
+// frame has depth (frames without a depth map leave it out); lidarAbsRel is
+// the mean |depth - z| / z over the target time's own LiDAR points where the
+// render has depth, lidarCoverage the share of those points it has depth at
+// (null without LiDAR); dynamicPsnr over pixels whose ray crosses an
 // instance box at the frame's time (left out where there are none);
 // holeFraction is the share of pixels the render leaves (nearly) empty,
 // alpha < 0.5, which show black (regions no context view saw). Means

@@ -10,7 +10,8 @@ namespace pf {
 const std::set<std::string>& ReconValueFlags() {
   static const std::set<std::string> flags = {"model",    "ns",     "nd",          "fusion",
                                               "device",   "refine", "hidden-band", "splat-sigma",
-                                              "low-pass", "colour", "working-space"};
+                                              "low-pass", "colour", "working-space",
+                                              "completion"};
   return flags;
 }
 
@@ -65,6 +66,15 @@ absl::StatusOr<ReconOptions> ReconOptionsFromFlags(const CommandLine& cl) {
   options.fusion.lifespan = !cl.Has("no-lifespan");
   options.completion.ground_fill = !cl.Has("no-ground-fill");
   options.completion.facades = !cl.Has("no-facades");
+  const std::string completion = cl.Get("completion", "nearest");
+  if (completion == "nearest") {
+    options.completion.method = CompletionOptions::Method::kNearest;
+  } else if (completion == "ip-basic") {
+    options.completion.method = CompletionOptions::Method::kIpBasic;
+  } else {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "--completion: unknown method '", completion, "' (expected nearest or ip-basic)"));
+  }
   options.allow_outside_paths = cl.Has("allow-outside-paths");
   ASSIGN_OR_RETURN(options.decoder.tangent_sigma,
                    cl.GetDouble("splat-sigma", options.decoder.tangent_sigma));

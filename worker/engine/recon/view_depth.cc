@@ -15,6 +15,7 @@
 #include "pointforward/v1/clip.pb.h"
 #include "worker/engine/camera/image_pixel.h"
 #include "worker/engine/clip/clip_validator.h"
+#include "worker/engine/recon/depth_completion.h"
 #include "worker/engine/recon/query_lifting.h"
 #include "worker/engine/recon/scene_graph.h"
 #include "worker/engine/render/rasterizer.h"
@@ -422,8 +423,16 @@ ImageF MeasuredDepth(const ContextView& view, const std::vector<LidarSweepData>&
   const LidarSweepData& sweep = sweeps[nearest];
   const std::vector<float> points = PointsAtTime(sweep, tracks, view.timestamp_us);
   std::vector<int32_t> sources;
-  ImageF depth = CompleteDepth(ProjectPoints(points, view.camera, view.world_from_camera), options,
-                               options.ground_fill ? &sources : nullptr);
+  const ImageF projected = ProjectPoints(points, view.camera, view.world_from_camera);
+  ImageF depth = CompleteDepth(projected, options, options.ground_fill ? &sources : nullptr);
+  if (options.method == CompletionOptions::Method::kIpBasic) {
+    IpBasicOptions ip_basic;
+    ip_basic.extrapolate = false;
+    const ImageF dense = CompleteDepthIpBasic(projected, ip_basic);
+    for (size_t i = 0; i < depth.pixels.size(); ++i) {
+      if (dense.pixels[i] > 0.f) depth.pixels[i] = dense.pixels[i];
+    }
+  }
   const GroundPlane plane =
       options.ground_fill || options.facades ? FitGroundPlane(sweep) : GroundPlane{};
   if (ground != nullptr) *ground = plane;

@@ -55,6 +55,13 @@ ImageF ProjectPoints(const std::vector<float>& points, const CameraModel& camera
                      const Rigid& world_from_camera);
 
 struct CompletionOptions {
+  // How the projected LiDAR is densified: kNearest, each pixel the nearest
+  // measurement's depth (CompleteDepth); kIpBasic, IP-Basic
+  // (depth_completion.h) without its upward extension, so the region above
+  // the top beam stays unknown for the facades and the far layer, and
+  // CompleteDepth where IP-Basic leaves a pixel unknown.
+  enum class Method { kNearest, kIpBasic };
+  Method method = Method::kNearest;
   // Pixels further than this from any measured pixel stay unknown. <= 0:
   // CompletionRadius(image height), so the gap between LiDAR rings on the
   // road near the car (tens of pixels in a 1216-row image) is bridged.
