@@ -47,9 +47,11 @@ grpc::Status SceneServiceImpl::GetScene(grpc::ServerContext* context,
   absl::StatusOr<std::string> id = ParseResourceName(request->name(), "scenes", "name");
   if (!id.ok()) return ToGrpc(id.status());
   absl::StatusOr<SceneRecord> record = core_->store().GetScene(*id);
-  if (!record.ok()) return ToGrpc(record.status());
-  if (absl::Status ok = CheckCanUseScene(*caller, *id, core_->store(), request->name()); !ok.ok()) {
-    return ToGrpc(ok);
+  if (absl::Status ok = record.ok()
+                            ? CheckCanUseScene(*caller, *id, core_->store(), request->name())
+                            : record.status();
+      !ok.ok()) {
+    return ToGrpc(NotFoundOrStatus(ok, "name", request->name()));
   }
   absl::StatusOr<v1::Scene> scene = core_->SceneFor(*record);
   if (!scene.ok()) return ToGrpc(scene.status());
@@ -86,13 +88,15 @@ grpc::Status SceneServiceImpl::DeleteScene(grpc::ServerContext* context,
   if (!caller.ok()) return ToGrpc(caller.status());
   absl::StatusOr<std::string> id = ParseResourceName(request->name(), "scenes", "name");
   if (!id.ok()) return ToGrpc(id.status());
-  if (absl::StatusOr<SceneRecord> record = core_->store().GetScene(*id); !record.ok()) {
-    return ToGrpc(record.status());
+  absl::StatusOr<SceneRecord> record = core_->store().GetScene(*id);
+  if (absl::Status ok = record.ok()
+                            ? CheckCanUseScene(*caller, *id, core_->store(), request->name())
+                            : record.status();
+      !ok.ok()) {
+    return ToGrpc(NotFoundOrStatus(ok, "name", request->name()));
   }
-  if (absl::Status ok = CheckCanUseScene(*caller, *id, core_->store(), request->name()); !ok.ok()) {
-    return ToGrpc(ok);
-  }
-  return ToGrpc(core_->store().DeleteScene(*id, core_->NowMs()));
+  return ToGrpc(
+      NotFoundOrStatus(core_->store().DeleteScene(*id, core_->NowMs()), "name", request->name()));
 }
 
 grpc::Status SceneServiceImpl::ExportScene(grpc::ServerContext* context,
@@ -103,9 +107,11 @@ grpc::Status SceneServiceImpl::ExportScene(grpc::ServerContext* context,
   absl::StatusOr<std::string> id = ParseResourceName(request->name(), "scenes", "name");
   if (!id.ok()) return ToGrpc(id.status());
   absl::StatusOr<SceneRecord> record = core_->store().GetScene(*id);
-  if (!record.ok()) return ToGrpc(record.status());
-  if (absl::Status ok = CheckCanUseScene(*caller, *id, core_->store(), request->name()); !ok.ok()) {
-    return ToGrpc(ok);
+  if (absl::Status ok = record.ok()
+                            ? CheckCanUseScene(*caller, *id, core_->store(), request->name())
+                            : record.status();
+      !ok.ok()) {
+    return ToGrpc(NotFoundOrStatus(ok, "name", request->name()));
   }
   if (record->state != SceneState::kReady) {
     return ToGrpc(absl::FailedPreconditionError(absl::StrCat(

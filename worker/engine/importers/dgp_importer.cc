@@ -16,6 +16,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
 #include "absl/time/time.h"
+#include "common/bounded_json.h"
 #include "common/file_util.h"
 #include "common/geometry.h"
 #include "common/status_macros.h"
@@ -29,7 +30,7 @@ namespace {
 
 namespace fs = std::filesystem;
 namespace v1 = pointforward::v1;
-using Json = nlohmann::json;
+using Json = nlohmann::ordered_json;
 
 // DGP's annotation type ids (dgp/proto/annotations.proto).
 constexpr char kBoundingBox3dKey[] = "1";
@@ -39,8 +40,8 @@ constexpr double kQuatNormTolerance = 1e-3;
 
 absl::StatusOr<Json> LoadJson(const std::string& path) {
   ASSIGN_OR_RETURN(std::string text, ReadFileToString(path));
-  Json j = Json::parse(text, /*cb=*/nullptr, /*allow_exceptions=*/false);
-  if (j.is_discarded()) return absl::InvalidArgumentError(absl::StrCat(path, ": malformed JSON"));
+  absl::StatusOr<Json> j = ParseBoundedJson(text, {.max_bytes = int64_t{1} << 30});
+  if (!j.ok()) return StatusWithContext(j.status(), path);
   return j;
 }
 
