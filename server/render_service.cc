@@ -35,7 +35,7 @@ absl::Status CheckViewLimits(const v1::RenderViews& views, const OutputChannels&
                                                    " views exceed the limit of ", max_views,
                                                    " per render job (pf-server --max-views)"));
   }
-  return StatusWithContext(CheckRenderLimits(views, channels, num_features, limits), "views");
+  return CheckRenderLimits(views, channels, num_features, limits, "views.cameras");
 }
 
 // Checks the views against what is known of the scene: everything when it

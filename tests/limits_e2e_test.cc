@@ -854,7 +854,8 @@ TEST_F(LimitsE2e, WorkerResultsAreCheckedAgainstTheTaskAndAPoisonedStoreStaysRea
   ASSERT_TRUE(done.response().UnpackTo(&rendered));
   EXPECT_EQ(rendered.files_size(), 9);  // 4 views x (EXR, PNG) + manifest.json.
   int refused = 0;
-  for (const v1::Attempt& attempt : Metadata(done).attempts()) {
+  const v1::OperationMetadata metadata = Metadata(done);
+  for (const v1::Attempt& attempt : metadata.attempts()) {
     refused += Contains(attempt.outcome(), "result refused: ") ? 1 : 0;
   }
   EXPECT_EQ(refused, static_cast<int>(lies.size()));

@@ -316,10 +316,9 @@ absl::StatusOr<RenderChunkOutput> RenderChunk(const pb::RenderWork& work, const 
   if (!parsed_channels.ok()) return StatusWithContext(parsed_channels.status(), "outputs");
   const OutputChannels channels = *parsed_channels;
   // The server's limits on a view, before anything is allocated for one.
-  RETURN_IF_ERROR(
-      StatusWithContext(CheckRenderLimits(work.views(), channels, opened.scene.num_channels,
-                                          {work.max_pixels_per_view(), work.max_render_bytes()}),
-                        "views"));
+  RETURN_IF_ERROR(CheckRenderLimits(work.views(), channels, opened.scene.num_channels,
+                                    {work.max_pixels_per_view(), work.max_render_bytes()},
+                                    "views.cameras"));
 
   std::string json;
   const auto to_json = google::protobuf::util::MessageToJsonString(work.views(), &json);

@@ -462,7 +462,7 @@ TEST_F(TaskRunner, RenderChunkChecksTheServersLimitsOnAViewBeforeRendering) {
   work.set_max_pixels_per_view(50000000);
   absl::Status status = RenderChunk(work, *opened, *dir_ + "/huge", nullptr, nullptr).status();
   EXPECT_EQ(status.code(), absl::StatusCode::kInvalidArgument);
-  EXPECT_EQ(status.message().rfind("views: cameras[0]: 1000000000x1000000000 = ", 0), 0u) << status;
+  EXPECT_EQ(status.message().rfind("views.cameras[0]: 1000000000x1000000000 = ", 0), 0u) << status;
   // No limits from the server: the rasterizer's own bound still holds.
   work.set_max_pixels_per_view(0);
   status = RenderChunk(work, *opened, *dir_ + "/huge", nullptr, nullptr).status();

@@ -136,11 +136,11 @@ int64_t EstimateRenderBytes(int64_t width, int64_t height, const OutputChannels&
 
 absl::Status CheckRenderLimits(const pointforward::v1::RenderViews& views,
                                const OutputChannels& channels, int num_features,
-                               const RenderLimits& limits) {
+                               const RenderLimits& limits, const std::string& cameras_field) {
   for (int i = 0; i < views.cameras_size(); ++i) {
     const pointforward::v1::Camera& camera = views.cameras(i);
     const int64_t pixels = int64_t{camera.width()} * int64_t{camera.height()};
-    const std::string field = absl::StrCat("cameras[", i, "]");
+    const std::string field = absl::StrCat(cameras_field, "[", i, "]");
     if (limits.max_pixels_per_view > 0 && pixels > limits.max_pixels_per_view) {
       return absl::InvalidArgumentError(
           absl::StrCat(field, ": ", camera.width(), "x", camera.height(), " = ", pixels,

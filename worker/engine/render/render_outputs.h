@@ -86,12 +86,13 @@ int64_t EstimateRenderBytes(int64_t width, int64_t height, const OutputChannels&
                             int num_features);
 
 // Checks every camera of `views` against `limits` before anything is
-// allocated: INVALID_ARGUMENT naming "cameras[i]" and the pf-server flag of
-// the limit, e.g. "cameras[0]: 12000x12000 = 144000000 pixels per view
-// exceed the limit of 50000000 (--max-pixels-per-image)".
+// allocated: INVALID_ARGUMENT naming "<cameras_field>[i]" and the pf-server
+// flag of the limit, e.g. "views.cameras[0]: 12000x12000 = 144000000 pixels
+// per view exceed the limit of 50000000 (--max-pixels-per-image)".
 absl::Status CheckRenderLimits(const pointforward::v1::RenderViews& views,
                                const OutputChannels& channels, int num_features,
-                               const RenderLimits& limits);
+                               const RenderLimits& limits,
+                               const std::string& cameras_field = "cameras");
 
 // Returns the EXR channel names for `channels` and `num_features` channels,
 // in the order listed above.
