@@ -137,18 +137,22 @@ absl::Status CheckOutputDirPath(const std::string& flag, const std::string& path
 
 absl::Status CheckWritableDir(const std::string& flag, const std::string& dir) {
   RETURN_IF_ERROR(CheckOutputDirPath(flag, dir));
+  // The directory, or the nearest ancestor that exists: where the first
+  // file or directory would be made.
   std::error_code ec;
-  fs::create_directories(dir, ec);
-  if (ec) {
-    return absl::InvalidArgumentError(
-        absl::StrCat(flag, ": '", dir, "' cannot be created: ", ec.message()));
+  fs::path existing = fs::absolute(dir, ec).lexically_normal();
+  while (!fs::exists(existing, ec) && existing.has_relative_path()) {
+    existing = existing.parent_path();
   }
-  const std::string probe =
-      (fs::path(dir) / absl::StrCat(".pf-write-check-", ProcessToken())).string();
+  if (!fs::is_directory(existing, ec)) {
+    return absl::InvalidArgumentError(absl::StrCat(flag, ": '", dir, "' cannot be created: '",
+                                                   existing.string(), "' is not a directory"));
+  }
+  const std::string probe = (existing / absl::StrCat(".pf-write-check-", ProcessToken())).string();
   std::FILE* file = std::fopen(probe.c_str(), "wb");
   if (file == nullptr) {
-    return absl::InvalidArgumentError(
-        absl::StrCat(flag, ": '", dir, "' is not writable: ", std::strerror(errno)));
+    return absl::InvalidArgumentError(absl::StrCat(
+        flag, ": '", dir, "' is not writable: ", existing.string(), ": ", std::strerror(errno)));
   }
   std::fclose(file);
   fs::remove(probe, ec);

@@ -50,9 +50,10 @@ absl::Status MakeDirs(const std::string& dir);
 absl::Status CheckOutputFilePath(const std::string& flag, const std::string& path);
 absl::Status CheckOutputDirPath(const std::string& flag, const std::string& path);
 
-// Creates directory `dir` if missing and checks that a file can be written
-// in it (by writing and removing one): INVALID_ARGUMENT naming `flag` and
-// why not. For outputs that arrive only after long work.
+// Checks that directory `dir` could be made and written: it, or the nearest
+// ancestor that exists, is a directory in which a file can be written (one
+// is written and removed). Creates nothing; INVALID_ARGUMENT naming `flag`
+// and why not. For outputs that arrive only after long work.
 absl::Status CheckWritableDir(const std::string& flag, const std::string& dir);
 
 // Returns `text` (an error message) with every mention of directory `dir`

@@ -94,11 +94,14 @@ TEST(HideDirectory, TakesAPrivateDirectoryOutOfAMessage) {
   EXPECT_EQ(HideDirectory("/srv/x", ""), "/srv/x");
 }
 
-TEST(CheckWritableDir, CreatesTheDirectoryAndRefusesOneThatCannotBeWritten) {
+TEST(CheckWritableDir, RefusesADirectoryThatCannotBeMadeOrWrittenAndCreatesNothing) {
   const std::string dir = FreshDir("writable");
   EXPECT_TRUE(CheckWritableDir("--out", dir + "/a/b").ok());
-  EXPECT_TRUE(fs::is_directory(dir + "/a/b"));
-  EXPECT_TRUE(fs::is_empty(dir + "/a/b"));  // The probe is gone.
+  EXPECT_FALSE(fs::exists(dir + "/a"));
+  EXPECT_TRUE(fs::is_empty(dir));  // The probe is gone.
+  fs::create_directories(dir + "/c");
+  EXPECT_TRUE(CheckWritableDir("--out", dir + "/c").ok());
+  EXPECT_TRUE(fs::is_empty(dir + "/c"));
   ASSERT_TRUE(WriteFileAtomic(dir + "/file", "x").ok());
   EXPECT_EQ(CheckWritableDir("--out", dir + "/file").code(), absl::StatusCode::kInvalidArgument);
   const absl::Status under_file = CheckWritableDir("--out", dir + "/file/sub");
@@ -110,6 +113,8 @@ TEST(CheckWritableDir, CreatesTheDirectoryAndRefusesOneThatCannotBeWritten) {
     fs::permissions(dir + "/locked", fs::perms::owner_read | fs::perms::owner_exec);
     const absl::Status locked = CheckWritableDir("--out", dir + "/locked");
     EXPECT_NE(std::string(locked.message()).find("is not writable"), std::string::npos) << locked;
+    const absl::Status below = CheckWritableDir("--out", dir + "/locked/new/sub");
+    EXPECT_NE(std::string(below.message()).find("is not writable"), std::string::npos) << below;
     fs::permissions(dir + "/locked", fs::perms::owner_all);
   }
 }
