@@ -134,6 +134,19 @@ class LimitsE2e : public ::testing::Test {
     return stub->CreateScene(&context, request, op);
   }
 
+  // CreateScene of the test clip uploaded with its first frame's image
+  // under `path` (the real image's bytes).
+  static grpc::Status CreateSceneWithImageAt(ServerProcess& server, BlobClient& blobs,
+                                             const std::string& path) {
+    const std::string image = (*manifest_)["frames"][0]["image"];
+    nlohmann::json manifest = *manifest_;
+    manifest["frames"][0]["image"] = path;
+    v1::ClipSource clip;
+    *clip.mutable_uploaded() = Upload(blobs, manifest, {{path, *dir_ + "/clip/" + image}});
+    Operation op;
+    return CreateScene(server, clip, &op);
+  }
+
   static v1::ClipSource Uri(const std::string& path) {
     v1::ClipSource clip;
     clip.set_uri("file://" + path);
@@ -459,16 +472,9 @@ TEST_F(LimitsE2e, UploadedClipPathsThatLeaveTheClipAreRefused) {
   ServerProcess server(test_dir_);
   ASSERT_TRUE(server.Start()) << server.Log();
   BlobClient blobs(MakeChannel(server.address()));
-  const std::string image = (*manifest_)["frames"][0]["image"];
-  const std::string local = *dir_ + "/clip/" + image;
   for (const std::string& path : {std::string("../escape.png"), std::string("images/../../x.png"),
                                   std::string("/etc/escape.png")}) {
-    nlohmann::json manifest = *manifest_;
-    manifest["frames"][0]["image"] = path;
-    v1::ClipSource clip;
-    *clip.mutable_uploaded() = Upload(blobs, manifest, {{path, local}});
-    Operation op;
-    const grpc::Status status = CreateScene(server, clip, &op);
+    const grpc::Status status = CreateSceneWithImageAt(server, blobs, path);
     EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << path;
     EXPECT_TRUE(Contains(status.error_message(), "clip.uploaded.files[\"" + path + "\"]"))
         << path << ": " << status.error_message();
@@ -937,14 +943,8 @@ TEST_F(LimitsE2e, BadPathsAndSizesInAClipAreInvalidArgumentsWithoutServerPaths) 
   ASSERT_TRUE(server.Start()) << server.Log();
   BlobClient blobs(MakeChannel(server.address()));
   const std::string image = (*manifest_)["frames"][0]["image"];
-  const std::string local = *dir_ + "/clip/" + image;
   for (const std::string& path : {std::string("."), std::string("images/")}) {
-    nlohmann::json manifest = *manifest_;
-    manifest["frames"][0]["image"] = path;
-    v1::ClipSource clip;
-    *clip.mutable_uploaded() = Upload(blobs, manifest, {{path, local}});
-    Operation op;
-    const grpc::Status status = CreateScene(server, clip, &op);
+    const grpc::Status status = CreateSceneWithImageAt(server, blobs, path);
     EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << path;
     EXPECT_EQ(status.error_message(),
               "clip.uploaded.files[\"" + path +
