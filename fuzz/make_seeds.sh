@@ -2,7 +2,7 @@
 # Writes the fuzzers' seed corpora from real samples into OUT_DIR/<target>/:
 #   clip_manifest_fuzzer  clip.json of a small `pf synth` clip and of the DGP
 #                         sample imported with `pf import dgp`; a manifest
-#                         nested 30000 deep and one of 1500 frames
+#                         nested 30000 deep and one of 1000 frames
 #   tfrecord_fuzzer       the Waymo sample segment, and small re-framed files
 #                         (valid CRCs) holding slices of its first record
 #   ply_fuzzer            `pf scene export` of a reconstructed scene, and two
@@ -209,7 +209,7 @@ out = sys.argv[1]
 deep = 30000
 open(f"{out}/clip_manifest_fuzzer/deep_nesting.json", "w").write(
     '{"name": ' + "[" * deep + "]" * deep + "}")
-frames = [{"camera": "c", "timestampUs": i, "image": f"i/{i}.png"} for i in range(1500)]
+frames = [{"camera": "c", "timestampUs": i, "image": f"i/{i}.png"} for i in range(1000)]
 open(f"{out}/clip_manifest_fuzzer/many_frames.json", "w").write(
     json.dumps({"cameras": [{"id": "c", "width": 8, "height": 8}], "frames": frames},
                separators=(",", ":")))

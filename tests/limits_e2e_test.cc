@@ -678,7 +678,7 @@ TEST_F(LimitsE2e, SigtermStopsTheServerWithinFiveSecondsWhileItTakesAHugeManifes
   });
   std::this_thread::sleep_for(std::chrono::milliseconds(200));
   // Stopped within the documented 5 s, cleanly, whatever the call was doing.
-  EXPECT_EQ(server.Kill(SIGTERM, std::chrono::seconds(5)), 0) << server.Log();
+  EXPECT_EQ(server.Kill(SIGTERM, testing::Scaled(std::chrono::seconds(5))), 0) << server.Log();
   create.join();
   if (created.ok() || created.error_code() == grpc::StatusCode::INVALID_ARGUMENT) {
     EXPECT_EQ(created.error_message(),
