@@ -1,6 +1,7 @@
 // File helpers.
 #include "common/file_util.h"
 
+#include <signal.h>
 #include <unistd.h>
 
 #include <atomic>
@@ -12,8 +13,12 @@
 #include <fstream>
 #include <random>
 #include <sstream>
+#include <vector>
 
+#include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_split.h"
+#include "common/status_macros.h"
 
 namespace pf {
 namespace fs = std::filesystem;
@@ -35,19 +40,57 @@ absl::StatusOr<std::string> ReadFileToString(const std::string& path) {
   return std::move(buffer).str();
 }
 
+namespace {
+
+// This machine's name as ProcessToken() writes it: letters and digits, '_'
+// for anything else, at most 32 characters.
+std::string HostToken() {
+  char host[256] = {};
+  if (gethostname(host, sizeof(host) - 1) != 0) host[0] = '\0';
+  std::string name;
+  for (const char* c = host; *c != '\0' && name.size() < 32; ++c) {
+    name += std::isalnum(static_cast<unsigned char>(*c)) ? *c : '_';
+  }
+  return name.empty() ? "host" : name;
+}
+
+}  // namespace
+
 const std::string& ProcessToken() {
   static const std::string token = [] {
-    char host[256] = {};
-    if (gethostname(host, sizeof(host) - 1) != 0) host[0] = '\0';
     std::random_device random;
-    std::string name;
-    for (const char* c = host; *c != '\0' && name.size() < 32; ++c) {
-      name += std::isalnum(static_cast<unsigned char>(*c)) ? *c : '_';
-    }
-    return absl::StrCat(name.empty() ? "host" : name, "-", ::getpid(), "-",
-                        absl::Hex(random(), absl::kZeroPad8));
+    return absl::StrCat(HostToken(), "-", ::getpid(), "-", absl::Hex(random(), absl::kZeroPad8));
   }();
   return token;
+}
+
+bool ProcessTokenEnded(std::string_view token) {
+  const std::vector<std::string> parts =
+      absl::StrSplit(absl::string_view(token.data(), token.size()), '-');
+  int64_t pid = 0;
+  if (parts.size() != 3 || parts[0] != HostToken() || !absl::SimpleAtoi(parts[1], &pid) ||
+      pid <= 0) {
+    return false;
+  }
+  if (token == ProcessToken()) return false;
+  if (pid == ::getpid()) return true;  // An earlier process with our pid (PID 1 in a container).
+  return ::kill(static_cast<pid_t>(pid), 0) != 0 && errno == ESRCH;
+}
+
+std::string HideDirectory(std::string_view text, const std::string& dir,
+                          std::string_view shown_as) {
+  std::string out(text);
+  if (dir.empty()) return out;
+  std::string trimmed = dir;
+  while (trimmed.size() > 1 && trimmed.back() == '/') trimmed.pop_back();
+  size_t at = 0;
+  while ((at = out.find(trimmed, at)) != std::string::npos) {
+    size_t length = trimmed.size();
+    if (shown_as.empty() && at + length < out.size() && out[at + length] == '/') ++length;
+    out.replace(at, length, shown_as);
+    at += shown_as.size();
+  }
+  return out;
 }
 
 std::string TempPathFor(const std::string& path) {
@@ -89,6 +132,30 @@ absl::Status CheckOutputDirPath(const std::string& flag, const std::string& path
     return absl::InvalidArgumentError(absl::StrCat(
         flag, ": '", path, "' is a file; give a directory (it is created if missing)"));
   }
+  return absl::OkStatus();
+}
+
+absl::Status CheckWritableDir(const std::string& flag, const std::string& dir) {
+  RETURN_IF_ERROR(CheckOutputDirPath(flag, dir));
+  // The directory, or the nearest ancestor that exists: where the first
+  // file or directory would be made.
+  std::error_code ec;
+  fs::path existing = fs::absolute(dir, ec).lexically_normal();
+  while (!fs::exists(existing, ec) && existing.has_relative_path()) {
+    existing = existing.parent_path();
+  }
+  if (!fs::is_directory(existing, ec)) {
+    return absl::InvalidArgumentError(absl::StrCat(flag, ": '", dir, "' cannot be created: '",
+                                                   existing.string(), "' is not a directory"));
+  }
+  const std::string probe = (existing / absl::StrCat(".pf-write-check-", ProcessToken())).string();
+  std::FILE* file = std::fopen(probe.c_str(), "wb");
+  if (file == nullptr) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        flag, ": '", dir, "' is not writable: ", existing.string(), ": ", std::strerror(errno)));
+  }
+  std::fclose(file);
+  fs::remove(probe, ec);
   return absl::OkStatus();
 }
 

@@ -30,6 +30,12 @@ std::string TempPathFor(const std::string& path);
 // volume (where every process may be PID 1): "<hostname>-<pid>-<random>".
 const std::string& ProcessToken();
 
+// True when `token` is the ProcessToken() of a process of this machine that
+// has ended: same host name, and its pid no longer running, or now ours
+// (an earlier PID 1 of a restarted container). Never for another machine's
+// token, nor for a malformed one.
+bool ProcessTokenEnded(std::string_view token);
+
 // Renames `temp_path` to `path`; removes `temp_path` and returns an error
 // naming `path` if that fails.
 absl::Status CommitTempFile(const std::string& temp_path, const std::string& path);
@@ -43,6 +49,19 @@ absl::Status MakeDirs(const std::string& dir);
 // (CheckOutputFilePath) or a directory where a file is (CheckOutputDirPath).
 absl::Status CheckOutputFilePath(const std::string& flag, const std::string& path);
 absl::Status CheckOutputDirPath(const std::string& flag, const std::string& path);
+
+// Checks that directory `dir` could be made and written: it, or the nearest
+// ancestor that exists, is a directory in which a file can be written (one
+// is written and removed). Creates nothing; INVALID_ARGUMENT naming `flag`
+// and why not. For outputs that arrive only after long work.
+absl::Status CheckWritableDir(const std::string& flag, const std::string& dir);
+
+// Returns `text` (an error message) with every mention of directory `dir`
+// replaced by `shown_as`; when `shown_as` is empty, "dir/x" becomes "x". For
+// messages that must not show a private directory (a server's scratch
+// space, a worker's work directory) to whoever receives them.
+std::string HideDirectory(std::string_view text, const std::string& dir,
+                          std::string_view shown_as = "");
 
 // How ResolvePath treats paths outside the root.
 enum class PathPolicy {

@@ -2,8 +2,10 @@
 #include "common/file_util.h"
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <filesystem>
+#include <string>
 
 namespace pf {
 namespace {
@@ -68,6 +70,53 @@ TEST(CheckOutputPath, NamesTheFlagWhenAFileOrDirectoryIsInTheWay) {
   const absl::Status on_file = CheckOutputDirPath("--out", dir + "/file.json");
   EXPECT_EQ(on_file.code(), absl::StatusCode::kInvalidArgument);
   EXPECT_NE(on_file.message().find("--out: '" + dir + "/file.json' is a file"), std::string::npos);
+}
+
+TEST(ProcessToken, EndedOnlyForThisMachinesProcessesThatAreGone) {
+  EXPECT_FALSE(ProcessTokenEnded(ProcessToken()));
+  const std::string host = ProcessToken().substr(0, ProcessToken().find('-'));
+  // Our pid under another random part: an earlier process with our pid.
+  EXPECT_TRUE(ProcessTokenEnded(host + "-" + std::to_string(::getpid()) + "-00000000"));
+  // pid 1 is always running; a pid above the kernel's maximum never is.
+  EXPECT_FALSE(ProcessTokenEnded(host + "-1-00000000"));
+  EXPECT_TRUE(ProcessTokenEnded(host + "-2147483647-00000000"));
+  EXPECT_FALSE(ProcessTokenEnded("another_host-2147483647-00000000"));
+  EXPECT_FALSE(ProcessTokenEnded("garbage"));
+}
+
+TEST(HideDirectory, TakesAPrivateDirectoryOutOfAMessage) {
+  EXPECT_EQ(HideDirectory("/srv/scratch/clip-1/images/a.png: cannot decode; /srv/scratch/clip-1",
+                          "/srv/scratch/clip-1"),
+            "images/a.png: cannot decode; ");
+  EXPECT_EQ(HideDirectory("staging /srv/blobs/ab/abcd: Is a directory", "/srv/blobs/", "<blobs>"),
+            "staging <blobs>/ab/abcd: Is a directory");
+  EXPECT_EQ(HideDirectory("nothing to hide", "/srv"), "nothing to hide");
+  EXPECT_EQ(HideDirectory("/srv/x", ""), "/srv/x");
+}
+
+TEST(CheckWritableDir, RefusesADirectoryThatCannotBeMadeOrWrittenAndCreatesNothing) {
+  const std::string dir = FreshDir("writable");
+  EXPECT_TRUE(CheckWritableDir("--out", dir + "/a/b").ok());
+  EXPECT_FALSE(fs::exists(dir + "/a"));
+  EXPECT_TRUE(fs::is_empty(dir));  // The probe is gone.
+  fs::create_directories(dir + "/c");
+  EXPECT_TRUE(CheckWritableDir("--out", dir + "/c").ok());
+  EXPECT_TRUE(fs::is_empty(dir + "/c"));
+  ASSERT_TRUE(WriteFileAtomic(dir + "/file", "x").ok());
+  EXPECT_EQ(CheckWritableDir("--out", dir + "/file").code(), absl::StatusCode::kInvalidArgument);
+  const absl::Status under_file = CheckWritableDir("--out", dir + "/file/sub");
+  EXPECT_EQ(under_file.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(std::string(under_file.message()).rfind("--out: '" + dir + "/file/sub'", 0), 0u)
+      << under_file;
+  if (::geteuid() != 0) {  // root writes anywhere.
+    fs::create_directories(dir + "/locked");
+    fs::permissions(dir + "/locked", fs::perms::owner_read | fs::perms::owner_exec);
+    const absl::Status locked = CheckWritableDir("--out", dir + "/locked");
+    EXPECT_NE(std::string(locked.message()).find("is not writable"), std::string::npos) << locked;
+    const absl::Status below = CheckWritableDir("--out", dir + "/locked/new/sub");
+    EXPECT_NE(std::string(below.message()).find("is not writable"), std::string::npos) << below;
+    fs::permissions(dir + "/locked", fs::perms::owner_all);
+  }
 }
 
 TEST(ResolvePath, AcceptsPathsInsideTheRoot) {

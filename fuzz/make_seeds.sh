@@ -1,14 +1,19 @@
 #!/usr/bin/env bash
 # Writes the fuzzers' seed corpora from real samples into OUT_DIR/<target>/:
 #   clip_manifest_fuzzer  clip.json of a small `pf synth` clip and of the DGP
-#                         sample imported with `pf import dgp`
+#                         sample imported with `pf import dgp`; a manifest
+#                         nested 30000 deep and one of 1000 frames
 #   tfrecord_fuzzer       the Waymo sample segment, and small re-framed files
 #                         (valid CRCs) holding slices of its first record
 #   ply_fuzzer            `pf scene export` of a reconstructed scene, and two
 #                         hand-written ASCII PLYs (f_dc and red/green/blue)
 #   scene_file_fuzzer     `pf reconstruct` of the synth clip (small N_s, N_d)
 #   views_fuzzer          hand-written RenderViews (every feature) and the
-#                         demo's lane-shift views of the synth clip
+#                         demo's lane-shift views of the synth clip; views
+#                         nested 30000 deep
+#   task_result_fuzzer    CompleteTaskRequests of a render chunk (views v00,
+#                         v01) and of a reconstruction, one whose
+#                         manifest_views_json is nested 30000 deep
 # Nothing is copied into the repository. The samples under PF_DATA_DIR
 # (default: ../shared/data beside the repository) are skipped when absent.
 #
@@ -36,6 +41,7 @@ export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=0}
 WORK=$(mktemp -d)
 trap 'rm -rf "$WORK"' EXIT
 mkdir -p "$OUT"/{clip_manifest_fuzzer,tfrecord_fuzzer,ply_fuzzer,scene_file_fuzzer,views_fuzzer}
+mkdir -p "$OUT"/task_result_fuzzer
 log() { echo "make_seeds: $*" >&2; }
 
 # A small synth clip, a scene reconstructed from it, and its PLY export.
@@ -192,6 +198,40 @@ for f in [f for f in clip["frames"] if f["camera"] == cam["id"]]:
         views.append({"camera": cam["id"], "timestampUs": t, "worldFromCamera": shifted,
                       "name": f"left{shift}m_{t}"})
 json.dump({"cameras": [cam], "views": views}, open(sys.argv[2], "w"), indent=1)
+PY
+
+# What the review of hostile input sent (docs/RELIABILITY.md, "Hostile
+# input"): nesting far past the parsers' depth limit, many frames, and a
+# worker's result for a chunk, good and poisoned. Each fits -max_len.
+/usr/bin/python3 - "$OUT" <<'PY'
+import json, sys
+out = sys.argv[1]
+deep = 30000
+open(f"{out}/clip_manifest_fuzzer/deep_nesting.json", "w").write(
+    '{"name": ' + "[" * deep + "]" * deep + "}")
+frames = [{"camera": "c", "timestampUs": i, "image": f"i/{i}.png"} for i in range(1000)]
+open(f"{out}/clip_manifest_fuzzer/many_frames.json", "w").write(
+    json.dumps({"cameras": [{"id": "c", "width": 8, "height": 8}], "frames": frames},
+               separators=(",", ":")))
+open(f"{out}/views_fuzzer/deep_nesting.json", "w").write(
+    '{"cameras": [{"id": ' + "[" * deep + "]" * deep + "}]}")
+sha = "ab" * 32
+def render(views_json):
+    files = [{"name": f"{v}{ext}", "view": v, "digest": {"sha256": sha, "sizeBytes": "10"}}
+             for v in ("v00", "v01") for ext in (".exr", ".png")]
+    return {"workerId": "w1", "taskId": "t", "attempt": 1,
+            "render": {"files": files, "manifestViewsJson": views_json}}
+entries = json.dumps([{"name": v, "exr": f"{v}.exr", "png": f"{v}.png", "width": 8, "height": 8}
+                      for v in ("v00", "v01")])
+open(f"{out}/task_result_fuzzer/render_chunk.json", "w").write(json.dumps(render(entries)))
+open(f"{out}/task_result_fuzzer/deep_manifest_views.json", "w").write(
+    json.dumps(render("[" * deep + "]" * deep)))
+open(f"{out}/task_result_fuzzer/reconstruct.json", "w").write(json.dumps(
+    {"workerId": "w1", "taskId": "t", "attempt": 1, "reconstruct": {"scene": {
+        "gaussians": "10", "staticGaussians": "8", "dynamicGaussians": "2",
+        "instances": ["car1"], "boundsMin": [-1, -1, -1], "boundsMax": [1, 1, 1],
+        "sceneFile": {"sha256": sha, "sizeBytes": "100"}}}}))
+open(f"{out}/task_result_fuzzer/manifest_views.json", "w").write(entries)
 PY
 
 for dir in "$OUT"/*/; do

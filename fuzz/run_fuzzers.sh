@@ -26,7 +26,8 @@ SECONDS_PER_TARGET=$2
 shift 2
 TARGETS=("$@")
 if [[ ${#TARGETS[@]} -eq 0 ]]; then
-  TARGETS=(clip_manifest_fuzzer tfrecord_fuzzer ply_fuzzer scene_file_fuzzer views_fuzzer)
+  TARGETS=(clip_manifest_fuzzer tfrecord_fuzzer ply_fuzzer scene_file_fuzzer views_fuzzer
+    task_result_fuzzer)
 fi
 HERE=$(cd "$(dirname "$0")" && pwd)
 SEEDS=${PF_FUZZ_SEEDS:-$BUILD_DIR/fuzz/seeds}

@@ -1,11 +1,10 @@
 // BlobQuota: see blob_quota.h.
 #include "server/blob_quota.h"
 
-#include <google/protobuf/util/json_util.h>
-
 #include <string>
 
 #include "absl/strings/str_cat.h"
+#include "common/bounded_json.h"
 #include "common/status_macros.h"
 #include "pointforward/v1/resources.pb.h"
 #include "spdlog/spdlog.h"
@@ -26,7 +25,8 @@ absl::Status BlobQuota::MakeRoom() {
           "refused until jobs finish or scenes are deleted"));
     }
     pointforward::v1::Scene scene;
-    const auto parsed = google::protobuf::util::JsonStringToMessage(evicted->description, &scene);
+    const absl::Status parsed =
+        ParseBoundedProtoJson(evicted->description, &scene, kStoredJsonLimits);
     const std::string& sha256 = scene.scene_file().sha256();
     int64_t freed = 0;
     if (parsed.ok() && blobs_->Contains(sha256)) {

@@ -12,6 +12,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "absl/strings/str_join.h"
+#include "common/bounded_json.h"
 #include "common/file_util.h"
 #include "common/hash.h"
 #include "common/status_macros.h"
@@ -39,6 +40,14 @@ absl::Status LinkBlob(BlobStore& blobs, const std::string& sha256, const std::st
   fs::copy_file(blob_path, path, fs::copy_options::overwrite_existing, ec);
   if (ec) return absl::InternalError(absl::StrCat("staging ", path, ": ", ec.message()));
   return absl::OkStatus();
+}
+
+// INVALID_ARGUMENT naming `field` unless `digest` gives its blob's size.
+absl::Status CheckSize(BlobStore& blobs, const v1::Digest& digest, const std::string& field) {
+  ASSIGN_OR_RETURN(const int64_t size, blobs.SizeOf(digest.sha256()));
+  if (size == digest.size_bytes()) return absl::OkStatus();
+  return absl::InvalidArgumentError(absl::StrCat(field, ".size_bytes: ", digest.size_bytes(),
+                                                 ", but the blob has ", size, " bytes"));
 }
 
 // Removes the staging directory however the intake ends.
@@ -73,6 +82,13 @@ absl::StatusOr<AcceptedClip> AcceptUploaded(const v1::UploadedClip& uploaded, Bl
     return absl::InvalidArgumentError(absl::StrCat("clip.uploaded.manifest: blob ", manifest_sha,
                                                    " was not uploaded (BlobService.WriteBlob)"));
   }
+  RETURN_IF_ERROR(CheckSize(blobs, uploaded.manifest(), "clip.uploaded.manifest"));
+  // The manifest is read whole: its size is bounded before it is parsed.
+  if (uploaded.manifest().size_bytes() > JsonLimits{}.max_bytes) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "clip.uploaded.manifest: ", uploaded.manifest().size_bytes(), " bytes exceed the limit of ",
+        JsonLimits{}.max_bytes, " bytes for a manifest"));
+  }
   StagingDir staging(staging_root);
   RETURN_IF_ERROR(MakeDirs(staging.path));
   const std::string manifest_path = staging.path + "/clip.json";
@@ -103,6 +119,12 @@ absl::StatusOr<AcceptedClip> AcceptUploaded(const v1::UploadedClip& uploaded, Bl
     if (!target.ok()) {
       return absl::InvalidArgumentError(absl::StrCat(field, ": ", target.status().message()));
     }
+    std::string file = *target;
+    while (file.size() > 1 && file.back() == '/') file.pop_back();
+    if (file == staging.path || file == manifest_path || absl::EndsWith(path, "/")) {
+      return absl::InvalidArgumentError(
+          absl::StrCat(field, ": names the clip directory or its manifest, not a file in it"));
+    }
     if (!IsValidSha256Hex(digest.sha256())) {
       return absl::InvalidArgumentError(
           absl::StrCat(field, ".sha256: '", digest.sha256(), "' is not 64 lowercase hex digits"));
@@ -111,6 +133,7 @@ absl::StatusOr<AcceptedClip> AcceptUploaded(const v1::UploadedClip& uploaded, Bl
       return absl::InvalidArgumentError(absl::StrCat(field, ": blob ", digest.sha256(),
                                                      " was not uploaded (BlobService.WriteBlob)"));
     }
+    RETURN_IF_ERROR(CheckSize(blobs, digest, field));
     RETURN_IF_ERROR(LinkBlob(blobs, digest.sha256(), *target));
   }
   for (const auto& [path, field] : referenced) {
@@ -123,13 +146,7 @@ absl::StatusOr<AcceptedClip> AcceptUploaded(const v1::UploadedClip& uploaded, Bl
   RETURN_IF_ERROR(ValidateStaged(manifest_path, "clip"));
 
   AcceptedClip accepted;
-  accepted.uploaded = uploaded;
-  ASSIGN_OR_RETURN(const int64_t manifest_size, blobs.SizeOf(manifest_sha));
-  accepted.uploaded.mutable_manifest()->set_size_bytes(manifest_size);
-  for (auto& [path, digest] : *accepted.uploaded.mutable_files()) {
-    ASSIGN_OR_RETURN(const int64_t size, blobs.SizeOf(digest.sha256()));
-    digest.set_size_bytes(size);
-  }
+  accepted.uploaded = uploaded;  // Sizes checked above.
   accepted.summary = ValidateClipFile(manifest_path, ValidateOptions{}).summary.ToString();
   return accepted;
 }
@@ -151,18 +168,20 @@ absl::StatusOr<std::string> ResolveTrustedUri(const std::string& uri,
     return absl::InvalidArgumentError(
         absl::StrCat("clip.uri: '", uri, "' does not name an absolute path (file:///...)"));
   }
+  // Absent, unreadable and outside every root answer alike: the answer
+  // must not tell what exists on the server, or where a link leads.
+  const absl::Status refused = absl::InvalidArgumentError(
+      absl::StrCat("clip.uri: ", path, " is not under a trusted root or is not a file there"));
   std::error_code ec;
   const fs::path real = fs::canonical(path, ec);
-  if (ec) return absl::InvalidArgumentError(absl::StrCat("clip.uri: ", path, ": ", ec.message()));
+  if (ec || !fs::is_regular_file(real, ec)) return refused;
   for (const std::string& root : roots) {
     const fs::path real_root = fs::weakly_canonical(root, ec);
     if (ec) continue;
     const fs::path relative = real.lexically_relative(real_root);
     if (!relative.empty() && *relative.begin() != "..") return real.string();
   }
-  return absl::InvalidArgumentError(absl::StrCat("clip.uri: ", path, " (", real.string(),
-                                                 ") is not under a trusted root (",
-                                                 absl::StrJoin(roots, ", "), ")"));
+  return refused;
 }
 
 absl::StatusOr<AcceptedClip> AcceptUri(const std::string& uri, BlobStore& blobs,

@@ -44,6 +44,10 @@ absl::Status CheckClipLimits(const pointforward::v1::Clip& clip, const ClipLimit
 // "clip.uploaded.files[\"../x\"]: ...", "clip.uri: ... not under a trusted
 // root", or "clip: 2 problems\nframes[0].image: ..." with the validator's
 // findings; FAILED_PRECONDITION for a file:// URI when no root is trusted.
+// Every digest's size_bytes must be its blob's size, a path must name a
+// file (not the clip directory), and the manifest at most
+// JsonLimits::max_bytes. A URI that is absent, not a file, or outside every
+// root gets one answer, naming neither what exists nor where links lead.
 // `limits` are checked on the manifest before any other file is staged or
 // read. `staging_dir` is a scratch directory (created and removed here).
 absl::StatusOr<AcceptedClip> AcceptClip(const pointforward::v1::ClipSource& source,

@@ -21,7 +21,10 @@ namespace {
 using google::longrunning::Operation;
 
 constexpr int64_t kMaxWaitMs = 60000;
-constexpr auto kWaitPollInterval = std::chrono::milliseconds(100);
+// The store is read again after kFirstPollInterval, then each interval
+// half as long again as the one before, up to kMaxPollInterval.
+constexpr auto kFirstPollInterval = std::chrono::milliseconds(100);
+constexpr auto kMaxPollInterval = std::chrono::milliseconds(1000);
 
 absl::StatusOr<std::optional<JobKind>> ParseFilter(const std::string& filter) {
   if (filter.empty()) return std::optional<JobKind>();
@@ -65,9 +68,10 @@ grpc::Status OperationsServiceImpl::GetOperation(
   absl::StatusOr<std::string> id = ParseResourceName(request->name(), "operations", "name");
   if (!id.ok()) return ToGrpc(id.status());
   absl::StatusOr<JobRecord> job = core_->store().GetJob(*id);
-  if (!job.ok()) return ToGrpc(job.status());
-  if (absl::Status ok = CheckCanSeeJob(*caller, *job, core_->store(), request->name()); !ok.ok()) {
-    return ToGrpc(ok);
+  if (absl::Status ok =
+          job.ok() ? CheckCanSeeJob(*caller, *job, core_->store(), request->name()) : job.status();
+      !ok.ok()) {
+    return ToGrpc(NotFoundOrStatus(ok, "name", request->name()));
   }
   absl::StatusOr<Operation> op = core_->OperationFor(*job);
   if (!op.ok()) return ToGrpc(op.status());
@@ -92,12 +96,13 @@ grpc::Status OperationsServiceImpl::CancelOperation(
   absl::StatusOr<std::string> id = ParseResourceName(request->name(), "operations", "name");
   if (!id.ok()) return ToGrpc(id.status());
   absl::StatusOr<JobRecord> owned = core_->store().GetJob(*id);
-  if (!owned.ok()) return ToGrpc(owned.status());
-  if (absl::Status ok = CheckCanCancelJob(*caller, *owned, request->name()); !ok.ok()) {
-    return ToGrpc(ok);
+  if (absl::Status ok =
+          owned.ok() ? CheckCanCancelJob(*caller, *owned, request->name()) : owned.status();
+      !ok.ok()) {
+    return ToGrpc(NotFoundOrStatus(ok, "name", request->name()));
   }
   absl::StatusOr<JobRecord> job = core_->store().CancelJob(*id, core_->NowMs());
-  if (!job.ok()) return ToGrpc(job.status());
+  if (!job.ok()) return ToGrpc(NotFoundOrStatus(job.status(), "name", request->name()));
   spdlog::info("CancelOperation {}: now {}", request->name(), JobStateName(job->state));
   return grpc::Status::OK;
 }
@@ -109,12 +114,18 @@ grpc::Status OperationsServiceImpl::WaitOperation(
   if (!caller.ok()) return ToGrpc(caller.status());
   absl::StatusOr<std::string> id = ParseResourceName(request->name(), "operations", "name");
   if (!id.ok()) return ToGrpc(id.status());
-  if (absl::StatusOr<JobRecord> job = core_->store().GetJob(*id); job.ok()) {
-    if (absl::Status ok = CheckCanSeeJob(*caller, *job, core_->store(), request->name());
+  {
+    absl::StatusOr<JobRecord> job = core_->store().GetJob(*id);
+    if (absl::Status ok = job.ok() ? CheckCanSeeJob(*caller, *job, core_->store(), request->name())
+                                   : job.status();
         !ok.ok()) {
-      return ToGrpc(ok);
+      return ToGrpc(NotFoundOrStatus(ok, "name", request->name()));
     }
   }
+  // Each long poll holds a thread: capped per caller and in all.
+  absl::StatusOr<LongPollLimiter::Slot> slot =
+      core_->long_polls().Acquire(ServiceCore::CallerKey(*caller, *context));
+  if (!slot.ok()) return ToGrpc(slot.status());
   int64_t wait_ms = kMaxWaitMs;
   if (request->has_timeout()) {
     wait_ms = std::clamp<int64_t>(
@@ -122,9 +133,10 @@ grpc::Status OperationsServiceImpl::WaitOperation(
         kMaxWaitMs);
   }
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(wait_ms);
+  auto interval = std::chrono::duration_cast<std::chrono::milliseconds>(kFirstPollInterval);
   while (true) {
     absl::StatusOr<JobRecord> job = core_->store().GetJob(*id);
-    if (!job.ok()) return ToGrpc(job.status());
+    if (!job.ok()) return ToGrpc(NotFoundOrStatus(job.status(), "name", request->name()));
     if (IsTerminal(job->state) || std::chrono::steady_clock::now() >= deadline ||
         context->IsCancelled()) {
       absl::StatusOr<Operation> op = core_->OperationFor(*job);
@@ -132,7 +144,10 @@ grpc::Status OperationsServiceImpl::WaitOperation(
       *response = *std::move(op);
       return grpc::Status::OK;
     }
-    std::this_thread::sleep_for(kWaitPollInterval);
+    std::this_thread::sleep_for(std::min(
+        interval, std::chrono::duration_cast<std::chrono::milliseconds>(
+                      deadline - std::chrono::steady_clock::now() + std::chrono::milliseconds(1))));
+    interval = std::min<std::chrono::milliseconds>(interval * 3 / 2, kMaxPollInterval);
   }
 }
 

@@ -8,7 +8,7 @@ namespace pf {
 namespace {
 
 absl::Status AnotherOwners(const std::string& name) {
-  return absl::PermissionDeniedError(absl::StrCat(name, " belongs to another owner"));
+  return absl::NotFoundError(absl::StrCat(name, " not found"));
 }
 
 }  // namespace
@@ -35,6 +35,12 @@ absl::Status CheckCanUseScene(const Caller& caller, const std::string& scene_id,
   ASSIGN_OR_RETURN(const bool access, store.HasSceneAccess(caller.owner, scene_id));
   if (access) return absl::OkStatus();
   return AnotherOwners(name);
+}
+
+absl::Status NotFoundOrStatus(const absl::Status& status, const std::string& field,
+                              const std::string& name) {
+  if (status.code() != absl::StatusCode::kNotFound) return status;
+  return absl::NotFoundError(absl::StrCat(field, ": ", name, " not found"));
 }
 
 absl::Status CheckWorker(const Caller& caller) {

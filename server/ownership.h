@@ -7,8 +7,10 @@
 //  - a reconstruction's operation (Get/Wait): its owner, or an owner with
 //    access to its scene (a CreateScene that hit the cache or joined the
 //    build in flight returns the operation another owner started).
-// Refusals are PERMISSION_DENIED naming the resource, e.g.
-// "operations/3f2a belongs to another owner".
+// Refusals are NOT_FOUND, worded as for a resource that does not exist
+// (AIP-211: a caller cannot tell what it may not see from what is absent):
+// "operations/3f2a not found"; handlers put the request's field before it
+// with NotFoundOrStatus.
 #ifndef POINTFORWARD_SERVER_OWNERSHIP_H_
 #define POINTFORWARD_SERVER_OWNERSHIP_H_
 
@@ -25,6 +27,11 @@ absl::Status CheckCanSeeJob(const Caller& caller, const JobRecord& job, JobStore
                             const std::string& name);
 absl::Status CheckCanCancelJob(const Caller& caller, const JobRecord& job, const std::string& name);
 absl::Status CheckCanUseScene(const Caller& caller, const std::string& scene_id, JobStore& store,
+                              const std::string& name);
+// For a lookup of resource `name` given in request field `field`: when
+// `status` is NOT_FOUND (absent, or refused above), NOT_FOUND
+// "<field>: <name> not found"; any other status unchanged.
+absl::Status NotFoundOrStatus(const absl::Status& status, const std::string& field,
                               const std::string& name);
 // WorkerService: PERMISSION_DENIED unless the caller has the worker or
 // admin role.

@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "absl/strings/str_cat.h"
+#include "common/status_macros.h"
 #include "google/longrunning/operations.pb.h"
 #include "pointforward/v1/service.pb.h"
 #include "rpc/grpc_status.h"
@@ -19,16 +20,32 @@ namespace {
 
 namespace v1 = pointforward::v1;
 
-// Checks the views against what is known of the scene: everything when it
-// is READY; all but the instances named by edits while it is being created
-// (the worker checks those against the scene it renders).
-absl::Status CheckViews(const v1::RenderViews& views, const v1::Scene& scene, int max_views) {
+// The fewest feature channels a scene has: what a view's memory is
+// estimated with before the scene is READY (the worker checks again with
+// the real count).
+constexpr int kMinSceneChannels = 3;
+
+// Checks what needs no scene: the number of views and each camera's pixels
+// and estimated memory with `num_features` feature channels.
+absl::Status CheckViewLimits(const v1::RenderViews& views, const OutputChannels& channels,
+                             int num_features, int max_views, const RenderLimits& limits) {
   if (views.views_size() == 0) return absl::InvalidArgumentError("views.views: no views to render");
   if (views.views_size() > max_views) {
     return absl::InvalidArgumentError(absl::StrCat("views.views: ", views.views_size(),
                                                    " views exceed the limit of ", max_views,
                                                    " per render job (pf-server --max-views)"));
   }
+  return CheckRenderLimits(views, channels, num_features, limits, "views.cameras");
+}
+
+// Checks the views against what is known of the scene: everything when it
+// is READY; all but the instances named by edits while it is being created
+// (the worker checks those against the scene it renders).
+absl::Status CheckViews(const v1::RenderViews& views, const OutputChannels& channels,
+                        const v1::Scene& scene, int max_views, const RenderLimits& limits) {
+  const int num_features =
+      scene.state() == v1::Scene::READY ? scene.num_channels() : kMinSceneChannels;
+  RETURN_IF_ERROR(CheckViewLimits(views, channels, num_features, max_views, limits));
   GaussianScene known;
   if (scene.state() == v1::Scene::READY) {
     for (const std::string& id : scene.instances()) known.instances.push_back({id, "", {}});
@@ -54,9 +71,9 @@ grpc::Status RenderServiceImpl::CreateRenderJob(grpc::ServerContext* context,
   if (request->request_id().size() > 128) {
     return ToGrpc(absl::InvalidArgumentError("request_id: longer than 128 characters"));
   }
-  if (absl::StatusOr<OutputChannels> channels =
-          ParseOutputChannels({request->outputs().begin(), request->outputs().end()});
-      !channels.ok()) {
+  const absl::StatusOr<OutputChannels> channels =
+      ParseOutputChannels({request->outputs().begin(), request->outputs().end()});
+  if (!channels.ok()) {
     return ToGrpc(
         absl::InvalidArgumentError(absl::StrCat("outputs: ", channels.status().message())));
   }
@@ -65,6 +82,12 @@ grpc::Status RenderServiceImpl::CreateRenderJob(grpc::ServerContext* context,
         absl::StrCat("chunk_frames: must be >= 0, got ", request->chunk_frames())));
   }
 
+  // Limits first: nothing is created for a request that exceeds them.
+  if (absl::Status limits = CheckViewLimits(request->views(), *channels, kMinSceneChannels,
+                                            core_->options().max_views, core_->render_limits());
+      !limits.ok()) {
+    return ToGrpc(limits);
+  }
   if (absl::Status limit = core_->CheckJobLimit(caller->owner); !limit.ok()) return ToGrpc(limit);
 
   // The scene: named, or created from a clip (or found in the cache).
@@ -76,7 +99,7 @@ grpc::Status RenderServiceImpl::CreateRenderJob(grpc::ServerContext* context,
       scene_id = *id;
       if (absl::Status ok = CheckCanUseScene(*caller, scene_id, core_->store(), request->scene());
           !ok.ok()) {
-        return ToGrpc(absl::Status(ok.code(), absl::StrCat("scene: ", ok.message())));
+        return ToGrpc(NotFoundOrStatus(ok, "scene", request->scene()));
       }
       break;
     }
@@ -95,11 +118,12 @@ grpc::Status RenderServiceImpl::CreateRenderJob(grpc::ServerContext* context,
   }
   absl::StatusOr<SceneRecord> scene = core_->store().GetScene(scene_id);
   if (!scene.ok()) {
-    return ToGrpc(absl::NotFoundError(absl::StrCat("scene: scenes/", scene_id, " not found")));
+    return ToGrpc(NotFoundOrStatus(scene.status(), "scene", absl::StrCat("scenes/", scene_id)));
   }
   absl::StatusOr<v1::Scene> scene_proto = core_->SceneFor(*scene);
   if (!scene_proto.ok()) return ToGrpc(scene_proto.status());
-  if (absl::Status checked = CheckViews(request->views(), *scene_proto, core_->options().max_views);
+  if (absl::Status checked = CheckViews(request->views(), *channels, *scene_proto,
+                                        core_->options().max_views, core_->render_limits());
       !checked.ok()) {
     return ToGrpc(checked);
   }
@@ -151,11 +175,13 @@ grpc::Status RenderServiceImpl::GetRenderJob(grpc::ServerContext* context,
   absl::StatusOr<std::string> id = ParseResourceName(request->name(), "renderJobs", "name");
   if (!id.ok()) return ToGrpc(id.status());
   absl::StatusOr<JobRecord> job = core_->store().GetJob(*id);
-  if (!job.ok() || job->kind != JobKind::kRender) {
-    return ToGrpc(absl::NotFoundError(absl::StrCat("name: ", request->name(), " not found")));
+  if (job.ok() && job->kind != JobKind::kRender) {
+    job = absl::NotFoundError(absl::StrCat(request->name(), " not found"));
   }
-  if (absl::Status ok = CheckCanCancelJob(*caller, *job, request->name()); !ok.ok()) {
-    return ToGrpc(ok);  // A render job is seen by its owner only, as it is cancelled.
+  // A render job is seen by its owner only, as it is cancelled.
+  if (absl::Status ok = job.ok() ? CheckCanCancelJob(*caller, *job, request->name()) : job.status();
+      !ok.ok()) {
+    return ToGrpc(NotFoundOrStatus(ok, "name", request->name()));
   }
   absl::StatusOr<v1::RenderJob> out = core_->RenderJobFor(*job);
   if (!out.ok()) return ToGrpc(out.status());

@@ -19,6 +19,19 @@ namespace v1 = pointforward::v1;
 
 constexpr int64_t kExportChunkBytes = 1 << 20;
 
+// The scene request field "name" names, if `caller` may use it: NOT_FOUND
+// in the same words for a scene that does not exist and one it may not see.
+absl::StatusOr<SceneRecord> SceneTheCallerMaySee(ServiceCore& core, const Caller& caller,
+                                                 const std::string& name) {
+  absl::StatusOr<std::string> id = ParseResourceName(name, "scenes", "name");
+  if (!id.ok()) return id.status();
+  absl::StatusOr<SceneRecord> record = core.store().GetScene(*id);
+  const absl::Status ok =
+      record.ok() ? CheckCanUseScene(caller, *id, core.store(), name) : record.status();
+  if (!ok.ok()) return NotFoundOrStatus(ok, "name", name);
+  return record;
+}
+
 }  // namespace
 
 grpc::Status SceneServiceImpl::CreateScene(grpc::ServerContext* context,
@@ -44,13 +57,8 @@ grpc::Status SceneServiceImpl::GetScene(grpc::ServerContext* context,
                                         const v1::GetSceneRequest* request, v1::Scene* response) {
   absl::StatusOr<Caller> caller = core_->CallerOf(*context);
   if (!caller.ok()) return ToGrpc(caller.status());
-  absl::StatusOr<std::string> id = ParseResourceName(request->name(), "scenes", "name");
-  if (!id.ok()) return ToGrpc(id.status());
-  absl::StatusOr<SceneRecord> record = core_->store().GetScene(*id);
+  absl::StatusOr<SceneRecord> record = SceneTheCallerMaySee(*core_, *caller, request->name());
   if (!record.ok()) return ToGrpc(record.status());
-  if (absl::Status ok = CheckCanUseScene(*caller, *id, core_->store(), request->name()); !ok.ok()) {
-    return ToGrpc(ok);
-  }
   absl::StatusOr<v1::Scene> scene = core_->SceneFor(*record);
   if (!scene.ok()) return ToGrpc(scene.status());
   *response = *std::move(scene);
@@ -84,15 +92,10 @@ grpc::Status SceneServiceImpl::DeleteScene(grpc::ServerContext* context,
                                            google::protobuf::Empty*) {
   absl::StatusOr<Caller> caller = core_->CallerOf(*context);
   if (!caller.ok()) return ToGrpc(caller.status());
-  absl::StatusOr<std::string> id = ParseResourceName(request->name(), "scenes", "name");
-  if (!id.ok()) return ToGrpc(id.status());
-  if (absl::StatusOr<SceneRecord> record = core_->store().GetScene(*id); !record.ok()) {
-    return ToGrpc(record.status());
-  }
-  if (absl::Status ok = CheckCanUseScene(*caller, *id, core_->store(), request->name()); !ok.ok()) {
-    return ToGrpc(ok);
-  }
-  return ToGrpc(core_->store().DeleteScene(*id, core_->NowMs()));
+  absl::StatusOr<SceneRecord> record = SceneTheCallerMaySee(*core_, *caller, request->name());
+  if (!record.ok()) return ToGrpc(record.status());
+  return ToGrpc(NotFoundOrStatus(core_->store().DeleteScene(record->id, core_->NowMs()), "name",
+                                 request->name()));
 }
 
 grpc::Status SceneServiceImpl::ExportScene(grpc::ServerContext* context,
@@ -100,13 +103,8 @@ grpc::Status SceneServiceImpl::ExportScene(grpc::ServerContext* context,
                                            grpc::ServerWriter<v1::ExportSceneChunk>* writer) {
   absl::StatusOr<Caller> caller = core_->CallerOf(*context);
   if (!caller.ok()) return ToGrpc(caller.status());
-  absl::StatusOr<std::string> id = ParseResourceName(request->name(), "scenes", "name");
-  if (!id.ok()) return ToGrpc(id.status());
-  absl::StatusOr<SceneRecord> record = core_->store().GetScene(*id);
+  absl::StatusOr<SceneRecord> record = SceneTheCallerMaySee(*core_, *caller, request->name());
   if (!record.ok()) return ToGrpc(record.status());
-  if (absl::Status ok = CheckCanUseScene(*caller, *id, core_->store(), request->name()); !ok.ok()) {
-    return ToGrpc(ok);
-  }
   if (record->state != SceneState::kReady) {
     return ToGrpc(absl::FailedPreconditionError(absl::StrCat(
         "name: scene ", request->name(), " is ", SceneStateName(record->state), ", not READY")));

@@ -6,6 +6,7 @@
 #include <grpcpp/server.h>
 #include <grpcpp/server_builder.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <csignal>
@@ -67,13 +68,22 @@ beside it; the flag wins.
                            default 67108864; at least 2097152)
   --max-images-per-clip N  frames (images) one clip may hold (PF_MAX_IMAGES_PER_CLIP;
                            default 1000; 0 = no limit)
-  --max-pixels-per-image N width x height of a clip's cameras (PF_MAX_PIXELS_PER_IMAGE;
-                           default 50000000; 0 = no limit)
+  --max-pixels-per-image N width x height of a clip's cameras, and of a render view's
+                           (PF_MAX_PIXELS_PER_IMAGE; default 50000000; 0 = no limit)
+  --max-render-bytes N     estimated memory one view's render may take on a worker, from
+                           its pixels and outputs (PF_MAX_RENDER_BYTES; default 4294967296;
+                           0 = no limit)
   --max-gaussians N        Gaussians one reconstructed scene may hold; the worker fails a
                            reconstruction over it (PF_MAX_GAUSSIANS; default 20000000;
                            0 = no limit)
   --max-jobs-per-owner N   unfinished jobs (scenes being built, render jobs) one owner may
                            have (PF_MAX_JOBS_PER_OWNER; default 100; 0 = no limit)
+  --max-long-polls N       WaitOperation calls the server holds at once; more are refused
+                           with RESOURCE_EXHAUSTED (PF_MAX_LONG_POLLS; default 64; 0 = no limit)
+  --max-long-polls-per-caller N
+                           the same per caller: a token's owner, or an address when
+                           authentication is off (PF_MAX_LONG_POLLS_PER_CALLER; default 8;
+                           0 = no limit)
   --max-blob-bytes N       size of the blob store; over it, least recently used scenes not
                            in use are evicted, and uploads refused when none can be
                            (PF_MAX_BLOB_BYTES; default 0 = no limit)
@@ -95,8 +105,14 @@ beside it; the flag wins.
                            none (PF_TLS_WORKER_CA; default none); needs --tls-cert; not
                            with --tls-client-ca
 
-Stops cleanly on SIGTERM or SIGINT: in-flight calls get 5 s to finish.
+Stops on SIGTERM or SIGINT within 5 s: in-flight calls get 4 s to finish, and
+any still running then are abandoned (the job store is transactional).
 )";
+
+// On SIGTERM: in-flight calls get kStopGrace, the process ends by kStopLimit
+// after the stop begins (within 5 s of the signal, as documented).
+constexpr auto kStopGrace = std::chrono::seconds(4);
+constexpr auto kStopLimit = std::chrono::milliseconds(4500);
 
 // Blob uploads travel in 1 MiB chunks: a request limit must let one through.
 constexpr int64_t kMinRequestBytes = int64_t{2} << 20;
@@ -237,6 +253,16 @@ absl::Status Run(const CommandLine& cl) {
   ASSIGN_OR_RETURN(
       options.clip_limits.max_pixels_per_image,
       IntSetting(cl, "max-pixels-per-image", "PF_MAX_PIXELS_PER_IMAGE", 50'000'000, 0));
+  ASSIGN_OR_RETURN(options.max_render_bytes,
+                   IntSetting(cl, "max-render-bytes", "PF_MAX_RENDER_BYTES", int64_t{4} << 30, 0));
+  ASSIGN_OR_RETURN(const int64_t max_long_polls,
+                   IntSetting(cl, "max-long-polls", "PF_MAX_LONG_POLLS", 64, 0));
+  ASSIGN_OR_RETURN(
+      const int64_t max_long_polls_per_caller,
+      IntSetting(cl, "max-long-polls-per-caller", "PF_MAX_LONG_POLLS_PER_CALLER", 8, 0));
+  options.max_long_polls = static_cast<int>(std::min<int64_t>(max_long_polls, 1 << 20));
+  options.max_long_polls_per_caller =
+      static_cast<int>(std::min<int64_t>(max_long_polls_per_caller, 1 << 20));
   ASSIGN_OR_RETURN(options.max_gaussians,
                    IntSetting(cl, "max-gaussians", "PF_MAX_GAUSSIANS", 20'000'000, 0));
   ASSIGN_OR_RETURN(options.max_jobs_per_owner,
@@ -262,6 +288,9 @@ absl::Status Run(const CommandLine& cl) {
   RETURN_IF_ERROR(MakeDirs(blob_dir));
   BlobStore blobs(blob_dir);
   ServiceCore core(store.get(), &blobs, options);
+  if (const int removed = core.RemoveStaleScratch(); removed > 0) {
+    spdlog::info("removed {} staging directories left by servers that ended", removed);
+  }
   ServerMetrics& metrics = RegisterServerMetrics(store.get());
   std::unique_ptr<MetricsHttpServer> metrics_http;
   if (const std::string address = Setting(cl, "metrics-listen", "PF_METRICS_LISTEN", "");
@@ -319,9 +348,26 @@ absl::Status Run(const CommandLine& cl) {
   });
   while (!g_stop) std::this_thread::sleep_for(std::chrono::milliseconds(100));
   spdlog::info("pf-server stopping");
-  server->Shutdown(std::chrono::system_clock::now() + std::chrono::seconds(5));
+  // A call that does not end within the grace (a long check of a large
+  // clip) must not keep the process alive past kStopLimit: the store is
+  // transactional, so leaving it mid-call loses nothing.
+  std::atomic<bool> stopped{false};
+  std::thread watchdog([&stopped] {
+    const auto until = std::chrono::steady_clock::now() + kStopLimit;
+    while (!stopped && std::chrono::steady_clock::now() < until) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    if (stopped) return;
+    spdlog::warn("calls still running {} ms after the stop signal; exiting without them",
+                 kStopLimit.count());
+    spdlog::default_logger()->flush();
+    std::_Exit(0);
+  });
+  server->Shutdown(std::chrono::system_clock::now() + kStopGrace);
   expirer.join();
   if (metrics_http) metrics_http->Stop();
+  stopped = true;
+  watchdog.join();
   spdlog::info("pf-server stopped");
   return absl::OkStatus();
 }
@@ -360,6 +406,9 @@ int main(int argc, char** argv) {
                                                                      "max-images-per-clip",
                                                                      "max-pixels-per-image",
                                                                      "max-gaussians",
+                                                                     "max-render-bytes",
+                                                                     "max-long-polls",
+                                                                     "max-long-polls-per-caller",
                                                                      "max-jobs-per-owner",
                                                                      "max-blob-bytes",
                                                                      "auth-token-file",

@@ -7,15 +7,19 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstring>
+#include <filesystem>
 #include <nlohmann/json.hpp>
 #include <string>
 
 #include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
+#include "common/bounded_json.h"
 #include "common/file_util.h"
 #include "common/status_macros.h"
 #include "server/clip_intake.h"
 #include "server/server_metrics.h"
+#include "server/task_results.h"
 #include "spdlog/spdlog.h"
 #include "worker/engine/render/render_outputs.h"
 
@@ -25,6 +29,12 @@ namespace {
 namespace v1 = pointforward::v1;
 using google::longrunning::Operation;
 using google::protobuf::util::TimeUtil;
+
+// Staging directories of clips being checked: "<scratch>/clip-<process
+// token>-<n>".
+constexpr char kScratchPrefix[] = "clip-";
+// Age after which a staging directory is taken for a dead server's.
+constexpr auto kStaleScratchAge = std::chrono::hours(1);
 
 v1::Scene::State SceneStateProto(SceneState state) {
   switch (state) {
@@ -73,10 +83,8 @@ std::string ToJson(const google::protobuf::Message& message) {
 
 absl::Status FromJson(const std::string& json, google::protobuf::Message* message,
                       const std::string& what) {
-  const auto status = google::protobuf::util::JsonStringToMessage(json, message);
-  if (!status.ok()) {
-    return absl::InternalError(absl::StrCat(what, ": ", std::string(status.message())));
-  }
+  const absl::Status status = ParseBoundedProtoJson(json, message, kStoredJsonLimits);
+  if (!status.ok()) return absl::DataLossError(absl::StrCat(what, ": ", status.message()));
   return absl::OkStatus();
 }
 
@@ -110,7 +118,10 @@ std::string TaskLabel(const TaskRecord& task) {
 }
 
 ServiceCore::ServiceCore(JobStore* store, BlobStore* blobs, ServerOptions options)
-    : store_(store), blobs_(blobs), options_(std::move(options)) {
+    : store_(store),
+      blobs_(blobs),
+      options_(std::move(options)),
+      long_polls_(options_.max_long_polls, options_.max_long_polls_per_caller) {
   if (options_.scratch_dir.empty()) options_.scratch_dir = blobs_->root() + "/scratch";
 }
 
@@ -125,8 +136,40 @@ absl::StatusOr<Caller> ServiceCore::CallerOf(const grpc::ServerContext& context)
   return options_.authenticator->Authenticate(context);
 }
 
+std::string ServiceCore::CallerKey(const Caller& caller, const grpc::ServerContext& context) {
+  if (!caller.owner.empty()) return absl::StrCat("owner:", caller.owner);
+  // "ipv4:127.0.0.1:50000", "ipv6:[::1]:50000": the address without the port.
+  const std::string peer = context.peer();
+  const size_t port = peer.rfind(':');
+  return absl::StrCat("peer:", port == std::string::npos ? peer : peer.substr(0, port));
+}
+
 std::string ServiceCore::NewScratchDir() {
-  return absl::StrCat(options_.scratch_dir, "/clip-", ProcessToken(), "-", scratch_counter_++);
+  return absl::StrCat(options_.scratch_dir, "/", kScratchPrefix, ProcessToken(), "-",
+                      scratch_counter_++);
+}
+
+int ServiceCore::RemoveStaleScratch() {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  int removed = 0;
+  const auto stale_before = fs::file_time_type::clock::now() - kStaleScratchAge;
+  for (fs::directory_iterator it(options_.scratch_dir, ec); !ec && it != fs::directory_iterator();
+       it.increment(ec)) {
+    const std::string name = it->path().filename().string();
+    if (!absl::StartsWith(name, kScratchPrefix)) continue;
+    // "clip-<process token>-<counter>".
+    const size_t counter = name.rfind('-');
+    const std::string token = name.substr(
+        std::strlen(kScratchPrefix),
+        counter == std::string::npos ? std::string::npos : counter - std::strlen(kScratchPrefix));
+    std::error_code time_ec;
+    const bool old = fs::last_write_time(it->path(), time_ec) < stale_before && !time_ec;
+    if (!ProcessTokenEnded(token) && !old) continue;
+    std::error_code remove_ec;
+    if (fs::remove_all(it->path(), remove_ec) > 0) ++removed;
+  }
+  return removed;
 }
 
 absl::StatusOr<CreateSceneOutcome> ServiceCore::CreateScene(const v1::CreateSceneRequest& request,
@@ -135,9 +178,18 @@ absl::StatusOr<CreateSceneOutcome> ServiceCore::CreateScene(const v1::CreateScen
     return absl::InvalidArgumentError("request_id: longer than 128 characters");
   }
   ASSIGN_OR_RETURN(const v1::ReconstructionOptions options, NormalizeOptions(request.options()));
-  ASSIGN_OR_RETURN(const AcceptedClip clip,
-                   AcceptClip(request.clip(), *blobs_, options_.trusted_roots, NewScratchDir(),
-                              options_.clip_limits));
+  const std::string staging = NewScratchDir();
+  absl::StatusOr<AcceptedClip> accepted =
+      AcceptClip(request.clip(), *blobs_, options_.trusted_roots, staging, options_.clip_limits);
+  if (!accepted.ok()) {
+    // No server path in what the caller reads: the clip's own files by
+    // their path in the clip, the blob store by name.
+    std::string message = HideDirectory(std::string(accepted.status().message()), staging);
+    message = HideDirectory(message, options_.scratch_dir, "<scratch>");
+    message = HideDirectory(message, blobs_->root(), "<blobs>");
+    return absl::Status(accepted.status().code(), message);
+  }
+  const AcceptedClip& clip = *accepted;
   const std::string key = SceneCacheKey(clip.uploaded, options);
   const std::string scene_id = SceneIdForKey(key);
   // A scene READY or being created adds no job; anything else may.
@@ -177,7 +229,12 @@ absl::StatusOr<CreateSceneOutcome> ServiceCore::CreateScene(const v1::CreateScen
 
 absl::StatusOr<v1::Scene> ServiceCore::SceneFor(const SceneRecord& record) {
   v1::Scene scene;
-  RETURN_IF_ERROR(FromJson(record.description, &scene, "stored scene"));
+  // An unreadable description shows as a FAILED scene, not a failed call.
+  const absl::Status readable = FromJson(record.description, &scene, "stored scene");
+  if (!readable.ok()) {
+    spdlog::error("scenes/{}: {}", record.id, std::string(readable.message()));
+    scene.Clear();
+  }
   scene.set_name(absl::StrCat("scenes/", record.id));
   scene.set_state(SceneStateProto(record.state));
   scene.set_content_hash(record.content_hash);
@@ -186,6 +243,11 @@ absl::StatusOr<v1::Scene> ServiceCore::SceneFor(const SceneRecord& record) {
   if (record.state == SceneState::kFailed) {
     scene.mutable_error()->set_code(static_cast<int>(absl::StatusCode::kAborted));
     scene.mutable_error()->set_message(record.error);
+  }
+  if (!readable.ok()) {
+    scene.set_state(v1::Scene::FAILED);
+    scene.mutable_error()->set_code(static_cast<int>(readable.code()));
+    scene.mutable_error()->set_message(std::string(readable.message()));
   }
   return scene;
 }
@@ -206,25 +268,40 @@ absl::StatusOr<v1::RenderJob> ServiceCore::RenderJobFor(const JobRecord& job) {
     out.mutable_error()->set_message(job.error_message);
   }
   if (job.state != JobState::kSucceeded) return out;
+  // A result that cannot be read back (a worker's, or a damaged row) shows
+  // as a failed job, not a failed call: the rest of the store stays readable.
+  const absl::Status outputs = AddRenderOutputs(job, &out);
+  if (outputs.code() == absl::StatusCode::kDataLoss) {
+    spdlog::error("renderJobs/{}: {}", job.id, std::string(outputs.message()));
+    out.clear_files();
+    out.set_state(v1::RenderJob::FAILED);
+    out.mutable_error()->set_code(static_cast<int>(outputs.code()));
+    out.mutable_error()->set_message(std::string(outputs.message()));
+    return out;
+  }
+  RETURN_IF_ERROR(outputs);
+  return out;
+}
 
+absl::Status ServiceCore::AddRenderOutputs(const JobRecord& job, v1::RenderJob* out) {
   // Outputs: each chunk's files in chunk order, then manifest.json with the
   // views of all chunks.
   ASSIGN_OR_RETURN(const std::vector<TaskRecord> tasks, store_->ListTasks(job.id));
-  nlohmann::json views = nlohmann::json::array();
+  nlohmann::ordered_json views = nlohmann::ordered_json::array();
   for (const TaskRecord& task : tasks) {
     v1::RenderResult result;
     RETURN_IF_ERROR(FromJson(task.result, &result, absl::StrCat("result of ", TaskLabel(task))));
-    for (const v1::OutputFile& file : result.files()) *out.add_files() = file;
-    const nlohmann::json chunk_views =
-        nlohmann::json::parse(result.manifest_views_json(), nullptr, /*allow_exceptions=*/false);
-    if (!chunk_views.is_array()) {
-      return absl::InternalError(
-          absl::StrCat("manifest views of ", TaskLabel(task), " are not a JSON array"));
+    for (const v1::OutputFile& file : result.files()) *out->add_files() = file;
+    absl::StatusOr<nlohmann::ordered_json> chunk_views =
+        ParseManifestViews(result.manifest_views_json(), task.view_count);
+    if (!chunk_views.ok()) {
+      return absl::DataLossError(absl::StrCat("manifest views of ", TaskLabel(task), ": ",
+                                              chunk_views.status().message()));
     }
-    for (const nlohmann::json& view : chunk_views) views.push_back(view);
+    for (nlohmann::ordered_json& view : *chunk_views) views.push_back(std::move(view));
   }
-  nlohmann::json manifest;
-  manifest["scene"] = {{"name", out.scene()}};
+  nlohmann::ordered_json manifest;
+  manifest["scene"] = {{"name", out->scene()}};
   // The scene may be gone since (deleted, or evicted from the cache).
   if (absl::StatusOr<SceneRecord> scene = store_->GetScene(job.scene_id); scene.ok()) {
     v1::Scene scene_proto;
@@ -234,15 +311,15 @@ absl::StatusOr<v1::RenderJob> ServiceCore::RenderJobFor(const JobRecord& job) {
   } else if (scene.status().code() != absl::StatusCode::kNotFound) {
     return scene.status();
   }
-  manifest["renderJob"] = out.name();
+  manifest["renderJob"] = out->name();
   manifest["software"] = absl::StrCat("PointForward ", SoftwareVersion());
   manifest["views"] = std::move(views);
   ASSIGN_OR_RETURN(const BlobDigest digest, blobs_->Put(manifest.dump(2) + "\n"));
-  v1::OutputFile* file = out.add_files();
+  v1::OutputFile* file = out->add_files();
   file->set_name("manifest.json");
   file->mutable_digest()->set_sha256(digest.sha256);
   file->mutable_digest()->set_size_bytes(digest.size_bytes);
-  return out;
+  return absl::OkStatus();
 }
 
 absl::StatusOr<Operation> ServiceCore::OperationFor(const JobRecord& job, bool cache_hit) {
@@ -280,7 +357,11 @@ absl::StatusOr<Operation> ServiceCore::OperationFor(const JobRecord& job, bool c
         op.mutable_response()->PackFrom(scene_proto);
       } else {
         ASSIGN_OR_RETURN(const v1::RenderJob render_job, RenderJobFor(job));
-        op.mutable_response()->PackFrom(render_job);
+        if (render_job.state() == v1::RenderJob::FAILED) {
+          *op.mutable_error() = render_job.error();  // Its stored result is unreadable.
+        } else {
+          op.mutable_response()->PackFrom(render_job);
+        }
       }
       break;
     case JobState::kFailed:
@@ -311,6 +392,8 @@ absl::StatusOr<v1::Task> ServiceCore::TaskFor(const TaskLease& lease) {
     v1::Scene scene_proto;
     RETURN_IF_ERROR(FromJson(scene.description, &scene_proto, "stored scene"));
     *task.mutable_render()->mutable_scene_file() = scene_proto.scene_file();
+    task.mutable_render()->set_max_pixels_per_view(options_.clip_limits.max_pixels_per_image);
+    task.mutable_render()->set_max_render_bytes(options_.max_render_bytes);
   }
   return task;
 }

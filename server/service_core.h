@@ -19,7 +19,9 @@
 #include "server/auth.h"
 #include "server/blobs/blob_store.h"
 #include "server/clip_intake.h"
+#include "server/long_polls.h"
 #include "server/store/job_store.h"
+#include "worker/engine/render/render_outputs.h"
 
 namespace pf {
 
@@ -28,10 +30,16 @@ struct ServerOptions {
   int chunk_frames = 4;                    // Views per render chunk by default.
   int max_views = 10000;                   // Views per render job.
   int64_t max_upload_bytes = int64_t{1} << 30;
-  ClipLimits clip_limits;                  // --max-images-per-clip, --max-pixels-per-image.
-  int64_t max_gaussians = 20'000'000;      // Per scene; the worker checks (0: none).
+  ClipLimits clip_limits;              // --max-images-per-clip, --max-pixels-per-image.
+  int64_t max_gaussians = 20'000'000;  // Per scene; the worker checks (0: none).
+  // Estimated memory of one view's render (--max-render-bytes; 0: none);
+  // checked at intake and by the worker, as the pixels per view are
+  // (clip_limits.max_pixels_per_image).
+  int64_t max_render_bytes = int64_t{4} << 30;
   int64_t max_jobs_per_owner = 100;        // Unfinished jobs per owner (0: none).
   int64_t max_lease_wait_ms = 10000;       // Longest LeaseTask long-poll.
+  int max_long_polls = 64;                 // WaitOperation calls in flight (0: no cap).
+  int max_long_polls_per_caller = 8;       // The same, per caller (0: no cap).
   std::string scratch_dir;                 // Staging of clips being checked.
   Authenticator* authenticator = nullptr;  // --auth-token-file; null: authentication off.
   // --tls-worker-ca: WorkerService calls must come over a connection whose
@@ -46,7 +54,16 @@ class ServiceCore {
   JobStore& store() { return *store_; }
   BlobStore& blobs() { return *blobs_; }
   const ServerOptions& options() const { return options_; }
+  LongPollLimiter& long_polls() { return long_polls_; }
+  // The limits on one view's render.
+  RenderLimits render_limits() const {
+    return {options_.clip_limits.max_pixels_per_image, options_.max_render_bytes};
+  }
   int64_t NowMs() const;
+
+  // Who `caller` is for per-caller limits: its owner when authentication
+  // is on, else the address it calls from (without the port).
+  static std::string CallerKey(const Caller& caller, const grpc::ServerContext& context);
 
   // Who makes the call (auth.h): UNAUTHENTICATED without a valid token when
   // authentication is on; Caller{"", admin} when it is off. Every handler
@@ -61,14 +78,22 @@ class ServiceCore {
   // The Operation of `job`; `cache_hit` sets metadata.cache_hit.
   absl::StatusOr<google::longrunning::Operation> OperationFor(const JobRecord& job,
                                                               bool cache_hit = false);
+  // A scene whose stored description cannot be read comes out FAILED with
+  // DATA_LOSS.
   absl::StatusOr<pointforward::v1::Scene> SceneFor(const SceneRecord& record);
   // For a SUCCEEDED job, lists every output and writes the merged
-  // manifest.json to the blob store.
+  // manifest.json to the blob store. A job whose stored results cannot be
+  // read back comes out FAILED with DATA_LOSS and no files.
   absl::StatusOr<pointforward::v1::RenderJob> RenderJobFor(const JobRecord& job);
 
   // The task a worker receives for `lease`: the stored work plus, for render
-  // chunks, the job's views and the scene file.
+  // chunks, the job's views, the scene file and the limits on a view.
   absl::StatusOr<pointforward::v1::Task> TaskFor(const TaskLease& lease);
+
+  // Removes what servers that ended left in the scratch directory: the
+  // staging directories of this machine's ended processes, and any older
+  // than an hour (another machine's, sharing the volume). Returns how many.
+  int RemoveStaleScratch();
 
   // RESOURCE_EXHAUSTED naming --max-jobs-per-owner when `owner` ("" when
   // authentication is off) has that many unfinished jobs already.
@@ -89,6 +114,9 @@ class ServiceCore {
 
  private:
   std::string NewScratchDir();
+  // Adds a SUCCEEDED render job's files to `out` and writes its merged
+  // manifest.json; DATA_LOSS when a stored result cannot be read back.
+  absl::Status AddRenderOutputs(const JobRecord& job, pointforward::v1::RenderJob* out);
   // Puts scene `scene_id` back to CREATING under a new reconstruction.
   absl::Status RebuildScene(const std::string& scene_id, const std::string& reason);
 
@@ -96,6 +124,7 @@ class ServiceCore {
   BlobStore* blobs_;
   ServerOptions options_;
   std::atomic<int64_t> scratch_counter_{0};
+  LongPollLimiter long_polls_;
   std::mutex verified_mu_;
   std::set<std::string> verified_scene_files_;  // SHA-256s checked intact this process.
 };
@@ -109,7 +138,8 @@ absl::StatusOr<std::string> ParseResourceName(const std::string& name,
 // INVALID_ARGUMENT naming page_size when negative.
 absl::StatusOr<int> PageSize(int requested);
 
-// proto3 JSON helpers; errors name `what`.
+// proto3 JSON helpers; errors name `what`. FromJson reads what the store
+// holds (bounded: ParseBoundedProtoJson) and fails with DATA_LOSS.
 std::string ToJson(const google::protobuf::Message& message);
 absl::Status FromJson(const std::string& json, google::protobuf::Message* message,
                       const std::string& what);

@@ -72,7 +72,9 @@ class OperationsServiceImpl final : public google::longrunning::Operations::Serv
                                const google::longrunning::CancelOperationRequest* request,
                                google::protobuf::Empty* response) override;
   // Waits until the operation is done or `timeout` (default and at most
-  // 60 s) passes, and returns it either way.
+  // 60 s) passes, and returns it either way. RESOURCE_EXHAUSTED when the
+  // caller, or the server, holds as many of these as it may
+  // (--max-long-polls-per-caller, --max-long-polls).
   grpc::Status WaitOperation(grpc::ServerContext* context,
                              const google::longrunning::WaitOperationRequest* request,
                              google::longrunning::Operation* response) override;

@@ -11,11 +11,13 @@
 
 #include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
+#include "common/status_macros.h"
 #include "pointforward/v1/worker.pb.h"
 #include "rpc/grpc_status.h"
 #include "server/ownership.h"
 #include "server/server_metrics.h"
 #include "server/services.h"
+#include "server/task_results.h"
 #include "spdlog/spdlog.h"
 
 namespace pf {
@@ -33,12 +35,47 @@ absl::Status CheckWorkerId(const std::string& worker_id) {
   return absl::OkStatus();
 }
 
+// The blob `digest` names was uploaded, is intact and has the size it says.
 absl::Status CheckBlob(BlobStore& blobs, const v1::Digest& digest, const std::string& field) {
   if (!IsValidSha256Hex(digest.sha256()) || !blobs.Contains(digest.sha256())) {
     return absl::InvalidArgumentError(
         absl::StrCat(field, ": blob '", digest.sha256(), "' was not uploaded"));
   }
-  return blobs.Verify(digest.sha256());
+  RETURN_IF_ERROR(blobs.Verify(digest.sha256()));
+  ASSIGN_OR_RETURN(const int64_t size, blobs.SizeOf(digest.sha256()));
+  if (size != digest.size_bytes()) {
+    return absl::InvalidArgumentError(absl::StrCat(field, ".size_bytes: ", digest.size_bytes(),
+                                                   ", but the blob has ", size, " bytes"));
+  }
+  return absl::OkStatus();
+}
+
+// FAILED_PRECONDITION unless `task` is leased, in attempt `attempt`, to
+// `worker_id`: only the lease holder may heartbeat, complete or fail it.
+// Another attempt is left to the store, which refuses it the same way.
+absl::Status CheckLeaseHolder(const TaskRecord& task, int attempt, const std::string& worker_id) {
+  if (task.state == TaskState::kLeased && task.attempt == attempt && task.worker_id != worker_id) {
+    return absl::FailedPreconditionError(absl::StrCat(
+        "task ", task.id, " attempt ", attempt, " is not leased to worker '", worker_id, "'"));
+  }
+  return absl::OkStatus();
+}
+
+// Checks a render chunk's result against the chunk's views and the blob
+// store: the names of its views' files, each uploaded with its size.
+absl::Status CheckRenderCompletion(ServiceCore& core, const TaskRecord& task,
+                                   const v1::RenderResult& result) {
+  ASSIGN_OR_RETURN(const JobRecord job, core.store().GetJob(task.job_id));
+  v1::CreateRenderJobRequest request;
+  RETURN_IF_ERROR(FromJson(job.request, &request, "stored render request"));
+  ASSIGN_OR_RETURN(const std::vector<std::string> names,
+                   RenderChunkViewNames(request.views(), task.first_view, task.view_count));
+  RETURN_IF_ERROR(CheckRenderResult(result, names));
+  for (int i = 0; i < result.files_size(); ++i) {
+    RETURN_IF_ERROR(CheckBlob(core.blobs(), result.files(i).digest(),
+                              absl::StrCat("render.files[", i, "].digest")));
+  }
+  return absl::OkStatus();
 }
 
 // Only tokens with the worker or admin role may act as a worker, and with
@@ -125,6 +162,13 @@ grpc::Status WorkerServiceImpl::Heartbeat(grpc::ServerContext* context,
                                           const v1::HeartbeatRequest* request,
                                           v1::HeartbeatResponse* response) {
   if (absl::Status ok = AuthorizeWorker(*core_, *context); !ok.ok()) return ToGrpc(ok);
+  if (absl::StatusOr<TaskRecord> task = core_->store().GetTask(request->task_id()); task.ok()) {
+    const absl::Status holder = CheckLeaseHolder(*task, request->attempt(), request->worker_id());
+    if (!holder.ok()) {
+      spdlog::warn("heartbeat refused: {}", std::string(holder.message()));
+      return ToGrpc(holder);
+    }
+  }
   int64_t deadline_ms = 0;
   absl::StatusOr<bool> cancelled =
       core_->store().Heartbeat(request->task_id(), request->attempt(), request->progress().stage(),
@@ -143,15 +187,38 @@ grpc::Status WorkerServiceImpl::CompleteTask(grpc::ServerContext* context,
   if (absl::Status ok = AuthorizeWorker(*core_, *context); !ok.ok()) return ToGrpc(ok);
   absl::StatusOr<TaskRecord> task = core_->store().GetTask(request->task_id());
   if (!task.ok()) return ToGrpc(task.status());
+  if (absl::Status holder = CheckLeaseHolder(*task, request->attempt(), request->worker_id());
+      !holder.ok()) {
+    spdlog::warn("completion refused: {}", std::string(holder.message()));
+    return ToGrpc(holder);
+  }
   std::string result;
   std::string scene_description;
+  absl::Status checked;
+  if (request->has_reconstruct() && task->kind == JobKind::kReconstruct) {
+    checked = CheckReconstructResult(request->reconstruct());
+    if (checked.ok()) {
+      checked = CheckBlob(core_->blobs(), request->reconstruct().scene().scene_file(),
+                          "reconstruct.scene.scene_file");
+    }
+  } else if (request->has_render() && task->kind == JobKind::kRender) {
+    checked = CheckRenderCompletion(*core_, *task, request->render());
+  } else {
+    checked = absl::InvalidArgumentError(absl::StrCat(
+        "result: missing; set ", task->kind == JobKind::kRender ? "render" : "reconstruct"));
+  }
+  if (!checked.ok()) {
+    // A result that does not fit its task ends the attempt (retried like any
+    // failure) if it is the current one; the store refuses other attempts.
+    spdlog::warn("task {} attempt {} from worker {}: result refused: {}", request->task_id(),
+                 request->attempt(), request->worker_id(), std::string(checked.message()));
+    (void)core_->store().FailTask(request->task_id(), request->attempt(),
+                                  absl::StrCat("result refused: ", checked.message()),
+                                  /*permanent=*/false, core_->NowMs());
+    return ToGrpc(checked);
+  }
   if (request->has_reconstruct()) {
     const v1::Scene& scene = request->reconstruct().scene();
-    if (absl::Status ok =
-            CheckBlob(core_->blobs(), scene.scene_file(), "reconstruct.scene.scene_file");
-        !ok.ok()) {
-      return ToGrpc(ok);
-    }
     // The stored description keeps what CreateScene wrote (options, key)
     // and takes the worker's statistics.
     absl::StatusOr<SceneRecord> record = core_->store().GetScene(task->scene_id);
@@ -172,18 +239,8 @@ grpc::Status WorkerServiceImpl::CompleteTask(grpc::ServerContext* context,
     merged.clear_error();
     result = ToJson(request->reconstruct());
     scene_description = ToJson(merged);
-  } else if (request->has_render()) {
-    for (int i = 0; i < request->render().files_size(); ++i) {
-      const v1::OutputFile& file = request->render().files(i);
-      if (absl::Status ok = CheckBlob(core_->blobs(), file.digest(),
-                                      absl::StrCat("render.files[", i, "].digest"));
-          !ok.ok()) {
-        return ToGrpc(ok);
-      }
-    }
-    result = ToJson(request->render());
   } else {
-    return ToGrpc(absl::InvalidArgumentError("result: missing; set reconstruct or render"));
+    result = ToJson(request->render());
   }
   const absl::Status status = core_->store().CompleteTask(
       request->task_id(), request->attempt(), result, scene_description, core_->NowMs());
@@ -210,6 +267,13 @@ grpc::Status WorkerServiceImpl::FailTask(grpc::ServerContext* context,
   if (absl::Status ok = AuthorizeWorker(*core_, *context); !ok.ok()) return ToGrpc(ok);
   const bool permanent = IsPermanent(request->error().code());
   absl::StatusOr<TaskRecord> task = core_->store().GetTask(request->task_id());
+  if (task.ok()) {
+    if (absl::Status holder = CheckLeaseHolder(*task, request->attempt(), request->worker_id());
+        !holder.ok()) {
+      spdlog::warn("failure report refused: {}", std::string(holder.message()));
+      return ToGrpc(holder);
+    }
+  }
   if (task.ok()) GetServerMetrics().tasks_failed[static_cast<int>(task->kind)]->Inc();
   // A render chunk whose scene file did not arrive intact: when the
   // server's copy is corrupt or gone, the scene is rebuilt and the chunk

@@ -13,9 +13,11 @@
 #include <fstream>
 #include <functional>
 #include <map>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <set>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "common/hash.h"
@@ -439,6 +441,10 @@ TEST_F(AuthE2e, EveryRpcButHealthRefusesCallsWithoutOrWithAWrongToken) {
       RunCommand({BinPath("pf"), "--server", server.address(), "jobs", "list"});
   EXPECT_NE(cli.exit_code, 0);
   EXPECT_NE(cli.err.find("missing bearer token"), std::string::npos) << cli.err;
+  // ...and where a token comes from.
+  EXPECT_NE(cli.err.find("set PF_TOKEN, or put it in a file and pass --token-file FILE"),
+            std::string::npos)
+      << cli.err;
 }
 
 TEST_F(AuthE2e, OwnersSeeAndCancelOnlyTheirOwnAdminsEverything) {
@@ -469,24 +475,45 @@ TEST_F(AuthE2e, OwnersSeeAndCancelOnlyTheirOwnAdminsEverything) {
   EXPECT_TRUE(bob.SceneNames().empty());
   EXPECT_TRUE(bob.OperationNames().empty());
   EXPECT_TRUE(bob.RenderJobNames().empty());
-  const grpc::Status scene_status = bob.GetScene(scene);
-  EXPECT_EQ(scene_status.error_code(), grpc::StatusCode::PERMISSION_DENIED);
-  EXPECT_EQ(scene_status.error_message(), scene + " belongs to another owner");
-  for (const std::string& op : alice_ops) {
-    const grpc::Status get = bob.GetOperation(op);
-    EXPECT_EQ(get.error_code(), grpc::StatusCode::PERMISSION_DENIED) << op;
-    EXPECT_EQ(get.error_message(), op + " belongs to another owner");
-    EXPECT_EQ(bob.CancelOperation(op).error_code(), grpc::StatusCode::PERMISSION_DENIED) << op;
+  // What he may not see answers as what does not exist (NOT_FOUND, the
+  // same words), whatever the call.
+  const std::string absent_scene = "scenes/000000000000000000000000";
+  const std::string absent_op = "operations/00000000000000000000";
+  for (const std::string& which : {scene, absent_scene}) {
+    const grpc::Status get = bob.GetScene(which);
+    EXPECT_EQ(get.error_code(), grpc::StatusCode::NOT_FOUND) << which;
+    EXPECT_EQ(get.error_message(), "name: " + which + " not found");
+    v1::CreateRenderJobRequest render;
+    render.set_scene(which);
+    render.mutable_views()->add_views()->set_camera("c");
+    grpc::ClientContext context;
+    Client::Deadline(context);
+    Operation op;
+    const grpc::Status created = bob.renders->CreateRenderJob(&context, render, &op);
+    EXPECT_EQ(created.error_code(), grpc::StatusCode::NOT_FOUND) << which;
+    EXPECT_EQ(created.error_message(), "scene: " + which + " not found");
   }
+  for (const std::string& op : alice_ops) {
+    for (const std::string& which : {op, absent_op}) {
+      const grpc::Status get = bob.GetOperation(which);
+      EXPECT_EQ(get.error_code(), grpc::StatusCode::NOT_FOUND) << which;
+      EXPECT_EQ(get.error_message(), "name: " + which + " not found");
+      const grpc::Status cancel = bob.CancelOperation(which);
+      EXPECT_EQ(cancel.error_code(), grpc::StatusCode::NOT_FOUND) << which;
+      EXPECT_EQ(cancel.error_message(), "name: " + which + " not found");
+    }
+  }
+  // An admin sees everything; what does not exist is NOT_FOUND for it too.
+  EXPECT_EQ(admin.GetScene(absent_scene).error_code(), grpc::StatusCode::NOT_FOUND);
   const CommandResult bob_get = Pf(server, "bob", {"scene", "get", scene});
   EXPECT_NE(bob_get.exit_code, 0);
-  EXPECT_NE(bob_get.err.find("belongs to another owner"), std::string::npos) << bob_get.err;
+  EXPECT_NE(bob_get.err.find(scene + " not found"), std::string::npos) << bob_get.err;
 
   // A job left queued (no worker), for the cancellations.
   worker.Kill(SIGTERM);
   const std::string queued = CreateRenderJob(alice, scene);
   ASSERT_FALSE(queued.empty());
-  EXPECT_EQ(bob.CancelOperation(queued).error_code(), grpc::StatusCode::PERMISSION_DENIED);
+  EXPECT_EQ(bob.CancelOperation(queued).error_code(), grpc::StatusCode::NOT_FOUND);
   Operation op;
   ASSERT_TRUE(alice.GetOperation(queued, &op).ok());
   EXPECT_FALSE(op.done());
@@ -511,7 +538,90 @@ TEST_F(AuthE2e, OwnersSeeAndCancelOnlyTheirOwnAdminsEverything) {
   EXPECT_TRUE(bob.GetScene(scene).ok());
   EXPECT_EQ(bob.RenderJobNames().size(), 0u);
   EXPECT_EQ(bob.OperationNames().size(), 1u);
-  EXPECT_EQ(bob.GetOperation(queued).error_code(), grpc::StatusCode::PERMISSION_DENIED);
+  EXPECT_EQ(bob.GetOperation(queued).error_code(), grpc::StatusCode::NOT_FOUND);
+}
+
+// One WaitOperation call of `name` waiting up to `seconds`.
+grpc::Status WaitOnce(Client& client, const std::string& name, int seconds = 0,
+                      grpc::ClientContext* context = nullptr) {
+  grpc::ClientContext own;
+  if (context == nullptr) {
+    context = &own;
+    Client::Deadline(own);
+  }
+  google::longrunning::WaitOperationRequest request;
+  request.set_name(name);
+  request.mutable_timeout()->set_seconds(seconds);
+  Operation op;
+  return client.operations->WaitOperation(context, request, &op);
+}
+
+// A WaitOperation of 60 s in its own thread, until Stop().
+class LongPoll {
+ public:
+  LongPoll(Client& client, const std::string& name)
+      : thread_([this, &client, name] { status_ = WaitOnce(client, name, 60, &context_); }) {}
+  ~LongPoll() { Stop(); }
+  void Stop() {
+    context_.TryCancel();
+    if (thread_.joinable()) thread_.join();
+  }
+
+ private:
+  grpc::ClientContext context_;
+  grpc::Status status_;
+  std::thread thread_;
+};
+
+TEST_F(AuthE2e, LongPollsAreCappedPerOwnerAndInAllWhileOtherCallsAreServed) {
+  ServerProcess server(test_dir_);
+  ASSERT_TRUE(server.Start(
+      {"--auth-token-file", tokens_, "--max-long-polls", "3", "--max-long-polls-per-caller", "2"}))
+      << server.Log();
+  // A reconstruction nobody works on, that both Alice and Bob may see.
+  const CommandResult created = Pf(server, "alice", {"scene", "create", *dir_ + "/clip/clip.json"});
+  ASSERT_EQ(created.exit_code, 0) << created.err;
+  const std::string op = created.out.substr(0, created.out.find('\n'));
+  ASSERT_EQ(Pf(server, "bob", {"scene", "create", *dir_ + "/clip/clip.json"}).exit_code, 0);
+  Client alice(server.address(), kAliceToken);
+  Client bob(server.address(), kBobToken);
+
+  // Alice holds two long polls: her third is refused, naming the cap.
+  auto a1 = std::make_unique<LongPoll>(alice, op);
+  auto a2 = std::make_unique<LongPoll>(alice, op);
+  grpc::Status third;
+  EXPECT_TRUE(WaitFor(
+      [&] {
+        third = WaitOnce(alice, op);
+        return third.error_code() == grpc::StatusCode::RESOURCE_EXHAUSTED;
+      },
+      std::chrono::seconds(10)))
+      << third.error_message();
+  EXPECT_NE(third.error_message().find("(pf-server --max-long-polls-per-caller)"),
+            std::string::npos)
+      << third.error_message();
+  // Bob still gets one; then the server's cap of 3 is reached.
+  auto b1 = std::make_unique<LongPoll>(bob, op);
+  grpc::Status fourth;
+  EXPECT_TRUE(WaitFor(
+      [&] {
+        fourth = WaitOnce(bob, op);
+        return fourth.error_code() == grpc::StatusCode::RESOURCE_EXHAUSTED;
+      },
+      std::chrono::seconds(10)))
+      << fourth.error_message();
+  EXPECT_NE(fourth.error_message().find("(pf-server --max-long-polls)"), std::string::npos)
+      << fourth.error_message();
+  // Every other call is served meanwhile.
+  EXPECT_EQ(bob.SceneNames().size(), 1u);
+  EXPECT_TRUE(bob.GetOperation(op).ok());
+  EXPECT_EQ(alice.OperationNames().size(), 1u);
+  EXPECT_EQ(Pf(server, "alice", {"jobs", "get", op}).exit_code, 0);
+  // Polls that end give their places back.
+  a1->Stop();
+  a2->Stop();
+  EXPECT_TRUE(WaitFor([&] { return WaitOnce(alice, op).ok(); }, std::chrono::seconds(10)));
+  b1->Stop();
 }
 
 TEST_F(AuthE2e, OnlyWorkerOrAdminTokensMayLeaseTasks) {

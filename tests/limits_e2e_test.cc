@@ -4,10 +4,16 @@
 // its error must name the limit's flag; each way out of a clip's directory
 // or a trusted root is tried and refused; a scene file corrupted on disk is
 // detected, dropped and rebuilt, and the render still matches embedded mode.
+// Hostile input (docs/RELIABILITY.md, "Hostile input"): manifests and
+// results nested or sized to crash or stall the server, a worker that lies,
+// a poisoned row in the store, render views too large for a worker.
 #include <google/protobuf/util/json_util.h>
 #include <grpcpp/grpcpp.h>
 #include <signal.h>
+#include <sqlite3.h>
+#include <unistd.h>
 
+#include <cctype>
 #include <chrono>
 #include <filesystem>
 #include <fstream>
@@ -15,6 +21,7 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "common/file_util.h"
@@ -24,6 +31,7 @@
 #include "pointforward/v1/blobs.grpc.pb.h"
 #include "pointforward/v1/resources.pb.h"
 #include "pointforward/v1/service.grpc.pb.h"
+#include "pointforward/v1/worker.grpc.pb.h"
 #include "rpc/blob_transfer.h"
 #include "rpc/grpc_status.h"
 #include "tests/exr_compare.h"
@@ -124,6 +132,19 @@ class LimitsE2e : public ::testing::Test {
     *request.mutable_clip() = clip;
     grpc::ClientContext context;
     return stub->CreateScene(&context, request, op);
+  }
+
+  // CreateScene of the test clip uploaded with its first frame's image
+  // under `path` (the real image's bytes).
+  static grpc::Status CreateSceneWithImageAt(ServerProcess& server, BlobClient& blobs,
+                                             const std::string& path) {
+    const std::string image = (*manifest_)["frames"][0]["image"];
+    nlohmann::json manifest = *manifest_;
+    manifest["frames"][0]["image"] = path;
+    v1::ClipSource clip;
+    *clip.mutable_uploaded() = Upload(blobs, manifest, {{path, *dir_ + "/clip/" + image}});
+    Operation op;
+    return CreateScene(server, clip, &op);
   }
 
   static v1::ClipSource Uri(const std::string& path) {
@@ -451,16 +472,9 @@ TEST_F(LimitsE2e, UploadedClipPathsThatLeaveTheClipAreRefused) {
   ServerProcess server(test_dir_);
   ASSERT_TRUE(server.Start()) << server.Log();
   BlobClient blobs(MakeChannel(server.address()));
-  const std::string image = (*manifest_)["frames"][0]["image"];
-  const std::string local = *dir_ + "/clip/" + image;
   for (const std::string& path : {std::string("../escape.png"), std::string("images/../../x.png"),
                                   std::string("/etc/escape.png")}) {
-    nlohmann::json manifest = *manifest_;
-    manifest["frames"][0]["image"] = path;
-    v1::ClipSource clip;
-    *clip.mutable_uploaded() = Upload(blobs, manifest, {{path, local}});
-    Operation op;
-    const grpc::Status status = CreateScene(server, clip, &op);
+    const grpc::Status status = CreateSceneWithImageAt(server, blobs, path);
     EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << path;
     EXPECT_TRUE(Contains(status.error_message(), "clip.uploaded.files[\"" + path + "\"]"))
         << path << ": " << status.error_message();
@@ -608,6 +622,410 @@ TEST_F(LimitsE2e, ACorruptSceneFileIsDroppedAndRebuiltNotRendered) {
     EXPECT_EQ(Sha256File(BlobPath(rebuilt.scene_file().sha256())).value(),
               rebuilt.scene_file().sha256());
   }
+}
+
+// -- Hostile input ------------------------------------------------------------
+
+// `{"name": [[...]]}` nested `depth` levels deep.
+std::string DeeplyNested(int depth) {
+  return "{\"name\": " + std::string(depth - 1, '[') + std::string(depth - 1, ']') + "}";
+}
+
+TEST_F(LimitsE2e, ADeeplyNestedManifestIsRefusedAndTheServerStaysUp) {
+  ServerProcess server(test_dir_);
+  ASSERT_TRUE(server.Start()) << server.Log();
+  // 100,000 levels in 200 KB: the parser once overflowed the server's stack.
+  const std::string deep = DeeplyNested(100000);
+  BlobClient blobs(MakeChannel(server.address()));
+  absl::StatusOr<v1::Digest> manifest = blobs.UploadBytes(deep);
+  ASSERT_TRUE(manifest.ok()) << manifest.status();
+  v1::ClipSource clip;
+  *clip.mutable_uploaded()->mutable_manifest() = *manifest;
+  Operation op;
+  const grpc::Status status = CreateScene(server, clip, &op);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_EQ(status.error_message(), "clip.uploaded.manifest: JSON nested deeper than 64 levels");
+  EXPECT_TRUE(testing::Serving(server.address())) << server.Log();
+
+  // pf validate on the same file: a problem, not a crash.
+  const std::string path = test_dir_ + "/deep.json";
+  std::ofstream(path) << deep;
+  const CommandResult validate = RunCommand({BinPath("pf"), "validate", path});
+  EXPECT_EQ(validate.exit_code, 2) << validate.out << validate.err;
+  EXPECT_TRUE(Contains(validate.out, "JSON nested deeper than 64 levels")) << validate.out;
+}
+
+TEST_F(LimitsE2e, SigtermStopsTheServerWithinFiveSecondsWhileItTakesAHugeManifest) {
+  ServerProcess server(test_dir_);
+  ASSERT_TRUE(server.Start()) << server.Log();
+  // 300,000 frames (about 17 MB): parsing took about a minute (quadratic)
+  // before the images-per-clip limit was looked at, and the server waited
+  // for it after SIGTERM.
+  std::string manifest = R"({"cameras": [{"id": "c", "width": 8, "height": 8}], "frames": [)";
+  for (int i = 0; i < 300000; ++i) {
+    if (i > 0) manifest += ",";
+    manifest += R"({"camera": "c", "timestampUs": )" + std::to_string(i) + R"(, "image": "a.png"})";
+  }
+  manifest += "]}";
+  BlobClient blobs(MakeChannel(server.address()));
+  absl::StatusOr<v1::Digest> digest = blobs.UploadBytes(manifest);
+  ASSERT_TRUE(digest.ok()) << digest.status();
+  v1::ClipSource clip;
+  *clip.mutable_uploaded()->mutable_manifest() = *digest;
+  grpc::Status created;
+  std::thread create([&] {
+    Operation op;
+    created = CreateScene(server, clip, &op);
+  });
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  // Stopped within the documented 5 s, cleanly, whatever the call was doing.
+  EXPECT_EQ(server.Kill(SIGTERM, testing::Scaled(std::chrono::seconds(5))), 0) << server.Log();
+  create.join();
+  if (created.ok() || created.error_code() == grpc::StatusCode::INVALID_ARGUMENT) {
+    EXPECT_EQ(created.error_message(),
+              "clip: 300000 images exceed the limit of 1000 per clip (--max-images-per-clip)");
+  }
+}
+
+// Talks to WorkerService as a worker would, to send what a real one never does.
+class FakeWorker {
+ public:
+  explicit FakeWorker(const std::string& address)
+      : stub_(v1::WorkerService::NewStub(MakeChannel(address))) {}
+
+  // The next task for `worker_id` (empty when none came within 5 s).
+  v1::Task Lease(const std::string& worker_id) {
+    v1::LeaseTaskRequest request;
+    request.set_worker_id(worker_id);
+    request.mutable_wait()->set_seconds(5);
+    grpc::ClientContext context;
+    v1::LeaseTaskResponse response;
+    const grpc::Status status = stub_->LeaseTask(&context, request, &response);
+    EXPECT_TRUE(status.ok()) << status.error_message();
+    return response.task();
+  }
+
+  grpc::Status Heartbeat(const std::string& worker_id, const v1::Task& task) {
+    v1::HeartbeatRequest request;
+    request.set_worker_id(worker_id);
+    request.set_task_id(task.task_id());
+    request.set_attempt(task.attempt());
+    grpc::ClientContext context;
+    v1::HeartbeatResponse response;
+    return stub_->Heartbeat(&context, request, &response);
+  }
+
+  grpc::Status Complete(const std::string& worker_id, const v1::Task& task,
+                        v1::CompleteTaskRequest request) {
+    request.set_worker_id(worker_id);
+    request.set_task_id(task.task_id());
+    request.set_attempt(task.attempt());
+    grpc::ClientContext context;
+    v1::CompleteTaskResponse response;
+    return stub_->CompleteTask(&context, request, &response);
+  }
+
+ private:
+  std::unique_ptr<v1::WorkerService::Stub> stub_;
+};
+
+// Runs `sql` on the SQLite store at `path`; false (and a failure) if it fails.
+bool RunSql(const std::string& path, const std::string& sql) {
+  sqlite3* db = nullptr;
+  if (sqlite3_open(path.c_str(), &db) != SQLITE_OK) {
+    ADD_FAILURE() << path << ": " << sqlite3_errmsg(db);
+    sqlite3_close(db);
+    return false;
+  }
+  char* error = nullptr;
+  const bool ok = sqlite3_exec(db, sql.c_str(), nullptr, nullptr, &error) == SQLITE_OK;
+  if (!ok) ADD_FAILURE() << sql.substr(0, 200) << ": " << (error ? error : "?");
+  sqlite3_free(error);
+  sqlite3_close(db);
+  return ok;
+}
+
+TEST_F(LimitsE2e, WorkerResultsAreCheckedAgainstTheTaskAndAPoisonedStoreStaysReadable) {
+  ServerProcess server(test_dir_);
+  ASSERT_TRUE(server.Start({"--trusted-root", *dir_, "--max-attempts", "10"})) << server.Log();
+  FakeWorker worker(server.address());
+  BlobClient blobs(MakeChannel(server.address()));
+
+  // The scene, "built" by the fake worker: the server takes any uploaded
+  // bytes for a scene file, the workers check them.
+  Operation scene_op;
+  ASSERT_TRUE(CreateScene(server, Uri(ClipPath()), &scene_op).ok());
+  const v1::Task build = worker.Lease("w1");
+  ASSERT_TRUE(build.has_reconstruct()) << build.DebugString();
+  v1::CompleteTaskRequest built;
+  v1::Scene* statistics = built.mutable_reconstruct()->mutable_scene();
+  *statistics->mutable_scene_file() = blobs.UploadBytes("a scene file").value();
+  statistics->set_gaussians(1);
+  statistics->set_static_gaussians(1);
+  statistics->set_num_channels(3);
+  v1::CompleteTaskRequest negative = built;
+  negative.mutable_reconstruct()->mutable_scene()->set_gaussians(-5);
+  EXPECT_EQ(worker.Complete("w1", build, negative).error_code(),
+            grpc::StatusCode::INVALID_ARGUMENT);
+  const v1::Task rebuild = worker.Lease("w1");  // That attempt ended.
+  ASSERT_TRUE(rebuild.has_reconstruct());
+  ASSERT_TRUE(worker.Complete("w1", rebuild, built).ok());
+
+  // A render job of two chunks of two views each.
+  v1::CreateRenderJobRequest request;
+  request.set_scene(Metadata(scene_op).target());
+  *request.mutable_views() = Views();
+  request.set_chunk_frames(2);
+  Operation job;
+  ASSERT_TRUE(CreateRender(server, request, &job).ok());
+
+  // What an honest worker sends for `task`.
+  auto honest = [&](const v1::Task& task) {
+    v1::CompleteTaskRequest done;
+    nlohmann::json entries = nlohmann::json::array();
+    for (int i = 0; i < task.render().view_count(); ++i) {
+      const std::string view = testing::ViewName(task.render().first_view() + i);
+      for (const char* ext : {".exr", ".png"}) {
+        v1::OutputFile* file = done.mutable_render()->add_files();
+        file->set_name(view + ext);
+        file->set_view(view);
+        *file->mutable_digest() = blobs.UploadBytes(view + ext).value();
+      }
+      entries.push_back({{"name", view}, {"exr", view + ".exr"}, {"png", view + ".png"}});
+    }
+    done.mutable_render()->set_manifest_views_json(entries.dump());
+    return done;
+  };
+
+  v1::Task chunk = worker.Lease("w1");
+  ASSERT_TRUE(chunk.has_render()) << chunk.DebugString();
+  // Under another worker's id: no heartbeat, no completion.
+  grpc::Status status = worker.Heartbeat("w2", chunk);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::FAILED_PRECONDITION);
+  EXPECT_TRUE(Contains(status.error_message(), "is not leased to worker 'w2'"))
+      << status.error_message();
+  EXPECT_EQ(worker.Complete("w2", chunk, honest(chunk)).error_code(),
+            grpc::StatusCode::FAILED_PRECONDITION);
+  EXPECT_TRUE(worker.Heartbeat("w1", chunk).ok());
+
+  // Results that do not fit their chunk: refused naming the field, and the
+  // attempt ends (the chunk is leased again).
+  struct Lie {
+    std::string what;
+    std::function<void(v1::RenderResult*)> edit;
+    std::string error;
+  };
+  const std::vector<Lie> lies = {
+      {"a file outside the views",
+       [](v1::RenderResult* r) { r->mutable_files(0)->set_name("../../etc/passwd"); },
+       "render.files[0].name: '../../etc/passwd' is not an output of the chunk's views"},
+      {"a view without its PNG",
+       [](v1::RenderResult* r) { r->mutable_files()->DeleteSubrange(1, 1); }, ".png' for view"},
+      {"a file never uploaded",
+       [](v1::RenderResult* r) {
+         r->mutable_files(2)->mutable_digest()->set_sha256(std::string(64, '0'));
+       },
+       "render.files[2].digest: blob '0000"},
+      {"a wrong size",
+       [](v1::RenderResult* r) { r->mutable_files(3)->mutable_digest()->set_size_bytes(1); },
+       "render.files[3].digest.size_bytes: 1, but the blob has"},
+      {"manifest views nested 100000 deep",
+       [](v1::RenderResult* r) {
+         r->set_manifest_views_json(std::string(100000, '[') + std::string(100000, ']'));
+       },
+       "render.manifest_views_json: JSON of 200000 bytes exceeds the limit"},
+      {"manifest views nested 30000 deep",
+       [](v1::RenderResult* r) {
+         r->set_manifest_views_json(std::string(30000, '[') + std::string(30000, ']'));
+       },
+       "render.manifest_views_json: JSON nested deeper than 64 levels"},
+  };
+  for (const Lie& lie : lies) {
+    v1::CompleteTaskRequest result = honest(chunk);
+    lie.edit(result.mutable_render());
+    status = worker.Complete("w1", chunk, result);
+    EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << lie.what;
+    EXPECT_TRUE(Contains(status.error_message(), lie.error))
+        << lie.what << ": " << status.error_message();
+    chunk = worker.Lease("w1");  // This or the other chunk: the attempt ended.
+    ASSERT_TRUE(chunk.has_render()) << lie.what << "\n" << server.Log();
+  }
+  // Honest results finish the job.
+  ASSERT_TRUE(worker.Complete("w1", chunk, honest(chunk)).ok());
+  chunk = worker.Lease("w1");
+  ASSERT_TRUE(chunk.has_render());
+  ASSERT_TRUE(worker.Complete("w1", chunk, honest(chunk)).ok());
+  Operation done = WaitDone(server.address(), job.name(), 10);
+  ASSERT_TRUE(done.done() && !done.has_error()) << done.DebugString();
+  v1::RenderJob rendered;
+  ASSERT_TRUE(done.response().UnpackTo(&rendered));
+  EXPECT_EQ(rendered.files_size(), 9);  // 4 views x (EXR, PNG) + manifest.json.
+  int refused = 0;
+  const v1::OperationMetadata metadata = Metadata(done);
+  for (const v1::Attempt& attempt : metadata.attempts()) {
+    refused += Contains(attempt.outcome(), "result refused: ") ? 1 : 0;
+  }
+  EXPECT_EQ(refused, static_cast<int>(lies.size()));
+
+  // A row poisoned before these checks existed (a chunk's result nested
+  // 100,000 deep, a scene description 100,000 deep): every read of them
+  // answers, the job and scene show as failed with DATA_LOSS.
+  ASSERT_EQ(server.Kill(SIGTERM), 0);
+  const std::string job_id = job.name().substr(std::string("operations/").size());
+  const std::string scene_id = request.scene().substr(std::string("scenes/").size());
+  ASSERT_TRUE(RunSql(test_dir_ + "/jobs.db",
+                     "UPDATE tasks SET result = '{\"manifestViewsJson\": \"" +
+                         std::string(100000, '[') + std::string(100000, ']') +
+                         "\"}' WHERE job_id = '" + job_id + "' AND task_index = 0;" +
+                         "UPDATE scenes SET description = '" + DeeplyNested(100000) +
+                         "' WHERE id = '" + scene_id + "';"));
+  ASSERT_TRUE(server.Restart()) << server.Log();
+  absl::StatusOr<Operation> poisoned = GetOperation(server.address(), job.name());
+  ASSERT_TRUE(poisoned.ok()) << poisoned.status() << server.Log();
+  EXPECT_TRUE(poisoned->done());
+  EXPECT_EQ(poisoned->error().code(), static_cast<int>(grpc::StatusCode::DATA_LOSS));
+  EXPECT_TRUE(Contains(poisoned->error().message(), "manifest views of chunk 0"))
+      << poisoned->error().message();
+  EXPECT_EQ(testing::ListOperations(server.address(), "", 10).size(), 2u);
+  {
+    auto ops = google::longrunning::Operations::NewStub(MakeChannel(server.address()));
+    grpc::ClientContext context;
+    google::longrunning::WaitOperationRequest wait;
+    wait.set_name(job.name());
+    Operation waited;
+    EXPECT_TRUE(ops->WaitOperation(&context, wait, &waited).ok());
+    EXPECT_EQ(waited.error().code(), static_cast<int>(grpc::StatusCode::DATA_LOSS));
+  }
+  const v1::Scene scene = GetScene(server, request.scene());
+  EXPECT_EQ(scene.state(), v1::Scene::FAILED);
+  EXPECT_EQ(scene.error().code(), static_cast<int>(grpc::StatusCode::DATA_LOSS));
+  const CommandResult jobs =
+      RunCommand({BinPath("pf"), "--server", server.address(), "jobs", "list"});
+  EXPECT_EQ(jobs.exit_code, 0) << jobs.err;
+  EXPECT_TRUE(testing::Serving(server.address())) << server.Log();
+}
+
+TEST_F(LimitsE2e, RenderViewsOverThePixelOrMemoryLimitAreRefusedBeforeAJobExists) {
+  ServerProcess server(test_dir_);
+  ASSERT_TRUE(server.Start({"--trusted-root", *dir_, "--max-render-bytes", "100000000"}))
+      << server.Log();
+  auto render_with_camera = [&](int width, int height) {
+    v1::CreateRenderJobRequest request;
+    request.mutable_create_scene()->mutable_clip()->set_uri("file://" + ClipPath());
+    *request.mutable_views() = Views();
+    request.mutable_views()->mutable_cameras(0)->set_width(width);
+    request.mutable_views()->mutable_cameras(0)->set_height(height);
+    Operation op;
+    return CreateRender(server, request, &op);
+  };
+  // 1e9 x 1e9 aborted a worker per attempt; 12000 x 12000 grew one past 6 GB.
+  grpc::Status status = render_with_camera(1000000000, 1000000000);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_EQ(status.error_message(),
+            "views.cameras[0]: 1000000000x1000000000 = 1000000000000000000 pixels per view "
+            "exceed the limit of 50000000 (--max-pixels-per-image)");
+  status = render_with_camera(12000, 12000);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_TRUE(Contains(status.error_message(), "(--max-pixels-per-image)"))
+      << status.error_message();
+  // Under the pixel limit, over the memory one (4000 x 4000 at 44 bytes a
+  // pixel with the smallest scene).
+  status = render_with_camera(4000, 4000);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_TRUE(Contains(status.error_message(), "views.cameras[0]: rendering a 4000x4000 view"))
+      << status.error_message();
+  EXPECT_TRUE(Contains(status.error_message(), "(--max-render-bytes)")) << status.error_message();
+  // Nothing was created: not even the scene the request would have built.
+  EXPECT_TRUE(testing::ListOperations(server.address(), "", 10).empty());
+}
+
+TEST_F(LimitsE2e, BadPathsAndSizesInAClipAreInvalidArgumentsWithoutServerPaths) {
+  ServerProcess server(test_dir_);
+  ASSERT_TRUE(server.Start()) << server.Log();
+  BlobClient blobs(MakeChannel(server.address()));
+  const std::string image = (*manifest_)["frames"][0]["image"];
+  for (const std::string& path : {std::string("."), std::string("images/")}) {
+    const grpc::Status status = CreateSceneWithImageAt(server, blobs, path);
+    EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << path;
+    EXPECT_EQ(status.error_message(),
+              "clip.uploaded.files[\"" + path +
+                  "\"]: names the clip directory or its manifest, not a file in it");
+    EXPECT_FALSE(Contains(status.error_message(), test_dir_)) << status.error_message();
+  }
+  // A size_bytes that is not the blob's.
+  v1::ClipSource clip;
+  *clip.mutable_uploaded() = Upload(blobs, *manifest_);
+  v1::Digest& first = clip.mutable_uploaded()->mutable_files()->at(image);
+  first.set_size_bytes(first.size_bytes() + 1);
+  Operation op;
+  grpc::Status status = CreateScene(server, clip, &op);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_TRUE(Contains(
+      status.error_message(),
+      "clip.uploaded.files[\"" + image + "\"].size_bytes: " + std::to_string(first.size_bytes())))
+      << status.error_message();
+  // A file the validator refuses (not an image): named by its path in the
+  // clip, not by where the server staged it.
+  nlohmann::json manifest = *manifest_;
+  v1::ClipSource broken;
+  *broken.mutable_uploaded() = Upload(blobs, manifest, {{image, ClipPath()}});
+  status = CreateScene(server, broken, &op);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_TRUE(Contains(status.error_message(), "frames[0].image")) << status.error_message();
+  EXPECT_FALSE(Contains(status.error_message(), test_dir_)) << status.error_message();
+}
+
+TEST_F(LimitsE2e, FileUrisAnswerAlikeForAbsentAndOutsideAndHideLinkTargets) {
+  const std::string root = test_dir_ + "/root";
+  const std::string outside = test_dir_ + "/outside";
+  fs::create_directories(root);
+  fs::create_directories(outside);
+  fs::copy(*dir_ + "/clip", outside + "/clip", fs::copy_options::recursive);
+  fs::create_directory_symlink(outside + "/clip", root + "/link");
+  ServerProcess server(test_dir_);
+  ASSERT_TRUE(server.Start({"--trusted-root", root})) << server.Log();
+  auto answer = [&](const std::string& path) {
+    Operation op;
+    const grpc::Status status = CreateScene(server, Uri(path), &op);
+    EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << path;
+    return status.error_message();
+  };
+  // Absent, outside, through a link out, a directory: one answer each,
+  // the same words, naming only the path given.
+  const std::vector<std::string> paths = {root + "/absent.json", outside + "/clip/clip.json",
+                                          "/etc/hostname", root + "/link/clip.json", root};
+  for (const std::string& path : paths) {
+    EXPECT_EQ(answer(path),
+              "clip.uri: " + path + " is not under a trusted root or is not a file there");
+  }
+}
+
+TEST_F(LimitsE2e, StagingDirectoriesOfAServerThatEndedAreRemovedAtStart) {
+  const std::string scratch = test_dir_ + "/blobs/scratch";
+  fs::create_directories(scratch);
+  // This machine's name as a server writes it in a staging directory.
+  char host[256] = {};
+  ::gethostname(host, sizeof(host) - 1);
+  std::string name;
+  for (const char* c = host; *c != '\0' && name.size() < 32; ++c) {
+    name += std::isalnum(static_cast<unsigned char>(*c)) ? *c : '_';
+  }
+  // A process that ended (no pid is that large), another machine's fresh
+  // one, and another machine's from two hours ago.
+  const std::string ended = scratch + "/clip-" + name + "-2147483647-0000abcd-3";
+  const std::string elsewhere = scratch + "/clip-otherhost-12-0000abcd-0";
+  const std::string old = scratch + "/clip-otherhost-13-0000abcd-0";
+  for (const std::string& dir : {ended, elsewhere, old}) {
+    fs::create_directories(dir + "/images");
+    std::ofstream(dir + "/clip.json") << "{}";
+  }
+  fs::last_write_time(old, fs::file_time_type::clock::now() - std::chrono::hours(2));
+  ServerProcess server(test_dir_);
+  ASSERT_TRUE(server.Start()) << server.Log();
+  EXPECT_FALSE(fs::exists(ended));
+  EXPECT_FALSE(fs::exists(old));
+  EXPECT_TRUE(fs::exists(elsewhere));
+  EXPECT_TRUE(Contains(server.Log(), "removed 2 staging directories")) << server.Log();
 }
 
 }  // namespace

@@ -296,15 +296,28 @@ TEST_F(RemoteCliE2e, SceneListShowsEveryScene) {
                   model.c_str(), json["gaussians"].get<std::string>().c_str());
     expected.insert(line);
   }
-  for (const std::vector<std::string>& args :
-       {std::vector<std::string>{"scene", "list"},
-        std::vector<std::string>{"scene", "list", "--page-size", "1"}}) {
-    const CommandResult list = Remote(args);
-    ASSERT_EQ(list.exit_code, 0) << list.err;
-    const std::vector<std::string> lines = Lines(list.out);
-    EXPECT_EQ(lines.size(), 2u) << list.out;
-    EXPECT_EQ(std::set<std::string>(lines.begin(), lines.end()), expected) << list.out;
-  }
+  const CommandResult list = Remote({"scene", "list"});
+  ASSERT_EQ(list.exit_code, 0) << list.err;
+  const std::vector<std::string> lines = Lines(list.out);
+  EXPECT_EQ(lines.size(), 2u) << list.out;
+  EXPECT_EQ(std::set<std::string>(lines.begin(), lines.end()), expected) << list.out;
+
+  // --page-size: one page of that many, and the command for the next on
+  // stderr; the last page says nothing more.
+  const CommandResult first = Remote({"scene", "list", "--page-size", "1"});
+  ASSERT_EQ(first.exit_code, 0) << first.err;
+  ASSERT_EQ(Lines(first.out).size(), 1u) << first.out;
+  const std::string token = Capture(first.err, "--page-token (\\S+)\n");
+  ASSERT_FALSE(token.empty()) << first.err;
+  EXPECT_NE(first.err.find("more: pf --server " + server_->address() +
+                           " scene list --page-size 1 --page-token " + token),
+            std::string::npos)
+      << first.err;
+  const CommandResult second = Remote({"scene", "list", "--page-size", "1", "--page-token", token});
+  ASSERT_EQ(second.exit_code, 0) << second.err;
+  ASSERT_EQ(Lines(second.out).size(), 1u) << second.out;
+  EXPECT_EQ(std::set<std::string>({Lines(first.out)[0], Lines(second.out)[0]}), expected);
+  EXPECT_EQ(second.err.find("more:"), std::string::npos) << second.err;
 }
 
 // `scene delete`, after which the scene is NOT_FOUND (exit 2) everywhere.
@@ -320,11 +333,11 @@ TEST_F(RemoteCliE2e, SceneDeleteThenNotFound) {
   const std::string id = scene.substr(7);
   const CommandResult get = Remote({"scene", "get", scene});
   EXPECT_EQ(get.exit_code, 2) << get.out << get.err;
-  EXPECT_EQ(get.err, "pf scene get: scene " + id + " not found\n");
+  EXPECT_EQ(get.err, "pf scene get: name: " + scene + " not found\n");
   EXPECT_EQ(get.out, "");
   const CommandResult again = Remote({"scene", "delete", id});  // A bare id works too.
   EXPECT_EQ(again.exit_code, 2) << again.err;
-  EXPECT_EQ(again.err, "pf scene delete: scene " + id + " not found\n");
+  EXPECT_EQ(again.err, "pf scene delete: name: " + scene + " not found\n");
   const CommandResult exported =
       Remote({"scene", "export", scene, "--ply", test_dir_ + "/gone.ply"});
   EXPECT_EQ(exported.exit_code, 2) << exported.err;

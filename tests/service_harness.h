@@ -73,7 +73,10 @@ class ServerProcess {
   // How Start() reaches the server for its health checks: TLS, and a client
   // certificate under mutual TLS. Plaintext by default.
   void set_health_channel(ChannelOptions channel) { health_channel_ = std::move(channel); }
-  int Kill(int signal) { return process_.Kill(signal); }
+  // As ChildProcess::Kill.
+  int Kill(int signal, std::chrono::milliseconds timeout = std::chrono::seconds(15)) {
+    return process_.Kill(signal, timeout);
+  }
   // The running pf-server's process id (-1 before the first Start).
   pid_t pid() const { return process_.pid(); }
   std::string address() const;

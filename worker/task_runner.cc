@@ -13,6 +13,7 @@
 #include <utility>
 
 #include "absl/strings/str_cat.h"
+#include "common/bounded_json.h"
 #include "common/file_util.h"
 #include "common/status_macros.h"
 #include "nlohmann/json.hpp"
@@ -314,6 +315,10 @@ absl::StatusOr<RenderChunkOutput> RenderChunk(const pb::RenderWork& work, const 
   absl::StatusOr<OutputChannels> parsed_channels = ParseOutputChannels(outputs);
   if (!parsed_channels.ok()) return StatusWithContext(parsed_channels.status(), "outputs");
   const OutputChannels channels = *parsed_channels;
+  // The server's limits on a view, before anything is allocated for one.
+  RETURN_IF_ERROR(CheckRenderLimits(work.views(), channels, opened.scene.num_channels,
+                                    {work.max_pixels_per_view(), work.max_render_bytes()},
+                                    "views.cameras"));
 
   std::string json;
   const auto to_json = google::protobuf::util::MessageToJsonString(work.views(), &json);
@@ -370,12 +375,12 @@ absl::StatusOr<RenderChunkOutput> RenderChunk(const pb::RenderWork& work, const 
     if (progress) progress(i - work.first_view() + 1);
   }
 
-  const nlohmann::json manifest =
-      nlohmann::json::parse(ManifestJson(label, entries), nullptr, /*allow_exceptions=*/false);
-  if (manifest.is_discarded() || !manifest.contains("views")) {
+  const absl::StatusOr<nlohmann::ordered_json> manifest =
+      ParseBoundedJson(ManifestJson(label, entries));
+  if (!manifest.ok() || !manifest->contains("views")) {
     return absl::InternalError("the render manifest is not the JSON object ManifestJson promises");
   }
-  out.manifest_views_json = manifest["views"].dump();
+  out.manifest_views_json = (*manifest)["views"].dump();
   out.seconds = SecondsSince(start);
   return out;
 }

@@ -452,5 +452,31 @@ TEST_F(TaskRunner, RenderChunkRefusesBadInput) {
   EXPECT_FALSE(fs::exists(*dir_ + "/bad_chunk/v0.exr"));
 }
 
+TEST_F(TaskRunner, RenderChunkChecksTheServersLimitsOnAViewBeforeRendering) {
+  absl::StatusOr<OpenedScene> opened = OpenScene(recon_->scene_path);
+  ASSERT_TRUE(opened.ok()) << opened.status();
+  // 1e9 x 1e9 once aborted the worker (std::length_error), every attempt.
+  pb::RenderWork work = ChunkOf(0, 1);
+  work.mutable_views()->mutable_cameras(0)->set_width(1000000000);
+  work.mutable_views()->mutable_cameras(0)->set_height(1000000000);
+  work.set_max_pixels_per_view(50000000);
+  absl::Status status = RenderChunk(work, *opened, *dir_ + "/huge", nullptr, nullptr).status();
+  EXPECT_EQ(status.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(status.message().rfind("views.cameras[0]: 1000000000x1000000000 = ", 0), 0u) << status;
+  // No limits from the server: the rasterizer's own bound still holds.
+  work.set_max_pixels_per_view(0);
+  status = RenderChunk(work, *opened, *dir_ + "/huge", nullptr, nullptr).status();
+  EXPECT_EQ(status.code(), absl::StatusCode::kInvalidArgument) << status;
+  // The memory estimate with the scene's real channel count.
+  work = ChunkOf(0, 1);
+  work.set_max_render_bytes(1000);
+  status = RenderChunk(work, *opened, *dir_ + "/huge", nullptr, nullptr).status();
+  EXPECT_EQ(status.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(status.message().find("over the limit of 1000 per view (--max-render-bytes)"),
+            absl::string_view::npos)
+      << status;
+  EXPECT_FALSE(fs::exists(*dir_ + "/huge/v0.exr"));
+}
+
 }  // namespace
 }  // namespace pf

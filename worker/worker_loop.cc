@@ -384,6 +384,13 @@ void Worker::Execute(const pb::Task& task, const std::string& dir, spdlog::logge
       status = absl::InvalidArgumentError("work: the task has neither reconstruct nor render");
     }
   }
+  // What the server (and whoever reads the job) sees names files by their
+  // place in the task, not by this machine's directories.
+  if (!status.ok()) {
+    std::string message = HideDirectory(std::string(status.message()), dir);
+    message = HideDirectory(message, options_.work_dir, "<work>");
+    status = absl::Status(status.code(), message);
+  }
   state->status = status;
 }
 

@@ -60,8 +60,11 @@ absl::StatusOr<lro::Operation> WaitForOperation(RemoteContext& ctx, const std::s
     lro::Operation operation;
     grpc::Status status =
         use_wait ? CallWait(ctx, name, &operation) : CallGet(ctx, name, &operation);
-    if (use_wait && status.error_code() == grpc::StatusCode::UNIMPLEMENTED) {
-      use_wait = false;  // An older server: poll instead.
+    // An older server, or one holding as many long polls as it may: poll
+    // with GetOperation instead.
+    if (use_wait && (status.error_code() == grpc::StatusCode::UNIMPLEMENTED ||
+                     status.error_code() == grpc::StatusCode::RESOURCE_EXHAUSTED)) {
+      use_wait = false;
       continue;
     }
     if (!status.ok()) {

@@ -21,9 +21,9 @@ std::string DisplayName(const google::longrunning::Operation& operation);
 
 // Waits until operation `name` is done, calling WaitOperation with a 1 s
 // timeout (or GetOperation every 500 ms when the server does not implement
-// WaitOperation), and shows progress on stderr: a bar on a terminal, plain
-// lines otherwise. Returns the done operation, whether it succeeded or not;
-// an error only when the server could not be asked.
+// WaitOperation or refuses another long poll), and shows progress on stderr: a bar on a terminal,
+// plain lines otherwise. Returns the done operation, whether it succeeded or not; an error only
+// when the server could not be asked.
 absl::StatusOr<google::longrunning::Operation> WaitForOperation(RemoteContext& ctx,
                                                                 const std::string& name);
 

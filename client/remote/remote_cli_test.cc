@@ -130,5 +130,41 @@ TEST(RemoteCli, LocalCommandWithServerIsRefused) {
   EXPECT_NE(no_address.err.find("--server needs an address"), std::string::npos) << no_address.err;
 }
 
+TEST(RemoteCli, HelpAfterARemoteCommandPrintsItsUsage) {
+  // `pf help` promises COMMAND --help; with --server it once said "unknown
+  // flag --help". No server is needed for it.
+  for (const std::vector<std::string> words : {std::vector<std::string>{"scene", "list", "--help"},
+                                               {"scene", "create", "clip.json", "-h"},
+                                               {"render", "--help"},
+                                               {"jobs", "wait", "operations/x", "--help"}}) {
+    std::vector<std::string> argv = {BinPath("pf"), "--server", kNoServer};
+    argv.insert(argv.end(), words.begin(), words.end());
+    const CommandResult result = RunCommand(argv);
+    EXPECT_EQ(result.exit_code, 0) << words[0] << ": " << result.err;
+    EXPECT_EQ(result.out.rfind("usage: pf --server ADDR " + words[0], 0), 0u) << result.out;
+    EXPECT_TRUE(result.err.empty()) << result.err;
+  }
+}
+
+// An --out directory that cannot be written is found before the job is
+// submitted (exit 2 naming it), not after it has rendered.
+TEST(RemoteCli, AnOutDirectoryThatCannotBeWrittenIsExitTwoBeforeConnecting) {
+  const std::string dir = testing::MakeTempDir("remote_cli");
+  const std::string views = dir + "/views.json";
+  { std::ofstream(views) << R"({"views": [{"camera": "front"}]})"; }
+  { std::ofstream(dir + "/file") << "x"; }
+  const std::string out = dir + "/file/sub";  // Under a file: never creatable.
+  for (const std::vector<std::string> words :
+       {std::vector<std::string>{"render", "scenes/s1", "--cameras", views, "--wait", "--out", out},
+        {"jobs", "wait", "operations/x", "--out", out}}) {
+    std::vector<std::string> argv = {BinPath("pf"), "--server", kNoServer};
+    argv.insert(argv.end(), words.begin(), words.end());
+    const CommandResult result = RunCommand(argv);
+    EXPECT_EQ(result.exit_code, 2) << words[0] << ": " << result.err;
+    EXPECT_NE(result.err.find("--out: '" + out + "'"), std::string::npos) << result.err;
+    EXPECT_EQ(result.err.find("unreachable"), std::string::npos) << result.err;
+  }
+}
+
 }  // namespace
 }  // namespace pf

@@ -26,6 +26,15 @@ absl::StatusOr<int> RunRemoteRender(RemoteContext& ctx, const std::vector<std::s
 // pf jobs list|get|cancel|wait (remote_jobs.cc).
 absl::StatusOr<int> RunRemoteJobs(RemoteContext& ctx, const std::vector<std::string>& args);
 
+// True when `args` ask for help (--help or -h anywhere): the command then
+// prints its usage to stdout and exits 0, without connecting.
+inline bool WantsHelp(const std::vector<std::string>& args) {
+  for (const std::string& arg : args) {
+    if (arg == "--help" || arg == "-h") return true;
+  }
+  return false;
+}
+
 // The reconstruction flags of `scene create` and `render --clip`.
 inline const std::set<std::string> kReconValueFlags = {
     "model",  "ns",          "nd",       "fusion",      "device",

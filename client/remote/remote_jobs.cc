@@ -13,6 +13,7 @@
 #include "client/remote/remote_commands.h"
 #include "client/remote/resource_names.h"
 #include "common/command_line.h"
+#include "common/file_util.h"
 #include "common/status_macros.h"
 #include "google/longrunning/operations.grpc.pb.h"
 #include "google/protobuf/empty.pb.h"
@@ -102,6 +103,7 @@ absl::StatusOr<int> Cancel(RemoteContext& ctx, const std::string& name) {
 }
 
 absl::StatusOr<int> Wait(RemoteContext& ctx, const std::string& name, const CommandLine& cl) {
+  if (cl.Has("out")) RETURN_IF_ERROR(CheckWritableDir("--out", cl.Get("out")));
   RETURN_IF_ERROR(ctx.Connect());
   ASSIGN_OR_RETURN(const lro::Operation operation, WaitForOperation(ctx, name));
   if (ReportOperationFailure(operation)) return kExitFailed;
@@ -125,6 +127,10 @@ absl::StatusOr<int> Wait(RemoteContext& ctx, const std::string& name, const Comm
 }  // namespace
 
 absl::StatusOr<int> RunRemoteJobs(RemoteContext& ctx, const std::vector<std::string>& args) {
+  if (WantsHelp(args)) {
+    std::fprintf(ctx.out(), "%s\n", kRemoteJobsUsage);
+    return kExitOk;
+  }
   if (args.empty()) return absl::InvalidArgumentError(kRemoteJobsUsage);
   const std::string& verb = args[0];
   const std::vector<std::string> words(args.begin() + 1, args.end());

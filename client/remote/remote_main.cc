@@ -109,6 +109,13 @@ int RunRemote(const std::string& address, const std::vector<std::string>& all_ar
     result = absl::InternalError(absl::StrCat("unexpected error: ", e.what()));
   }
   if (result.ok()) return *result;
+  if (result.status().code() == absl::StatusCode::kUnauthenticated) {
+    // Say where a token comes from.
+    return ReportError(label, absl::UnauthenticatedError(absl::StrCat(
+                                  result.status().message(),
+                                  "; give the server a token: set PF_TOKEN, or put it in a file "
+                                  "and pass --token-file FILE before the command")));
+  }
   if (result.status().code() == absl::StatusCode::kUnavailable) {
     std::fprintf(stderr, "pf: server %s unreachable: %s\n", address.c_str(),
                  std::string(result.status().message()).c_str());

@@ -16,11 +16,11 @@
 #include "client/remote/output_files.h"
 #include "client/remote/remote_commands.h"
 #include "client/remote/resource_names.h"
+#include "common/bounded_json.h"
 #include "common/command_line.h"
 #include "common/file_util.h"
 #include "common/status_macros.h"
 #include "google/longrunning/operations.pb.h"
-#include "google/protobuf/util/json_util.h"
 #include "pointforward/v1/service.grpc.pb.h"
 #include "pointforward/v1/views.pb.h"
 #include "rpc/grpc_status.h"
@@ -45,16 +45,9 @@ constexpr char kRemoteRenderUsage[] =
 absl::StatusOr<v1::RenderViews> LoadViews(const std::string& path) {
   ASSIGN_OR_RETURN(const std::string json, ReadFileToString(path));
   v1::RenderViews views;
-  google::protobuf::util::JsonParseOptions options;
-  options.ignore_unknown_fields = false;
-  try {
-    const auto status = google::protobuf::util::JsonStringToMessage(json, &views, options);
-    if (!status.ok()) {
-      return absl::InvalidArgumentError(
-          absl::StrCat(path, ": not a RenderViews JSON: ", std::string(status.message())));
-    }
-  } catch (const std::exception& e) {
-    return absl::InvalidArgumentError(absl::StrCat(path, ": not a RenderViews JSON: ", e.what()));
+  if (const absl::Status parsed = ParseBoundedProtoJson(json, &views); !parsed.ok()) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(path, ": not a RenderViews JSON: ", parsed.message()));
   }
   if (views.views_size() == 0) {
     return absl::InvalidArgumentError(absl::StrCat(path, ": views: no views to render"));
@@ -105,6 +98,10 @@ absl::Status DownloadRenderResult(RemoteContext& ctx, const lro::Operation& oper
 }
 
 absl::StatusOr<int> RunRemoteRender(RemoteContext& ctx, const std::vector<std::string>& args) {
+  if (WantsHelp(args)) {
+    std::fprintf(ctx.out(), "%s\n", kRemoteRenderUsage);
+    return kExitOk;
+  }
   std::set<std::string> value_flags = kReconValueFlags;
   value_flags.insert({"cameras", "out", "outputs", "chunk-frames", "request-id", "clip"});
   std::set<std::string> bool_flags = kReconBoolFlags;
@@ -114,6 +111,7 @@ absl::StatusOr<int> RunRemoteRender(RemoteContext& ctx, const std::vector<std::s
   if (cl.Has("wait") && !cl.Has("out")) {
     return absl::InvalidArgumentError("--wait needs --out DIR to download the outputs into");
   }
+
   ASSIGN_OR_RETURN(const RenderTarget target, TargetFromFlags(cl));
   if (!target.scene.empty()) {
     // A scene exists already: how it was reconstructed is settled.
@@ -141,6 +139,9 @@ absl::StatusOr<int> RunRemoteRender(RemoteContext& ctx, const std::vector<std::s
                      ReconstructionOptionsFromFlags(cl));
   }
 
+  // Where the outputs go is checked before anything is sent, not after the
+  // job has rendered.
+  if (cl.Has("out")) RETURN_IF_ERROR(CheckWritableDir("--out", cl.Get("out")));
   RETURN_IF_ERROR(ctx.Connect());
   if (target.scene.empty()) {
     ASSIGN_OR_RETURN(*request.mutable_create_scene()->mutable_clip(),

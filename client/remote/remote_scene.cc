@@ -42,7 +42,8 @@ constexpr char kRemoteSceneUsage[] =
     "         [--refine N] [--splat-sigma S] [--low-pass PX2] [--hidden-band PX] "
     "[--no-ground-fill] "
     "[--no-facades] [--colour gradients|flat]\n"
-    "       pf --server ADDR scene get NAME | list [--page-size N] | delete NAME\n"
+    "       pf --server ADDR scene get NAME | list [--page-size N [--page-token T]] | delete "
+    "NAME\n"
     "       pf --server ADDR scene export NAME --ply OUT.ply [--time-us T]";
 
 absl::Status Usage() { return absl::InvalidArgumentError(kRemoteSceneUsage); }
@@ -106,15 +107,22 @@ absl::StatusOr<int> Get(RemoteContext& ctx, const std::vector<std::string>& word
   return kExitOk;
 }
 
+// Without --page-size, every scene (page after page); with it, one page of
+// that many, and on stderr the command that prints the next one.
 absl::StatusOr<int> List(RemoteContext& ctx, const std::vector<std::string>& words) {
-  ASSIGN_OR_RETURN(const CommandLine cl, ParseWords(words, 0, {"page-size"}));
+  ASSIGN_OR_RETURN(const CommandLine cl, ParseWords(words, 0, {"page-size", "page-token"}));
   ASSIGN_OR_RETURN(const int64_t page_size, cl.GetInt("page-size", 0));
   if (page_size < 0 || page_size > 1000) {
     return absl::InvalidArgumentError("--page-size: must be in [0, 1000]");
   }
+  if (cl.Has("page-token") && !cl.Has("page-size")) {
+    return absl::InvalidArgumentError("--page-token: needs --page-size");
+  }
+  const bool one_page = cl.Has("page-size");
   RETURN_IF_ERROR(ctx.Connect());
   v1::ListScenesRequest request;
   request.set_page_size(static_cast<int32_t>(page_size));
+  request.set_page_token(cl.Get("page-token"));
   std::set<std::string> tokens_seen;
   do {
     v1::ListScenesResponse response;
@@ -126,6 +134,14 @@ absl::StatusOr<int> List(RemoteContext& ctx, const std::vector<std::string>& wor
                    v1::Scene::State_Name(scene.state()).c_str(),
                    scene.model().empty() ? "-" : scene.model().c_str(),
                    static_cast<long long>(scene.gaussians()));
+    }
+    if (one_page) {
+      if (!response.next_page_token().empty()) {
+        std::fprintf(stderr, "more: pf --server %s scene list --page-size %lld --page-token %s\n",
+                     ctx.address().c_str(), static_cast<long long>(page_size),
+                     response.next_page_token().c_str());
+      }
+      return kExitOk;
     }
     if (!response.next_page_token().empty() &&
         !tokens_seen.insert(response.next_page_token()).second) {
@@ -281,6 +297,10 @@ void PrintSceneSummary(std::FILE* out, const v1::Scene& scene) {
 }
 
 absl::StatusOr<int> RunRemoteScene(RemoteContext& ctx, const std::vector<std::string>& args) {
+  if (WantsHelp(args)) {
+    std::fprintf(ctx.out(), "%s\n", kRemoteSceneUsage);
+    return kExitOk;
+  }
   if (args.empty()) return Usage();
   const std::string& verb = args[0];
   const std::vector<std::string> words(args.begin() + 1, args.end());

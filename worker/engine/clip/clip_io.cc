@@ -1,7 +1,8 @@
 // Clip manifest parsing and writing.
 //
-// Parsing goes in two steps: nlohmann::json turns the text into a tree (and
-// reports malformed JSON with its line and column), then ManifestReader walks
+// Parsing goes in two steps: ParseBoundedJson turns the text into a tree
+// (bounded in size and nesting; malformed JSON reported with its line and
+// column, keys given twice with their path), then ManifestReader walks
 // that tree against the protobuf descriptor of pointforward.v1.Clip. The walk
 // follows the proto3 JSON mapping (lowerCamelCase or original field names,
 // enums by name or number, 64-bit integers as numbers or decimal strings,
@@ -26,6 +27,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
+#include "common/bounded_json.h"
 #include "common/file_util.h"
 #include "common/status_macros.h"
 
@@ -50,9 +52,9 @@ std::string IndexPath(const std::string& path, size_t index) {
 
 // Returns a short description of `value` for "expected X, got Y" messages.
 std::string Describe(const Json& value) {
+  if (value.is_structured()) return std::string(value.type_name());
   std::string text = value.dump();
   if (text.size() > 40) text = absl::StrCat(text.substr(0, 37), "...");
-  if (value.is_structured()) return std::string(value.type_name());
   return absl::StrCat(value.type_name(), " ", text);
 }
 
@@ -76,9 +78,9 @@ size_t EditDistance(const std::string& a, const std::string& b) {
 // Parses `text` as exactly one JSON number into `number`; false if it is
 // anything else.
 bool ParseJsonNumber(const std::string& text, Json* number) {
-  Json parsed = Json::parse(text, nullptr, /*allow_exceptions=*/false);
-  if (parsed.is_discarded() || !parsed.is_number()) return false;
-  *number = std::move(parsed);
+  absl::StatusOr<Json> parsed = ParseBoundedJson(text, {.max_bytes = 1024, .max_depth = 0});
+  if (!parsed.ok() || !parsed->is_number()) return false;
+  *number = *std::move(parsed);
   return true;
 }
 
@@ -91,63 +93,6 @@ const gpb::FieldDescriptor* FindField(const gpb::Descriptor* descriptor, const s
   }
   return nullptr;
 }
-
-// Follows nlohmann's parse events to know the JSON path of each value, and
-// records keys that appear twice in one object (the parser would silently
-// keep only one of them).
-class DuplicateKeyFinder {
- public:
-  explicit DuplicateKeyFinder(std::vector<ClipProblem>* problems) : problems_(problems) {}
-
-  // The parser callback: always keeps the value.
-  bool operator()(int /*depth*/, Json::parse_event_t event, Json& parsed) {
-    using Event = Json::parse_event_t;
-    switch (event) {
-      case Event::object_start:
-      case Event::array_start:
-        stack_.push_back({event == Event::array_start, NextPath()});
-        break;
-      case Event::object_end:
-      case Event::array_end:
-        if (!stack_.empty()) stack_.pop_back();
-        break;
-      case Event::key:
-        if (!stack_.empty() && parsed.is_string()) {
-          Scope& scope = stack_.back();
-          scope.key = parsed.get<std::string>();
-          if (!scope.keys.insert(scope.key).second) {
-            problems_->push_back(
-                {ChildPath(scope.path, scope.key), "key given twice in one object"});
-          }
-        }
-        break;
-      case Event::value:
-        NextPath();
-        break;
-    }
-    return true;
-  }
-
- private:
-  struct Scope {
-    bool is_array = false;
-    std::string path;
-    std::set<std::string> keys;  // Objects: keys seen so far.
-    std::string key;             // Objects: the key of the value being read.
-    size_t next_index = 0;       // Arrays: the index of the next element.
-  };
-
-  // Returns the path of the value that starts now.
-  std::string NextPath() {
-    if (stack_.empty()) return "";
-    Scope& scope = stack_.back();
-    if (scope.is_array) return IndexPath(scope.path, scope.next_index++);
-    return ChildPath(scope.path, scope.key);
-  }
-
-  std::vector<ClipProblem>* problems_;
-  std::vector<Scope> stack_;
-};
 
 // Walks a JSON tree against a message descriptor, filling the message and
 // collecting problems.
@@ -533,26 +478,19 @@ std::string ClipProblem::ToString() const {
 absl::Status ParseJsonMessage(const std::string& json, google::protobuf::Message* message,
                               std::vector<ClipProblem>* problems) {
   std::vector<ClipProblem> found;
-  Json root;
-  bool well_formed = true;
-  try {
-    root = Json::parse(json, DuplicateKeyFinder(&found));
-  } catch (const Json::exception& e) {
-    // e.what() is "[json.exception.parse_error.101] parse error at line L,
-    // column C: ..."; keep what follows the bracketed id.
-    std::string what = e.what();
-    const size_t start = what.find("] ");
-    if (start != std::string::npos) what = what.substr(start + 2);
-    found.clear();  // Duplicate keys before the error are beside the point.
-    found.push_back({"", absl::StrCat("malformed JSON: ", what)});
-    well_formed = false;
-  }
-  if (well_formed) {
-    if (!root.is_object()) {
+  std::vector<std::string> duplicate_keys;
+  absl::StatusOr<Json> root = ParseBoundedJson(json, JsonLimits{}, &duplicate_keys);
+  if (!root.ok()) {
+    found.push_back({"", std::string(root.status().message())});
+  } else {
+    for (std::string& path : duplicate_keys) {
+      found.push_back({std::move(path), "key given twice in one object"});
+    }
+    if (!root->is_object()) {
       found.push_back(
-          {"", absl::StrCat("expected a JSON object at the top level, got ", Describe(root))});
+          {"", absl::StrCat("expected a JSON object at the top level, got ", Describe(*root))});
     } else {
-      ManifestReader(&found).ReadMessage(root, "", message);
+      ManifestReader(&found).ReadMessage(*root, "", message);
     }
   }
   if (problems != nullptr) problems->insert(problems->end(), found.begin(), found.end());

@@ -97,6 +97,17 @@ TEST(ClipIo, TruncatedJson) {
   EXPECT_NE(problems[0].find("malformed JSON"), std::string::npos) << problems[0];
 }
 
+TEST(ClipIo, DeeplyNestedJsonIsOneProblemNotACrash) {
+  // 100,000 levels in a string field: the parse and the "expected a string,
+  // got ..." message once recursed through every level.
+  const std::string deep =
+      "{\"name\": " + std::string(100000, '[') + std::string(100000, ']') + "}";
+  EXPECT_EQ(Problems(deep), std::vector<std::string>{"JSON nested deeper than 64 levels"});
+  // Shallow enough: the field's problem, without printing the value.
+  EXPECT_EQ(Problems(R"({"name": [[[1, 2]]]})"),
+            std::vector<std::string>{"name: expected a string, got array"});
+}
+
 TEST(ClipIo, TopLevelMustBeObject) {
   EXPECT_EQ(Problems("[1, 2]"),
             std::vector<std::string>{"expected a JSON object at the top level, got array"});

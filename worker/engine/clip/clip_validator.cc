@@ -126,6 +126,15 @@ void RunFileCheck(FileCheck* check) {
 
 }  // namespace
 
+std::string WorldCoordinateProblem(double value) {
+  if (!std::isfinite(value)) return absl::StrCat("not a finite number (", value, ")");
+  if (std::abs(value) > kMaxWorldCoordinate) {
+    return absl::StrCat(value, " m is beyond the ", kMaxWorldCoordinate,
+                        " m any world coordinate may have");
+  }
+  return "";
+}
+
 std::vector<uint8_t> EgoMaskFromImage(const ImageF& image) {
   const size_t pixels = static_cast<size_t>(image.width) * image.height;
   std::vector<uint8_t> mask(pixels, 0);
@@ -193,6 +202,12 @@ class ClipChecker {
       finite = CheckFinite(section, item, Indexed(field.c_str(), i), values[i]) && finite;
     }
     if (!finite) return;
+    for (int i : {3, 7, 11}) {
+      if (const std::string problem = WorldCoordinateProblem(values[i]); !problem.empty()) {
+        Add(section, item, Indexed(field.c_str(), i), problem);
+        return;
+      }
+    }
     double determinant = 0;
     const double error = RigidityError(values.data(), &determinant);
     if (error > kRigidityTolerance) {
@@ -459,7 +474,14 @@ class ClipChecker {
   }
 
   void CheckBox(int i, const std::string& at, const Box& box) {
-    CheckVector(Section::kInstances, i, at + ".center", box.center(), 3, "x, y, z in metres");
+    if (CheckVector(Section::kInstances, i, at + ".center", box.center(), 3, "x, y, z in metres")) {
+      for (int k = 0; k < 3; ++k) {
+        if (const std::string problem = WorldCoordinateProblem(box.center(k)); !problem.empty()) {
+          Add(Section::kInstances, i, Indexed((at + ".center").c_str(), k), problem);
+          break;
+        }
+      }
+    }
     if (CheckVector(Section::kInstances, i, at + ".size", box.size(), 3,
                     "length, width, height in metres")) {
       for (int k = 0; k < 3; ++k) {

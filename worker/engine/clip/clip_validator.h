@@ -25,6 +25,14 @@ namespace pf {
 inline constexpr double kRigidityTolerance = 1e-3;    // RigidityError() of a pose.
 inline constexpr double kQuaternionTolerance = 1e-3;  // | |q| - 1 | of a box rotation.
 
+// Largest |value| of a pose's translation or a box centre, in metres: past
+// any driving log's world frame; larger (finite) values are refused as
+// absurd before any arithmetic on them overflows.
+inline constexpr double kMaxWorldCoordinate = 1e7;
+
+// Returns "" when `value` is a usable world coordinate, else why not.
+std::string WorldCoordinateProblem(double value);
+
 // A camera's ego mask (Camera.ego_mask): pixels whose first channel is at
 // least this are the ego vehicle's body.
 inline constexpr float kEgoMaskThreshold = 0.5f;

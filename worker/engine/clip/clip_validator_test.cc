@@ -349,6 +349,10 @@ const BrokenClip kBrokenClips[] = {
      "frames[0].worldFromCamera", "expected 16 numbers (a row-major 4x4 matrix), got 12"},
     {"PoseNonFinite", [](Clip* c, auto) { c->mutable_frames(5)->set_world_from_camera(3, kInf); },
      "frames[5].worldFromCamera[3]", "not a finite number (inf)"},
+    {"PoseTranslationAbsurd",
+     [](Clip* c, auto) { c->mutable_frames(5)->set_world_from_camera(7, 1e308); },
+     "frames[5].worldFromCamera[7]",
+     "1e+308 m is beyond the 1e+07 m any world coordinate may have"},
     {"PoseNotRigid",
      [](Clip* c, auto) {
        // Scale the rotation by 0.9: det = 0.729.
@@ -435,6 +439,10 @@ const BrokenClip kBrokenClips[] = {
     {"BoxCenterNaN",
      [](Clip* c, auto) { c->mutable_instances(0)->mutable_boxes(1)->set_center(2, kNaN); },
      "instances[0].boxes[1].center[2]", "not a finite number"},
+    {"BoxCenterAbsurd",
+     [](Clip* c, auto) { c->mutable_instances(0)->mutable_boxes(1)->set_center(0, -2e7); },
+     "instances[0].boxes[1].center[0]",
+     "-2e+07 m is beyond the 1e+07 m any world coordinate may have"},
     {"BoxSizeWrongLength",
      [](Clip* c, auto) { c->mutable_instances(0)->mutable_boxes(2)->mutable_size()->RemoveLast(); },
      "instances[0].boxes[2].size", "expected 3 numbers (length, width, height in metres), got 2"},

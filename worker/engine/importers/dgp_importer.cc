@@ -16,6 +16,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
 #include "absl/time/time.h"
+#include "common/bounded_json.h"
 #include "common/file_util.h"
 #include "common/geometry.h"
 #include "common/status_macros.h"

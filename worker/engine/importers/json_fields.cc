@@ -5,6 +5,7 @@
 
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
+#include "common/bounded_json.h"
 #include "common/file_util.h"
 #include "common/status_macros.h"
 
@@ -12,8 +13,8 @@ namespace pf {
 
 absl::StatusOr<Json> LoadJson(const std::string& path) {
   ASSIGN_OR_RETURN(std::string text, ReadFileToString(path));
-  Json j = Json::parse(text, /*cb=*/nullptr, /*allow_exceptions=*/false);
-  if (j.is_discarded()) return absl::InvalidArgumentError(absl::StrCat(path, ": malformed JSON"));
+  absl::StatusOr<Json> j = ParseBoundedJson(text, {.max_bytes = int64_t{1} << 30});
+  if (!j.ok()) return StatusWithContext(j.status(), path);
   return j;
 }
 

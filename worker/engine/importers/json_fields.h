@@ -12,7 +12,7 @@
 
 namespace pf {
 
-using Json = nlohmann::json;
+using Json = nlohmann::ordered_json;
 
 // Parses the file at `path`; NOT_FOUND when missing, INVALID_ARGUMENT
 // ("PATH: malformed JSON") when it does not parse.

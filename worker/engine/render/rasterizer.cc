@@ -337,6 +337,11 @@ absl::StatusOr<RenderBuffers> Render(const GaussianScene& scene, const RenderCam
     return absl::InvalidArgumentError(
         absl::StrCat("camera: image size ", model.width(), "x", model.height(), " has no pixels"));
   }
+  if (int64_t{model.width()} * model.height() > kMaxRenderPixels) {
+    return absl::InvalidArgumentError(absl::StrCat("camera: image size ", model.width(), "x",
+                                                   model.height(), " exceeds ", kMaxRenderPixels,
+                                                   " pixels"));
+  }
   if (auto status = CheckRenderable(scene); !status.ok()) return status;
 
   // Owner poses at this time, with the edits applied.

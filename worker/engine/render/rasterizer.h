@@ -73,10 +73,14 @@ struct RenderBuffers {
 // every owner an instance of the scene. INVALID_ARGUMENT naming the field.
 absl::Status CheckRenderable(const GaussianScene& scene);
 
+// Most pixels one render may have (2^31): beyond, its buffers' sizes no
+// longer fit the rasterizer's indices.
+inline constexpr int64_t kMaxRenderPixels = int64_t{1} << 31;
+
 // Renders `scene` through `camera` at scene time `timestamp_us` with `edits`
 // applied. INVALID_ARGUMENT if an edit names an unknown instance or the
-// camera has no pixels. Deterministic for the same input and thread count;
-// uses DefaultThreadPool().
+// camera has no pixels or more than kMaxRenderPixels. Deterministic for the same input and thread
+// count; uses DefaultThreadPool().
 absl::StatusOr<RenderBuffers> Render(const GaussianScene& scene, const RenderCamera& camera,
                                      int64_t timestamp_us, const std::vector<ActorEdit>& edits,
                                      const RenderOptions& options = {});

@@ -320,6 +320,18 @@ TEST(Rasterizer, ColourGradientRampsAcrossAFacingDisc) {
   EXPECT_NEAR(out->rgb[3 * p] / out->alpha[p], 0.5, 0.02);
 }
 
+TEST(Rasterizer, ACameraOfMorePixelsThanBuffersCanHoldIsAnErrorNotAnAbort) {
+  // 1e9 x 1e9: the buffers' sizes once threw std::length_error out of Render.
+  RenderCamera camera = SimpleCamera();
+  camera.model = CameraModel(1'000'000'000, 1'000'000'000, 1e9, 1e9, 5e8, 5e8);
+  GaussianScene scene;
+  AddGaussian(&scene, {0, 0, 5}, 0.3, 0.9, {1, 0, 0});
+  const absl::StatusOr<RenderBuffers> out = Render(scene, camera, 0, {});
+  EXPECT_EQ(out.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(out.status().message(),
+            "camera: image size 1000000000x1000000000 exceeds 2147483648 pixels");
+}
+
 TEST(Rasterizer, OpaqueFrontGaussianHidesBack) {
   const RenderCamera camera = SimpleCamera();
   GaussianScene scene;

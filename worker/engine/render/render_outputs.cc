@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cstring>
 #include <filesystem>
+#include <limits>
 #include <memory>
 #include <nlohmann/json.hpp>
 
@@ -115,6 +116,48 @@ absl::StatusOr<OutputChannels> ParseOutputChannels(const std::vector<std::string
     }
   }
   return out;
+}
+
+int64_t EstimateRenderBytes(int64_t width, int64_t height, const OutputChannels& channels,
+                            int num_features) {
+  // Per pixel: rgb and alpha always, the selected layers, the fill's colour
+  // and pyramid, and the 8-bit preview with some slack.
+  int64_t floats = 3 + 1;
+  if (channels.depth) floats += 1;
+  if (channels.instance) floats += 1;
+  if (channels.features) floats += std::max(num_features, 0);
+  if (channels.filled) floats += 3 + 4;
+  const int64_t per_pixel = 4 * floats + 8;
+  const int64_t pixels = std::max<int64_t>(width, 0) * std::max<int64_t>(height, 0);
+  if (pixels > std::numeric_limits<int64_t>::max() / per_pixel) {
+    return std::numeric_limits<int64_t>::max();
+  }
+  return pixels * per_pixel;
+}
+
+absl::Status CheckRenderLimits(const pointforward::v1::RenderViews& views,
+                               const OutputChannels& channels, int num_features,
+                               const RenderLimits& limits, const std::string& cameras_field) {
+  for (int i = 0; i < views.cameras_size(); ++i) {
+    const pointforward::v1::Camera& camera = views.cameras(i);
+    const int64_t pixels = int64_t{camera.width()} * int64_t{camera.height()};
+    const std::string field = absl::StrCat(cameras_field, "[", i, "]");
+    if (limits.max_pixels_per_view > 0 && pixels > limits.max_pixels_per_view) {
+      return absl::InvalidArgumentError(
+          absl::StrCat(field, ": ", camera.width(), "x", camera.height(), " = ", pixels,
+                       " pixels per view exceed the limit of ", limits.max_pixels_per_view,
+                       " (--max-pixels-per-image)"));
+    }
+    const int64_t bytes =
+        EstimateRenderBytes(camera.width(), camera.height(), channels, num_features);
+    if (limits.max_bytes_per_view > 0 && bytes > limits.max_bytes_per_view) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          field, ": rendering a ", camera.width(), "x", camera.height(), " view takes about ",
+          bytes, " bytes, over the limit of ", limits.max_bytes_per_view,
+          " per view (--max-render-bytes); ask for fewer outputs or pixels"));
+    }
+  }
+  return absl::OkStatus();
 }
 
 std::vector<std::string> ExrChannelNames(const OutputChannels& channels, int num_features) {

@@ -80,6 +80,29 @@ struct OutputChannels {
 // the field or flag it came from).
 absl::StatusOr<OutputChannels> ParseOutputChannels(const std::vector<std::string>& names);
 
+// Limits on one view's render (pf-server --max-pixels-per-image,
+// --max-render-bytes); 0 means none.
+struct RenderLimits {
+  int64_t max_pixels_per_view = 0;
+  int64_t max_bytes_per_view = 0;
+};
+
+// Returns about how many bytes rendering one `width` x `height` view takes:
+// the render's buffers for `channels` (`num_features` feature channels), the
+// fill's when asked for, and the preview. Does not overflow for any int32
+// width and height.
+int64_t EstimateRenderBytes(int64_t width, int64_t height, const OutputChannels& channels,
+                            int num_features);
+
+// Checks every camera of `views` against `limits` before anything is
+// allocated: INVALID_ARGUMENT naming "<cameras_field>[i]" and the pf-server
+// flag of the limit, e.g. "views.cameras[0]: 12000x12000 = 144000000 pixels
+// per view exceed the limit of 50000000 (--max-pixels-per-image)".
+absl::Status CheckRenderLimits(const pointforward::v1::RenderViews& views,
+                               const OutputChannels& channels, int num_features,
+                               const RenderLimits& limits,
+                               const std::string& cameras_field = "cameras");
+
 // Returns the EXR channel names for `channels` and `num_features` channels,
 // in the order listed above.
 std::vector<std::string> ExrChannelNames(const OutputChannels& channels, int num_features);

@@ -368,5 +368,36 @@ TEST_F(RenderOutputsTest, ManifestListsEveryView) {
   EXPECT_EQ(v["distortion"].size(), 5u);
 }
 
+TEST(RenderLimits, PixelsAndEstimatedMemoryOfEveryCameraAreChecked) {
+  pointforward::v1::RenderViews views;
+  auto add_camera = [&views](int width, int height) {
+    pointforward::v1::Camera* camera = views.add_cameras();
+    camera->set_width(width);
+    camera->set_height(height);
+  };
+  add_camera(64, 48);
+  add_camera(12000, 12000);
+  const OutputChannels all;  // rgb, alpha, depth, features, instance.
+  EXPECT_EQ(CheckRenderLimits(views, all, 8, {50'000'000, 0}).message(),
+            "cameras[1]: 12000x12000 = 144000000 pixels per view exceed the limit of 50000000 "
+            "(--max-pixels-per-image)");
+  // Per pixel: 4 bytes x (3 rgb + alpha + depth + instance + 8 features) + 8.
+  EXPECT_EQ(EstimateRenderBytes(12000, 12000, all, 8), int64_t{144000000} * 64);
+  EXPECT_EQ(CheckRenderLimits(views, all, 8, {0, int64_t{144000000} * 64 - 1}).message(),
+            "cameras[1]: rendering a 12000x12000 view takes about 9216000000 bytes, over the "
+            "limit of 9215999999 per view (--max-render-bytes); ask for fewer outputs or pixels");
+  EXPECT_TRUE(CheckRenderLimits(views, all, 8, {144000000, int64_t{144000000} * 64}).ok());
+  EXPECT_TRUE(CheckRenderLimits(views, all, 8, {}).ok());  // 0: no limits.
+  // Fewer outputs, less memory.
+  OutputChannels rgb_only;
+  rgb_only.depth = rgb_only.features = rgb_only.instance = false;
+  EXPECT_EQ(EstimateRenderBytes(100, 10, rgb_only, 8), 1000 * (4 * 4 + 8));
+  // The largest cameras a request can name do not overflow the estimate.
+  add_camera(2147483647, 2147483647);
+  EXPECT_GT(EstimateRenderBytes(2147483647, 2147483647, all, 256), int64_t{1} << 62);
+  EXPECT_EQ(CheckRenderLimits(views, all, 8, {0, int64_t{1} << 40}).code(),
+            absl::StatusCode::kInvalidArgument);
+}
+
 }  // namespace
 }  // namespace pf

@@ -14,6 +14,7 @@
 #include "pointforward/v1/views.pb.h"
 #include "worker/engine/camera/camera_model.h"
 #include "worker/engine/clip/clip_io.h"
+#include "worker/engine/clip/clip_validator.h"
 
 namespace pf {
 namespace {
@@ -57,6 +58,11 @@ absl::StatusOr<Rigid> PoseFromNumbers(const google::protobuf::RepeatedField<doub
   for (double v : numbers) {
     if (!std::isfinite(v)) return Invalid(field, "non-finite number");
   }
+  for (int i : {3, 7, 11}) {
+    if (const std::string problem = WorldCoordinateProblem(numbers[i]); !problem.empty()) {
+      return Invalid(absl::StrCat(field, "[", i, "]"), problem);
+    }
+  }
   double det = 0;
   const double error = RigidityError(numbers.data(), &det);
   if (error > kRigidTolerance) {
@@ -79,6 +85,9 @@ absl::StatusOr<TrackBox> BoxFromProto(const v1::Box& box, const std::string& fie
   out.timestamp_us = box.timestamp_us();
   for (int i = 0; i < 3; ++i) {
     if (!std::isfinite(box.center(i))) return Invalid(field + ".center", "non-finite number");
+    if (const std::string problem = WorldCoordinateProblem(box.center(i)); !problem.empty()) {
+      return Invalid(absl::StrCat(field, ".center[", i, "]"), problem);
+    }
     out.center[i] = box.center(i);
   }
   if (box.size_size() == 3) {
@@ -115,6 +124,10 @@ std::vector<double> DistortionCoefficients(const v1::Distortion& d) {
 }
 
 }  // namespace
+
+std::string RenderViewName(const v1::View& view) {
+  return view.name().empty() ? DefaultViewName(view.camera(), view.timestamp_us()) : view.name();
+}
 
 absl::StatusOr<RenderRequest> ParseRenderViews(const std::string& json,
                                                const GaussianScene& scene) {
@@ -158,8 +171,7 @@ absl::StatusOr<RenderRequest> ParseRenderViews(const std::string& json,
     const v1::Distortion& distortion = message.cameras(camera->second).distortion();
     out.camera_model = ModelName(distortion);
     out.distortion = DistortionCoefficients(distortion);
-    out.name =
-        view.name().empty() ? DefaultViewName(view.camera(), view.timestamp_us()) : view.name();
+    out.name = RenderViewName(view);
     if (!IsSafeFileStem(out.name)) {
       return Invalid(field + ".name",
                      absl::StrCat("'", out.name,

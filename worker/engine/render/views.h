@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "absl/status/statusor.h"
+#include "pointforward/v1/views.pb.h"
 #include "worker/engine/render/gaussian_scene.h"
 #include "worker/engine/render/rasterizer.h"
 
@@ -37,6 +38,10 @@ struct RenderRequest {
   std::vector<RenderView> views;
   std::vector<ActorEdit> edits;
 };
+
+// Returns the output file stem of `view` as ParseRenderViews names it: its
+// name, else "<camera>_<timestamp_us>" made fit for a file name.
+std::string RenderViewName(const pointforward::v1::View& view);
 
 // Parses RenderViews JSON `json` and checks it against `scene`: cameras
 // valid and with unique ids, each view's camera known and its pose a rigid

@@ -132,6 +132,21 @@ TEST(RenderViews, ErrorsNameTheField) {
             std::string::npos);
 }
 
+TEST(RenderViews, AbsurdTranslationsAndCentresAreRefused) {
+  // Finite, but no world frame reaches 1e308 m: refused here, not found by
+  // the rasterizer's arithmetic on a worker.
+  EXPECT_EQ(ErrorFor("[0,0,1,5, -1,0,0,2", "[0,0,1,1e308, -1,0,0,2"),
+            "views[0].worldFromCamera[3]: 1e+308 m is beyond the 1e+07 m any world coordinate "
+            "may have");
+  EXPECT_EQ(ErrorFor(R"("center": [2, 0, 0])", R"("center": [2, -3e7, 0])"),
+            "edits[1].boxes[0].center[1]: -3e+07 m is beyond the 1e+07 m any world coordinate "
+            "may have");
+  // Large but plausible: accepted.
+  std::string json = ValidJson();
+  json.replace(json.find("[0,0,1,5,"), 9, "[0,0,1,9.9e6,");
+  EXPECT_TRUE(ParseRenderViews(json, SceneWithInstances()).ok());
+}
+
 TEST(RenderViews, CarriesFisheyeCoefficients) {
   const std::string json = R"({
     "cameras": [{"id": "fish", "width": 32, "height": 32,

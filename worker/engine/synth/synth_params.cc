@@ -3,13 +3,13 @@
 #include "worker/engine/synth/synth_params.h"
 
 #include <google/protobuf/struct.pb.h>
-#include <google/protobuf/util/json_util.h>
 
 #include <algorithm>
 #include <cmath>
 #include <set>
 
 #include "absl/strings/str_cat.h"
+#include "common/bounded_json.h"
 #include "common/file_util.h"
 #include "common/status_macros.h"
 
@@ -49,9 +49,8 @@ std::string SynthParamsToJson(const SynthOptions& options) {
 absl::StatusOr<SynthOptions> SynthParamsFromJson(const std::string& json,
                                                  const std::string& where) {
   google::protobuf::Struct params;
-  const auto parsed = google::protobuf::util::JsonStringToMessage(json, &params);
-  if (!parsed.ok()) {
-    return absl::InvalidArgumentError(absl::StrCat(where, ": malformed JSON: ", parsed.ToString()));
+  if (const absl::Status parsed = ParseBoundedProtoJson(json, &params); !parsed.ok()) {
+    return absl::InvalidArgumentError(absl::StrCat(where, ": malformed JSON: ", parsed.message()));
   }
   static const std::set<std::string> kKnown = {"generator", "version", "seed",   "cameras",
                                                "frames",    "width",   "height", "antialias"};

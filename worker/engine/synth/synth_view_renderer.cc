@@ -1,14 +1,13 @@
 // `pf synth render` (see synth_view_renderer.h).
 #include "worker/engine/synth/synth_view_renderer.h"
 
-#include <google/protobuf/util/json_util.h>
-
 #include <algorithm>
 #include <cmath>
 #include <map>
 #include <set>
 
 #include "absl/strings/str_cat.h"
+#include "common/bounded_json.h"
 #include "common/file_util.h"
 #include "common/status_macros.h"
 #include "spdlog/spdlog.h"
@@ -79,10 +78,9 @@ absl::StatusOr<std::vector<TrackPose>> CheckTrack(const v1::ActorEdit& edit,
 absl::StatusOr<v1::RenderViews> ParseRenderViews(const std::string& json,
                                                  const std::string& where) {
   v1::RenderViews request;
-  const auto parsed = google::protobuf::util::JsonStringToMessage(json, &request);
-  if (!parsed.ok()) {
+  if (const absl::Status parsed = ParseBoundedProtoJson(json, &request); !parsed.ok()) {
     return absl::InvalidArgumentError(
-        absl::StrCat(where, ": not a RenderViews message: ", parsed.ToString()));
+        absl::StrCat(where, ": not a RenderViews message: ", parsed.message()));
   }
   return request;
 }
