@@ -52,6 +52,8 @@ CLIPS = {
     # The first 8 frames only (24 views): a quicker check of a change.
     "pandaset_half_8": ("pandaset", "pandaset_002", ["--scale", "0.5", "--frames", "30:38"],
                         "alternate"),
+    "pandaset_half_8_cross_camera": ("pandaset", "pandaset_002",
+                                     ["--scale", "0.5", "--frames", "30:38"], "cross_camera"),
     "pandaset_half_cross_camera": ("pandaset", "pandaset_002", ["--scale", "0.5"],
                                    "cross_camera"),
 }

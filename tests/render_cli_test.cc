@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "absl/strings/str_cat.h"
+#include "common/colour_space.h"
 #include "common/file_util.h"
 #include "tests/test_util.h"
 #include "worker/engine/render/scene_file.h"
@@ -24,6 +25,12 @@ using testing::RunCommand;
 constexpr int kChannels = 4;
 constexpr float kBlue[kChannels] = {0.1f, 0.2f, 0.9f, 0.3f};
 constexpr float kRed[kChannels] = {0.9f, 0.1f, 0.1f, 0.7f};
+
+// The EXR's scene-linear value of a pixel whose sRGB-encoded colour,
+// premultiplied by `alpha`, is `premultiplied` (the scene is sRGB).
+float Linear(float premultiplied, float alpha) {
+  return alpha * SrgbToLinear(premultiplied / alpha);
+}
 
 GaussianScene MakeScene() {
   GaussianScene scene;
@@ -147,8 +154,8 @@ TEST_F(RenderCliTest, WritesExrPngAndManifestWithTheExpectedPixels) {
   ASSERT_EQ(t0.index.size(), 3u + 1 + 1 + kChannels + 1);
   const float front = 0.99f, back = 0.01f * 0.99f;
   EXPECT_NEAR(t0.at(32, 24, "A"), front + back, 2e-3);
-  EXPECT_NEAR(t0.at(32, 24, "R"), front * kRed[0] + back * kBlue[0], 2e-3);
-  EXPECT_NEAR(t0.at(32, 24, "B"), front * kRed[2] + back * kBlue[2], 2e-3);
+  EXPECT_NEAR(t0.at(32, 24, "R"), Linear(front * kRed[0] + back * kBlue[0], front + back), 2e-3);
+  EXPECT_NEAR(t0.at(32, 24, "B"), Linear(front * kRed[2] + back * kBlue[2], front + back), 2e-3);
   EXPECT_NEAR(t0.at(32, 24, "feature.003"), front * kRed[3] + back * kBlue[3], 2e-3);
   EXPECT_NEAR(t0.at(32, 24, "Z"), (front * 5 + back * 10) / (front + back), 2e-3);
   EXPECT_EQ(t0.instance[24 * 64 + 32], 1u);
@@ -164,10 +171,10 @@ TEST_F(RenderCliTest, WritesExrPngAndManifestWithTheExpectedPixels) {
   // uncovering the background at the centre.
   const Exr t1 = ReadExr(out + "/cam_1000000.exr");
   EXPECT_NEAR(t1.at(32, 24, "A"), 0.99, 2e-3);
-  EXPECT_NEAR(t1.at(32, 24, "B"), 0.99 * kBlue[2], 2e-3);
+  EXPECT_NEAR(t1.at(32, 24, "B"), 0.99 * SrgbToLinear(kBlue[2]), 2e-3);
   EXPECT_NEAR(t1.at(32, 24, "Z"), 10, 2e-3);
   EXPECT_EQ(t1.instance[24 * 64 + 32], 0u);
-  EXPECT_NEAR(t1.at(52, 24, "R"), 0.99 * kRed[0], 2e-3);
+  EXPECT_NEAR(t1.at(52, 24, "R"), 0.99 * SrgbToLinear(kRed[0]), 2e-3);
   EXPECT_NEAR(t1.at(52, 24, "Z"), 5, 2e-3);
   EXPECT_EQ(t1.instance[24 * 64 + 52], 1u);
   EXPECT_EQ(t1.spec.get_string_attribute("pf:timestampUs"), "1000000");
@@ -190,25 +197,27 @@ TEST_F(RenderCliTest, RemovedInstanceLeavesTheBackgroundVisible) {
   ASSERT_EQ(t0.index.size(), 4u);
   EXPECT_TRUE(t0.index.count("Z"));
   EXPECT_FALSE(t0.index.count("A"));
-  EXPECT_NEAR(t0.at(32, 24, "B"), 0.99 * kBlue[2], 2e-3);
+  EXPECT_NEAR(t0.at(32, 24, "B"), 0.99 * SrgbToLinear(kBlue[2]), 2e-3);
   EXPECT_NEAR(t0.at(32, 24, "Z"), 10, 2e-3);
 }
 
 TEST_F(RenderCliTest, FilledLayerGivesUncoveredPixelsTheColourAround) {
   // The car removed, only the blue Gaussian is left: covered pixels keep
-  // their colour, the empty corners take blue instead of black.
+  // their colour, the empty corners take blue instead of black (all
+  // scene-linear, as the RGB layer).
   const Exr t0 = RenderWithoutTheCar("filled", "rgb,alpha,filled");
   ASSERT_EQ(t0.index.size(), 7u);
-  EXPECT_NEAR(t0.at(32, 24, "filled.B"), 0.99 * kBlue[2], 2e-3);
+  const float blue[3] = {SrgbToLinear(kBlue[0]), SrgbToLinear(kBlue[1]), SrgbToLinear(kBlue[2])};
+  EXPECT_NEAR(t0.at(32, 24, "filled.B"), 0.99 * blue[2], 2e-3);
   EXPECT_EQ(t0.at(0, 0, "A"), 0.f);
   EXPECT_EQ(t0.at(0, 0, "B"), 0.f);
   // Blue, as dark as the mean of the pixels around (those with alpha >= 0.5
-  // count as they are, composited over black; measured 0.83 x blue).
-  const float scale = t0.at(0, 0, "filled.B") / kBlue[2];
+  // count as they are, composited over black).
+  const float scale = t0.at(0, 0, "filled.B") / blue[2];
   EXPECT_GT(scale, 0.5f);
   EXPECT_LE(scale, 1.f);
-  EXPECT_NEAR(t0.at(0, 0, "filled.R"), scale * kBlue[0], 2e-3);
-  EXPECT_NEAR(t0.at(0, 0, "filled.G"), scale * kBlue[1], 2e-3);
+  EXPECT_NEAR(t0.at(0, 0, "filled.R"), scale * blue[0], 2e-3);
+  EXPECT_NEAR(t0.at(0, 0, "filled.G"), scale * blue[1], 2e-3);
 }
 
 TEST_F(RenderCliTest, BadInputExitsTwoNamingTheField) {

@@ -111,8 +111,8 @@ absl::StatusOr<std::vector<ContextView>> LoadFrames(const LoadedClip& loaded,
     absl::StatusOr<std::string> image_path =
         ResolveClipPath(loaded, frame.image(), options.allow_outside_paths);
     if (!image_path.ok()) return WithField(image_path.status(), where + ".image");
-    absl::StatusOr<ImageF> rgb = ReadColourImage(*image_path, 3, encodings[frame.camera()],
-                                                 options.colour_encoding);
+    absl::StatusOr<ImageF> rgb =
+        ReadColourImage(*image_path, 3, encodings[frame.camera()], options.colour_encoding);
     if (!rgb.ok()) return WithField(rgb.status(), where + ".image");
     RETURN_IF_ERROR(CheckSize(*rgb, view.camera, where + ".image"));
     view.rgb = *std::move(rgb);

@@ -125,8 +125,7 @@ FrameMetrics Measure(const ImageF& truth_rgb, const ImageF& truth_depth,
       MeasureImage(truth_rgb, truth_depth, render, depth, false, std::move(dynamic_mask), ego);
   ImageF filled(buffers.width, buffers.height, 3);
   filled.pixels = FillUncovered(buffers.rgb, buffers.alpha, buffers.width, buffers.height);
-  ConvertColours(filled.pixels.data(), buffers.alpha.size(), 3, 3, encoding,
-                 ColourEncoding::kSrgb);
+  ConvertColours(filled.pixels.data(), buffers.alpha.size(), 3, 3, encoding, ColourEncoding::kSrgb);
   for (float& v : filled.pixels) v = std::clamp(v, 0.f, 1.f);
   const std::vector<uint8_t> scene_pixels = ScenePixels(ego);
   m.filled_psnr = Psnr(truth_rgb, filled, scene_pixels).value_or(0.0);
@@ -620,8 +619,8 @@ absl::StatusOr<EvalReport> EvaluateClip(const LoadedClip& loaded, const ReconOpt
     const std::vector<uint8_t> mask =
         DynamicMask(target.camera, target.world_from_camera, scene.instances, target.timestamp_us);
     ImageF render;
-    FrameMetrics m =
-        Measure(target.rgb, target.depth, buffers, scene.colour_encoding, mask, target.ego, &render);
+    FrameMetrics m = Measure(target.rgb, target.depth, buffers, scene.colour_encoding, mask,
+                             target.ego, &render);
     m.render_seconds = render_seconds;
     report.render_seconds += m.render_seconds;
     m.camera = target.camera_id;

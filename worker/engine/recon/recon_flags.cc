@@ -8,10 +8,9 @@
 namespace pf {
 
 const std::set<std::string>& ReconValueFlags() {
-  static const std::set<std::string> flags = {"model",    "ns",     "nd",          "fusion",
-                                              "device",   "refine", "hidden-band", "splat-sigma",
-                                              "low-pass", "colour", "working-space",
-                                              "completion"};
+  static const std::set<std::string> flags = {
+      "model",       "ns",          "nd",       "fusion", "device",        "refine",
+      "hidden-band", "splat-sigma", "low-pass", "colour", "working-space", "completion"};
   return flags;
 }
 
@@ -72,8 +71,8 @@ absl::StatusOr<ReconOptions> ReconOptionsFromFlags(const CommandLine& cl) {
   } else if (completion == "ip-basic") {
     options.completion.method = CompletionOptions::Method::kIpBasic;
   } else {
-    return absl::InvalidArgumentError(absl::StrCat(
-        "--completion: unknown method '", completion, "' (expected nearest or ip-basic)"));
+    return absl::InvalidArgumentError(absl::StrCat("--completion: unknown method '", completion,
+                                                   "' (expected nearest or ip-basic)"));
   }
   options.allow_outside_paths = cl.Has("allow-outside-paths");
   ASSIGN_OR_RETURN(options.decoder.tangent_sigma,

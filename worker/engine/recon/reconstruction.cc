@@ -68,8 +68,7 @@ absl::Status SetTracksFromClip(const pointforward::v1::Clip& clip, ReconInputs* 
   return absl::OkStatus();
 }
 
-absl::StatusOr<ReconInputs> LoadReconInputs(const LoadedClip& loaded,
-                                            const ReconOptions& options) {
+absl::StatusOr<ReconInputs> LoadReconInputs(const LoadedClip& loaded, const ReconOptions& options) {
   ReconInputs inputs;
   LoadViewsOptions view_options;
   view_options.allow_outside_paths = options.allow_outside_paths;

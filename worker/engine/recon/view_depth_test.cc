@@ -5,6 +5,8 @@
 
 #include <cmath>
 
+#include "worker/engine/recon/depth_completion.h"
+
 namespace pf {
 namespace {
 
@@ -177,6 +179,46 @@ TEST(ViewDepth, MeasuredDepthPrefersTheDepthMap) {
   EXPECT_TRUE(from_lidar);
   EXPECT_FLOAT_EQ(lidar.at(20, 15), 10.f);
   EXPECT_FLOAT_EQ(lidar.at(22, 16), 10.f);  // Completed around the measurement.
+}
+
+// --completion ip-basic: IP-Basic's depth (no upward extension) wherever it
+// has one, the nearest measurement's elsewhere.
+TEST(ViewDepth, IpBasicCompletionTakesIpBasicsDepthAndTheNearestElsewhere) {
+  ContextView view;
+  view.camera = kCamera;  // The world is the camera frame.
+  LidarSweepData sweep;
+  // A wall leaning away, z = 8 + 0.2 * y_cam, sampled every 3rd pixel of
+  // rows 12-27, so the rows above stay beyond IP-Basic without extension.
+  for (int v = 12; v < 28; v += 3) {
+    for (int u = 1; u < 40; u += 3) {
+      const double x = (u + 0.5 - 20) / 40, y = (v + 0.5 - 15) / 40;
+      const double z = 8 / (1 - 0.2 * y);
+      sweep.points.insert(sweep.points.end(), {float(x * z), float(y * z), float(z)});
+    }
+  }
+  CompletionOptions options;
+  options.ground_fill = false;
+  const ImageF nearest = MeasuredDepth(view, {sweep}, {}, options);
+  options.method = CompletionOptions::Method::kIpBasic;
+  const ImageF ip_basic = MeasuredDepth(view, {sweep}, {}, options);
+  const ImageF projected = ProjectPoints(sweep.points, view.camera, view.world_from_camera);
+  IpBasicOptions no_extension;
+  no_extension.extrapolate = false;
+  const ImageF dense = CompleteDepthIpBasic(projected, no_extension);
+  int from_ip_basic = 0, from_nearest = 0, differ = 0;
+  for (size_t i = 0; i < dense.pixels.size(); ++i) {
+    if (dense.pixels[i] > 0.f) {
+      EXPECT_FLOAT_EQ(ip_basic.pixels[i], dense.pixels[i]) << i;
+      ++from_ip_basic;
+    } else {
+      EXPECT_FLOAT_EQ(ip_basic.pixels[i], nearest.pixels[i]) << i;
+      from_nearest += nearest.pixels[i] > 0.f;
+    }
+    differ += std::abs(ip_basic.pixels[i] - nearest.pixels[i]) > 1e-4f;
+  }
+  EXPECT_GT(from_ip_basic, 40 * 12);
+  EXPECT_GT(from_nearest, 0);  // Above row 12, within the nearest fill's radius.
+  EXPECT_GT(differ, 0);
 }
 
 // A camera at `height` over the world origin, looking along +x with a level

@@ -408,12 +408,11 @@ absl::StatusOr<std::string> EncodePly(const GaussianScene& scene, const PlyExpor
                                      [](float s) { return std::isfinite(s); });
   const std::vector<std::string> names = ExportProperties(scene, with_features, with_time);
 
-  std::string header =
-      absl::StrCat("ply\nformat binary_little_endian 1.0\ncomment ", kCommentTag,
-                   " time_origin_us=", scene.time_origin_us, " sh_degree=", scene.sh_degree,
-                   " low_pass=", scene.low_pass,
-                   " colour_encoding=", ColourEncodingName(scene.colour_encoding),
-                   "\nelement vertex ", n, "\n");
+  std::string header = absl::StrCat("ply\nformat binary_little_endian 1.0\ncomment ", kCommentTag,
+                                    " time_origin_us=", scene.time_origin_us,
+                                    " sh_degree=", scene.sh_degree, " low_pass=", scene.low_pass,
+                                    " colour_encoding=", ColourEncodingName(scene.colour_encoding),
+                                    "\nelement vertex ", n, "\n");
   for (const std::string& name : names) absl::StrAppend(&header, "property float ", name, "\n");
   absl::StrAppend(&header, "end_header\n");
 

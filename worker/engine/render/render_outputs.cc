@@ -190,7 +190,8 @@ absl::Status WriteRenderExr(const std::string& path, const RenderBuffers& buffer
     RETURN_IF_ERROR(CheckLayer("alpha", buffers.alpha.size(), pixels));
     linear_rgb = LinearRgb(buffers, scene.colour_encoding);
   }
-  if (channels.filled) filled = FillUncovered(linear_rgb, buffers.alpha, buffers.width, buffers.height);
+  if (channels.filled)
+    filled = FillUncovered(linear_rgb, buffers.alpha, buffers.width, buffers.height);
   const std::vector<ChannelSource> sources = Sources(buffers, channels, linear_rgb, filled);
   if (sources.empty()) {
     return absl::InvalidArgumentError(absl::StrCat(path, ": no output layer selected"));
@@ -240,7 +241,7 @@ absl::Status WriteRenderExr(const std::string& path, const RenderBuffers& buffer
   // RGB is scene-linear light with Rec. 709 / sRGB primaries and a D65 white
   // (OpenEXR's chromaticities attribute, x y of red, green, blue, white).
   spec.attribute("oiio:ColorSpace", "Linear");
-  static constexpr float kRec709Chromaticities[8] = {0.64f, 0.33f,   0.30f,   0.60f,
+  static constexpr float kRec709Chromaticities[8] = {0.64f, 0.33f, 0.30f,   0.60f,
                                                      0.15f, 0.06f, 0.3127f, 0.3290f};
   spec.attribute("chromaticities", TypeDesc(TypeDesc::FLOAT, 8), kRec709Chromaticities);
 

@@ -121,8 +121,8 @@ TEST_F(RenderOutputsTest, ExrHasEveryChannelWithItsTypeValuesAndHeader) {
   for (size_t i = 0; i < size_t(kWidth) * kHeight; ++i) {
     // The scene's colours are sRGB-encoded (SceneLabel's default): RGB is linear.
     for (int c = 0; c < 3; ++c) {
-      EXPECT_NEAR(value(i, std::string(1, "RGB"[c])), LinearOf(buffers.rgb[3 * i + c], buffers.alpha[i]),
-                  1e-3)
+      EXPECT_NEAR(value(i, std::string(1, "RGB"[c])),
+                  LinearOf(buffers.rgb[3 * i + c], buffers.alpha[i]), 1e-3)
           << i;
     }
     EXPECT_NEAR(value(i, "A"), buffers.alpha[i], 1e-3) << i;
@@ -230,7 +230,8 @@ TEST_F(RenderOutputsTest, FilledLayerIsTheRenderOverItsPushPullFill) {
   std::vector<float> pixels(size_t(kWidth) * kHeight * spec.nchannels);
   ASSERT_TRUE(in->read_image(0, 0, 0, spec.nchannels, TypeDesc::FLOAT, pixels.data()));
   std::vector<float> linear(buffers.rgb.size());
-  for (size_t i = 0; i < linear.size(); ++i) linear[i] = LinearOf(buffers.rgb[i], buffers.alpha[i / 3]);
+  for (size_t i = 0; i < linear.size(); ++i)
+    linear[i] = LinearOf(buffers.rgb[i], buffers.alpha[i / 3]);
   const std::vector<float> expected =
       FillUncovered(linear, buffers.alpha, buffers.width, buffers.height);
   const int a = spec.channelindex("A");
@@ -311,8 +312,7 @@ TEST_F(RenderOutputsTest, GreyRampComesBackLinearInTheExrAndAsTheInputInThePng) 
   for (const bool linear_scene : {false, true}) {
     SCOPED_TRACE(linear_scene ? "linear scene" : "sRGB scene");
     const RenderBuffers ramp = GreyRamp(linear_scene);
-    const ColourEncoding encoding =
-        linear_scene ? ColourEncoding::kLinear : ColourEncoding::kSrgb;
+    const ColourEncoding encoding = linear_scene ? ColourEncoding::kLinear : ColourEncoding::kSrgb;
     OutputChannels channels;
     channels.features = channels.instance = false;
     const std::string exr = dir_ + "/ramp.exr", png = dir_ + "/ramp.png";
@@ -329,8 +329,8 @@ TEST_F(RenderOutputsTest, GreyRampComesBackLinearInTheExrAndAsTheInputInThePng) 
     ASSERT_TRUE(png_rgb.ok());
     for (int x = 0; x < 256; ++x) {
       // The sRGB EOTF of each input value, to half precision.
-      const double eotf = x / 255.0 <= 0.04045 ? x / 255.0 / 12.92
-                                               : std::pow((x / 255.0 + 0.055) / 1.055, 2.4);
+      const double eotf =
+          x / 255.0 <= 0.04045 ? x / 255.0 / 12.92 : std::pow((x / 255.0 + 0.055) / 1.055, 2.4);
       for (int c = 0; c < 3; ++c) {
         EXPECT_NEAR(pixels[x * spec.nchannels + rgb_index[c]], eotf, 1e-3 * eotf + 1e-7) << x;
         EXPECT_NEAR(png_rgb->at(x, 0, c), x / 255.f, 1e-6) << x;  // The input value.
