@@ -167,7 +167,7 @@ TEST(ColourRefinement, EgoBodyPixelsAreLeftOut) {
 
 // Returns `geometry` with the render of `scene` through it as its image
 // (empty pixels, with a failure recorded, if the render fails).
-ContextView RenderedView(const GaussianScene& scene, const ContextView& geometry) {
+ContextView ViewRenderedFrom(const GaussianScene& scene, const ContextView& geometry) {
   RenderOptions render_options;
   render_options.features = false;
   absl::StatusOr<RenderBuffers> render =
@@ -194,7 +194,7 @@ TEST(ColourRefinement, RecoversTheColoursAContextImageWasRenderedFrom) {
       AddGaussian(&truth, at, 0.3, 0.9, {u(rng), u(rng), u(rng)});
     }
   }
-  const ContextView view = RenderedView(truth, geometry);
+  const ContextView view = ViewRenderedFrom(truth, geometry);
   ASSERT_FALSE(view.rgb.pixels.empty());
 
   GaussianScene scene = truth;
@@ -241,7 +241,7 @@ TEST(ColourRefinement, FitsColourGradientsAFlatFitCannot) {
   }
   truth.colour_gradients.resize(6 * truth.size());
   for (float& v : truth.colour_gradients) v = static_cast<float>(g(rng));
-  const ContextView view = RenderedView(truth, geometry);
+  const ContextView view = ViewRenderedFrom(truth, geometry);
   ASSERT_FALSE(view.rgb.pixels.empty());
 
   GaussianScene start = truth;
@@ -291,7 +291,7 @@ TEST(ColourRefinement, ADiscWithAGradientIsFittedInOneIteration) {
               {0.3, 0.6, 0.45});
   truth.log_scales[2] = std::log(0.01f);  // A flat disc facing the camera.
   truth.colour_gradients = {0.2f, -0.1f, -0.15f, 0.1f, 0.05f, 0.2f};
-  const ContextView view = RenderedView(truth, geometry);
+  const ContextView view = ViewRenderedFrom(truth, geometry);
   ASSERT_FALSE(view.rgb.pixels.empty());
 
   GaussianScene fitted = truth;
