@@ -9,6 +9,7 @@
 #include <grpcpp/grpcpp.h>
 #include <signal.h>
 
+#include <atomic>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -20,6 +21,7 @@
 #include <thread>
 #include <vector>
 
+#include "absl/strings/str_cat.h"
 #include "common/hash.h"
 #include "google/longrunning/operations.grpc.pb.h"
 #include "gtest/gtest.h"
@@ -560,18 +562,39 @@ grpc::Status WaitOnce(Client& client, const std::string& name, int seconds = 0,
 class LongPoll {
  public:
   LongPoll(Client& client, const std::string& name)
-      : thread_([this, &client, name] { status_ = WaitOnce(client, name, 60, &context_); }) {}
+      : thread_([this, &client, name] {
+          status_ = WaitOnce(client, name, 60, &context_);
+          done_ = true;
+        }) {}
   ~LongPoll() { Stop(); }
   void Stop() {
     context_.TryCancel();
     if (thread_.joinable()) thread_.join();
   }
+  // True once the call returned; then status() is its outcome.
+  bool done() const { return done_; }
+  std::string Describe() const {
+    return done_ ? absl::StrCat("ended: ", status_.error_code(), " ", status_.error_message())
+                 : "in flight";
+  }
 
  private:
   grpc::ClientContext context_;
   grpc::Status status_;
+  std::atomic<bool> done_{false};
   std::thread thread_;
 };
+
+// Keeps `polls` in flight: a poll that ended (the connection dropped under
+// load) is started again, its end added to `log`.
+void KeepPolling(std::vector<std::unique_ptr<LongPoll>>& polls, Client& client,
+                 const std::string& name, std::string* log) {
+  for (std::unique_ptr<LongPoll>& poll : polls) {
+    if (!poll->done()) continue;
+    absl::StrAppend(log, poll->Describe(), "; ");
+    poll = std::make_unique<LongPoll>(client, name);
+  }
+}
 
 TEST_F(AuthE2e, LongPollsAreCappedPerOwnerAndInAllWhileOtherCallsAreServed) {
   ServerProcess server(test_dir_);
@@ -587,29 +610,36 @@ TEST_F(AuthE2e, LongPollsAreCappedPerOwnerAndInAllWhileOtherCallsAreServed) {
   Client bob(server.address(), kBobToken);
 
   // Alice holds two long polls: her third is refused, naming the cap.
-  auto a1 = std::make_unique<LongPoll>(alice, op);
-  auto a2 = std::make_unique<LongPoll>(alice, op);
+  std::vector<std::unique_ptr<LongPoll>> alices;
+  alices.push_back(std::make_unique<LongPoll>(alice, op));
+  alices.push_back(std::make_unique<LongPoll>(alice, op));
   grpc::Status third;
+  std::string restarts;
   EXPECT_TRUE(WaitFor(
       [&] {
+        KeepPolling(alices, alice, op, &restarts);
         third = WaitOnce(alice, op);
         return third.error_code() == grpc::StatusCode::RESOURCE_EXHAUSTED;
       },
       std::chrono::seconds(10)))
-      << third.error_message();
+      << third.error_code() << " " << third.error_message() << "; polls restarted: " << restarts
+      << alices[0]->Describe() << ", " << alices[1]->Describe();
   EXPECT_NE(third.error_message().find("(pf-server --max-long-polls-per-caller)"),
             std::string::npos)
       << third.error_message();
   // Bob still gets one; then the server's cap of 3 is reached.
-  auto b1 = std::make_unique<LongPoll>(bob, op);
+  std::vector<std::unique_ptr<LongPoll>> bobs;
+  bobs.push_back(std::make_unique<LongPoll>(bob, op));
   grpc::Status fourth;
   EXPECT_TRUE(WaitFor(
       [&] {
+        KeepPolling(alices, alice, op, &restarts);
+        KeepPolling(bobs, bob, op, &restarts);
         fourth = WaitOnce(bob, op);
         return fourth.error_code() == grpc::StatusCode::RESOURCE_EXHAUSTED;
       },
       std::chrono::seconds(10)))
-      << fourth.error_message();
+      << fourth.error_code() << " " << fourth.error_message() << "; polls restarted: " << restarts;
   EXPECT_NE(fourth.error_message().find("(pf-server --max-long-polls)"), std::string::npos)
       << fourth.error_message();
   // Every other call is served meanwhile.
@@ -618,10 +648,9 @@ TEST_F(AuthE2e, LongPollsAreCappedPerOwnerAndInAllWhileOtherCallsAreServed) {
   EXPECT_EQ(alice.OperationNames().size(), 1u);
   EXPECT_EQ(Pf(server, "alice", {"jobs", "get", op}).exit_code, 0);
   // Polls that end give their places back.
-  a1->Stop();
-  a2->Stop();
+  for (auto& poll : alices) poll->Stop();
   EXPECT_TRUE(WaitFor([&] { return WaitOnce(alice, op).ok(); }, std::chrono::seconds(10)));
-  b1->Stop();
+  for (auto& poll : bobs) poll->Stop();
 }
 
 TEST_F(AuthE2e, OnlyWorkerOrAdminTokensMayLeaseTasks) {
