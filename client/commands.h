@@ -34,6 +34,7 @@ int RunRender(const std::vector<std::string>& args);       // pf render
 int RunBench(const std::vector<std::string>& args);        // pf bench raster
 int RunReconstruct(const std::vector<std::string>& args);  // pf reconstruct
 int RunEval(const std::vector<std::string>& args);         // pf eval
+int RunDepthEval(const std::vector<std::string>& args);    // pf depth-eval
 
 }  // namespace pf
 

@@ -6,8 +6,12 @@
 //   pf import dgp SCENE_DIR --out DIR [--cameras CAMERA_01,...] [...same]
 //   pf import pandaset SEQ_DIR --out DIR [--cameras front_camera,...]
 //       [--frames A:B] [--scale S] [--roles ...]
+//   any of them [--lidar-as-depth-maps]: the LiDAR written as a sparse depth
+//       map per frame instead of sweeps
+// The generated protobuf header first (see image_io.h).
 #include <cstdio>
 #include <filesystem>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -18,10 +22,15 @@
 #include "common/command_line.h"
 #include "common/file_util.h"
 #include "common/status_macros.h"
+#include "pointforward/v1/clip.pb.h"
+#include "worker/engine/clip/clip_validator.h"
+#include "worker/engine/image/image_io.h"
 #include "worker/engine/importers/clip_output.h"
 #include "worker/engine/importers/dgp_importer.h"
 #include "worker/engine/importers/pandaset_importer.h"
 #include "worker/engine/importers/waymo_importer.h"
+#include "worker/engine/recon/context_views.h"
+#include "worker/engine/recon/view_depth.h"
 
 namespace pf {
 namespace {
@@ -33,8 +42,12 @@ constexpr char kImportUsage[] =
     "[--duration-us D] [--roles paper|all-context|alternate]\n"
     "       pf import pandaset SEQ_DIR --out DIR [--cameras A,B] [--frames A:B] "
     "[--scale S] [--roles paper|all-context|alternate]\n"
+    "       any of them [--lidar-as-depth-maps]\n"
     "T and D are microseconds from the log's first timestamp; --frames A:B takes "
-    "PandaSet frames A to B-1; 0 < S <= 1 resizes the images.";
+    "PandaSet frames A to B-1; 0 < S <= 1 resizes the images. --lidar-as-depth-maps "
+    "writes each frame's LiDAR (the nearest sweep, moving boxes' points moved to the "
+    "frame's time) as a sparse depth map, depth/<camera>_<timestampUs>.exr, and "
+    "leaves the sweeps out of the clip: a clip as rigs that give depth maps write it.";
 
 // Returns the directory of the running binary (from /proc/self/exe).
 std::string ExecutableDir() {
@@ -75,10 +88,46 @@ absl::StatusOr<ImportOptions> ParseOptions(const CommandLine& cl) {
   return options;
 }
 
+// Replaces the LiDAR sweeps of the clip at `manifest_path` by a sparse depth
+// map per frame (--lidar-as-depth-maps). Frames that have a depth map keep it.
+// Returns the clip written.
+absl::StatusOr<pointforward::v1::Clip> WriteLidarAsDepthMaps(const std::string& manifest_path) {
+  ASSIGN_OR_RETURN(const LoadedClip loaded, LoadValidClip(manifest_path, {}));
+  ASSIGN_OR_RETURN(const std::vector<LidarSweepData> sweeps, LoadLidarSweeps(loaded));
+  if (sweeps.empty()) {
+    return absl::FailedPreconditionError(absl::StrCat(
+        "--lidar-as-depth-maps: the log gave the clip no LiDAR sweep to write as depth maps (",
+        manifest_path, " is written without them)"));
+  }
+  ASSIGN_OR_RETURN(const std::vector<InstanceTrack> tracks, TracksFromClip(loaded.clip));
+  std::map<std::string, CameraModel> cameras;
+  for (const pointforward::v1::Camera& camera : loaded.clip.cameras()) {
+    ASSIGN_OR_RETURN(CameraModel model, CameraModelFromProto(camera));
+    cameras.emplace(camera.id(), model);
+  }
+  pointforward::v1::Clip clip = loaded.clip;
+  RETURN_IF_ERROR(MakeDirs(absl::StrCat(loaded.dir, "/depth")));
+  for (pointforward::v1::Frame& frame : *clip.mutable_frames()) {
+    if (!frame.depth().empty()) continue;
+    const int sweep = NearestSweep(sweeps, frame.timestamp_us());
+    const ImageF depth = ProjectPoints(PointsAtTime(sweeps[sweep], tracks, frame.timestamp_us()),
+                                       cameras.at(frame.camera()),
+                                       Rigid::FromRowMajor(frame.world_from_camera().data()));
+    const std::string relative =
+        absl::StrCat("depth/", frame.camera(), "_", frame.timestamp_us(), ".exr");
+    RETURN_IF_ERROR(WriteDepthExr(absl::StrCat(loaded.dir, "/", relative), depth));
+    frame.set_depth(relative);
+  }
+  clip.clear_lidar();
+  RETURN_IF_ERROR(WriteClipManifest(clip, loaded.dir).status());
+  return clip;
+}
+
 absl::StatusOr<std::string> Import(const std::vector<std::string>& args) {
-  ASSIGN_OR_RETURN(CommandLine cl,
-                   CommandLine::Parse(args, {"out", "cameras", "start-us", "duration-us", "roles",
-                                             "frames", "scale"}));
+  ASSIGN_OR_RETURN(CommandLine cl, CommandLine::Parse(args,
+                                                      {"out", "cameras", "start-us", "duration-us",
+                                                       "roles", "frames", "scale"},
+                                                      {"lidar-as-depth-maps"}));
   if (cl.positional().size() != 2) {
     return absl::InvalidArgumentError(absl::StrCat(
         cl.positional().empty() ? "expected a format (waymo, dgp or pandaset) and a source path"
@@ -114,6 +163,12 @@ absl::StatusOr<std::string> Import(const std::vector<std::string>& args) {
   }
   for (const std::string& warning : result.warnings) {
     std::fprintf(stderr, "pf import: warning: %s\n", warning.c_str());
+  }
+  if (cl.Has("lidar-as-depth-maps")) {
+    ASSIGN_OR_RETURN(const pointforward::v1::Clip clip,
+                     WriteLidarAsDepthMaps(result.manifest_path));
+    return absl::StrCat(result.manifest_path, ": ", SummarizeClip(clip),
+                        "; LiDAR written as a sparse depth map per frame (depth/)");
   }
   return absl::StrCat(result.manifest_path, ": ", SummarizeClip(result.clip));
 }

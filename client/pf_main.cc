@@ -38,7 +38,8 @@ commands:
               [--roles paper|all-context|alternate]
   import pandaset SEQ_DIR --out DIR [--cameras A,B] [--frames A:B] [--scale S]
               [--roles paper|all-context|alternate]
-        turn a driving log into a clip
+        turn a driving log into a clip; any of them [--lidar-as-depth-maps]: the
+        LiDAR as a sparse depth map per frame (depth/) instead of sweeps
   scene info SCENE | scene export SCENE --ply OUT.ply [--time-us T]
         inspect or export a Gaussian scene
   render SCENE --cameras VIEWS.json --out DIR [--outputs rgb,alpha,depth,features,instance,filled]
@@ -55,6 +56,10 @@ commands:
        [--views VIEWS.json --truth DIR2] [--lane-shift D1,D2,... --lane-shift-time-us T]
         reconstruct, render the TARGET frames (and extra or lane-shifted views), write
         DIR/report.json and contact sheets; pf eval --help for the details
+  depth-eval CLIP.json [--hide half|top] [--top-share F] [--json FILE] [--completion ...]
+             [--no-ground-fill] [--no-facades]
+        hide part of the LiDAR from the depth stage and measure each method's dense
+        depth at the hidden points; pf depth-eval --help for the details
   help  this text; pf COMMAND --help shows one command's lines
 
 remote mode: pf --server HOST:PORT <command> (or PF_SERVER=HOST:PORT, which sends
@@ -140,9 +145,9 @@ int main(int argc, char** argv) {
   const std::string command = argv[1];
   const std::vector<std::string> args(argv + 2, argv + argc);
   // pf COMMAND --help: that command's lines of pf help (pf eval has its own).
-  if (command != "eval" && std::any_of(args.begin(), args.end(), [](const std::string& a) {
-        return a == "--help" || a == "-h";
-      })) {
+  if (command != "eval" && command != "depth-eval" &&
+      std::any_of(args.begin(), args.end(),
+                  [](const std::string& a) { return a == "--help" || a == "-h"; })) {
     const std::string usage = pf::UsageOf(command);
     if (!usage.empty()) {
       std::printf(
@@ -159,6 +164,7 @@ int main(int argc, char** argv) {
   if (command == "bench") return pf::RunBench(args);
   if (command == "reconstruct") return pf::RunReconstruct(args);
   if (command == "eval") return pf::RunEval(args);
+  if (command == "depth-eval") return pf::RunDepthEval(args);
   if (command == "jobs") {
     std::fputs("pf jobs: talks to a server: give --server HOST:PORT first or set PF_SERVER\n",
                stderr);

@@ -65,16 +65,17 @@ absl::Status ReconstructCommand(const CommandLine& cl) {
   std::printf(
       "reconstructed %s (%s) -> %s\n"
       "  gaussians: %zu (static %lld incl. far layer %lld, dynamic %lld)\n"
-      "  instances: %d, context views: %d (%d with depth from LiDAR, %lld pixels of them from "
-      "the ground plane and %lld from facades, %d without depth), N_s %lld, N_d %lld\n"
+      "  instances: %d, context views: %d (%d with depth from LiDAR, %d from sparse depth maps, "
+      "%lld pixels of them from the ground plane and %lld from facades, %d without depth), "
+      "N_s %lld, N_d %lld\n"
       "  time: %s; total %.2f s\n",
       clip_path.c_str(), ReconModelName(options.model), cl.Get("out").c_str(), result.scene.size(),
       static_cast<long long>(s.static_gaussians), static_cast<long long>(s.far_gaussians),
       static_cast<long long>(s.dynamic_gaussians), s.instances, s.views, s.lidar_views,
-      static_cast<long long>(s.ground_pixels), static_cast<long long>(s.facade_pixels),
-      s.views_without_depth, static_cast<long long>(s.static_per_view),
-      static_cast<long long>(s.dynamic_per_instance), absl::StrJoin(stages, ", ").c_str(),
-      s.total_seconds);
+      s.sparse_map_views, static_cast<long long>(s.ground_pixels),
+      static_cast<long long>(s.facade_pixels), s.views_without_depth,
+      static_cast<long long>(s.static_per_view), static_cast<long long>(s.dynamic_per_instance),
+      absl::StrJoin(stages, ", ").c_str(), s.total_seconds);
   return absl::OkStatus();
 }
 

@@ -12,9 +12,17 @@ of the TARGET times, the reconstruction time and the peak memory.
 
 usage: scripts/eval_suite.py [--pf PATH] [--data DIR] [--out DIR] [--clips A,B] [--quick]
                              [--no-pixel-aligned] [--json FILE] [--list] [--eval-args ARGS]
+                             [--depth | --depth-only] [--lidar-as-depth-maps]
   --quick   one tiny PandaSet clip (front camera, frames 30-33, quarter resolution): a
             check that the suite runs (ctest eval_suite_quick), not a measurement.
-  --eval-args  more flags for every `pf eval`, one string (e.g. "--working-space linear").
+  --eval-args  more flags for every `pf eval`, one string (e.g. "--working-space linear");
+            `pf depth-eval` takes the depth-stage ones among them.
+  --depth   also `pf depth-eval CLIP --hide half` and `--hide top` per clip: the dense depth
+            of the CONTEXT views at LiDAR points hidden from the depth stage, ours beside
+            LiDAR completion alone (nearest) and IP-Basic; a second table.
+  --depth-only  only that (no pf eval).
+  --lidar-as-depth-maps  import each clip with its LiDAR written as a sparse depth map per
+            frame (`pf import ... --lidar-as-depth-maps`), as rigs that give depth maps do.
   Exit 0 when every evaluation ran, 1 when one failed, 2 for bad usage, 77 when the
   sample data is missing (ctest reports the test skipped).
 """
@@ -143,6 +151,35 @@ def evaluate(pf, clip_json, out_dir, model, log, eval_args):
     }
 
 
+DEPTH_STAGE_FLAGS = {"--completion": 1, "--no-ground-fill": 0, "--no-facades": 0,
+                     "--working-space": 1, "--allow-outside-paths": 0}
+
+
+def depth_stage_args(eval_args):
+    """The flags of `eval_args` that pf depth-eval takes (the depth stage's)."""
+    out, i = [], 0
+    while i < len(eval_args):
+        takes = DEPTH_STAGE_FLAGS.get(eval_args[i])
+        if takes is None:
+            i += 1
+            continue
+        out += eval_args[i:i + 1 + takes]
+        i += 1 + takes
+    return out
+
+
+def depth_evaluate(pf, clip_json, out_dir, hide, log, eval_args):
+    """Runs pf depth-eval --hide `hide`; returns its JSON, or None when it failed."""
+    json_path = os.path.join(out_dir, f"depth_{hide}.json")
+    os.makedirs(out_dir, exist_ok=True)
+    code, _ = run([pf, "depth-eval", clip_json, "--hide", hide, "--json", json_path] +
+                  depth_stage_args(eval_args), log)
+    if code != 0:
+        return None
+    with open(json_path) as f:
+        return json.load(f)
+
+
 def fmt(value, digits=2):
     return "-" if value is None else f"{value:.{digits}f}"
 
@@ -159,6 +196,9 @@ def main():
     parser.add_argument("--json", default="")
     parser.add_argument("--list", action="store_true")
     parser.add_argument("--eval-args", default="")
+    parser.add_argument("--depth", action="store_true")
+    parser.add_argument("--depth-only", action="store_true")
+    parser.add_argument("--lidar-as-depth-maps", action="store_true")
     args = parser.parse_args()
 
     clips = QUICK if args.quick else CLIPS
@@ -184,14 +224,17 @@ def main():
 
     os.makedirs(args.out, exist_ok=True)
     log = os.path.join(args.out, "suite.log")
-    models = ["analytic"] + ([] if args.no_pixel_aligned else ["pixel-aligned"])
+    models = [] if args.depth_only else (
+        ["analytic"] + ([] if args.no_pixel_aligned else ["pixel-aligned"]))
+    hides = ["half", "top"] if args.depth or args.depth_only else []
     rows, failed = [], []
     for name in names:
         importer, source, flags, split = clips[name]
         clip_dir = os.path.join(args.out, name, "clip")
         subprocess.call(["rm", "-rf", os.path.join(args.out, name)])
         code, _ = run([args.pf, "import", importer, os.path.join(args.data, source), "--out",
-                       clip_dir] + flags, log)
+                       clip_dir] + flags +
+                      (["--lidar-as-depth-maps"] if args.lidar_as_depth_maps else []), log)
         if code != 0:
             failed.append(f"{name}: pf import exited {code}")
             continue
@@ -205,9 +248,53 @@ def main():
                 failed.append(f"{name}: pf eval --model {model} failed")
                 continue
             row[model] = figures
+        for hide in hides:
+            depth = depth_evaluate(args.pf, os.path.join(clip_dir, "clip.json"),
+                                   os.path.join(args.out, name, "depth"), hide, log,
+                                   args.eval_args.split())
+            if depth is None:
+                failed.append(f"{name}: pf depth-eval --hide {hide} failed")
+                continue
+            row[f"depth_{hide}"] = depth
         rows.append(row)
         print(f"eval_suite: {name} done", file=sys.stderr, flush=True)
 
+    if models:
+        print_eval_table(rows)
+    if hides:
+        print_depth_table(rows, hides)
+    if args.json:
+        with open(args.json, "w") as f:
+            json.dump(rows, f, indent=1)
+    for problem in failed:
+        print(f"eval_suite: {problem} (log: {log})", file=sys.stderr)
+    return 1 if failed else 0
+
+
+def print_depth_table(rows, hides):
+    """Dense depth at hidden LiDAR points: AbsRel / within 5 % / coverage per method."""
+    header = ("| clip | hidden | points | nearest AbsRel | ip-basic AbsRel | ours AbsRel | "
+              "nearest within 5 % | ip-basic within 5 % | ours within 5 % | "
+              "nearest coverage | ip-basic coverage | ours coverage | ours common AbsRel "
+              "(nearest) |")
+    print(header)
+    print("|" + "---|" * (header.count("|") - 1))
+    for row in rows:
+        for hide in hides:
+            depth = row.get(f"depth_{hide}")
+            if depth is None:
+                continue
+            m = depth["methods"]
+            cells = [m[k]["absRel"] for k in ("nearest", "ipBasic", "ours")]
+            cells += [m[k]["within5"] for k in ("nearest", "ipBasic", "ours")]
+            cells += [m[k]["coverage"] for k in ("nearest", "ipBasic", "ours")]
+            print(f"| {row['clip']} | {hide} | {depth['hiddenPoints']} | " +
+                  " | ".join(fmt(c, 3) for c in cells) +
+                  f" | {fmt(m['ours']['common']['absRel'], 3)} "
+                  f"({fmt(m['nearest']['common']['absRel'], 3)}) |")
+
+
+def print_eval_table(rows):
     header = ("| clip | context / target views | ours PSNR | pixel-aligned | nearest | warp | "
               "ours SSIM | nearest SSIM | warp SSIM | depth AbsRel ours / warp | "
               "reconstruction s | peak GiB | Gaussians |")
@@ -223,12 +310,6 @@ def main():
               f"{fmt(ours.get('lidarAbsRel'), 3)} / {fmt(ours.get('warpLidarAbsRel'), 3)} | "
               f"{fmt(ours.get('reconstructSeconds'), 1)} | {fmt(ours.get('peakGiB'))} | "
               f"{ours.get('gaussians', '-')} |")
-    if args.json:
-        with open(args.json, "w") as f:
-            json.dump(rows, f, indent=1)
-    for problem in failed:
-        print(f"eval_suite: {problem} (log: {log})", file=sys.stderr)
-    return 1 if failed else 0
 
 
 if __name__ == "__main__":

@@ -259,8 +259,8 @@ TEST_F(RenderCliTest, BadInputExitsTwoNamingTheField) {
 
 // pf COMMAND --help prints that command's lines of pf help, on stdout.
 TEST(PfHelp, EveryCommandAnswersHelp) {
-  for (const std::string command :
-       {"synth", "validate", "import", "scene", "render", "bench", "reconstruct", "eval"}) {
+  for (const std::string command : {"synth", "validate", "import", "scene", "render", "bench",
+                                    "reconstruct", "eval", "depth-eval"}) {
     const testing::CommandResult result = RunCommand({BinPath("pf"), command, "--help"});
     EXPECT_EQ(result.exit_code, 0) << command << ": " << result.err;
     EXPECT_NE(result.out.find("usage:"), std::string::npos) << command;

@@ -472,6 +472,8 @@ std::string EvalReportJson(const EvalReport& report) {
   j["renderSeconds"] = report.render_seconds;
   j["fusion"] = FusionWeightsName(report.options.fusion.weights);
   j["lifespan"] = report.options.fusion.lifespan;
+  j["lidarViews"] = report.stats.lidar_views;
+  j["sparseDepthMapViews"] = report.stats.sparse_map_views;
   j["groundFill"] = report.options.completion.ground_fill;
   j["groundPixels"] = report.stats.ground_pixels;
   j["facades"] = report.options.completion.facades;

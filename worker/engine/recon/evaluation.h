@@ -6,9 +6,11 @@
 // report.json:
 //   {"model": "analytic", "gaussians": N, "reconstructSeconds": s,
 //    "renderSeconds": s, "fusion": "softmax", "lifespan": true,
-//    "groundFill": true, "groundPixels": n (LiDAR pixels set from the ground
-//    plane, view_depth.h), "facades": true, "facadePixels": n (set from
-//    facades above the LiDAR's top beam, facade_depth.h),
+//    "lidarViews": n, "sparseDepthMapViews": n (CONTEXT views whose depth
+//    was completed from LiDAR / from a sparse depth map, view_depth.h),
+//    "groundFill": true, "groundPixels": n (completed views' pixels set from
+//    the ground plane), "facades": true, "facadePixels": n (set from
+//    facades above the highest measurements, facade_depth.h),
 //    "staticGaussians": n, "dynamicGaussians": n, "farGaussians": n,
 //    "instances": n, "contextViews": n, "ns": n, "nd": n,
 //    "workingSpace": "srgb"|"linear", "metricsColour": "srgb",

@@ -8,7 +8,7 @@
 #include "absl/strings/str_cat.h"
 #include "common/status_macros.h"
 #include "pointforward/v1/clip.pb.h"
-#include "worker/engine/recon/facade_depth.h"
+#include "worker/engine/recon/depth_stage.h"
 #include "worker/engine/recon/query_lifting.h"
 #include "worker/engine/recon/scene_graph.h"
 #if PF_HAVE_TORCH
@@ -109,40 +109,22 @@ absl::StatusOr<ReconResult> ReconstructInputs(const ReconInputs& inputs,
           ? options.dynamic_per_instance
           : ScaledBudget(kDefaultDynamicPerInstance, views[0].width(), views[0].height());
 
-  // 1. Depth: measured (map or LiDAR), then the far layer.
-  std::vector<ImageF> measured(num_views);
-  std::vector<float> max_depths(num_views, 0.f);
-  std::vector<bool> from_lidar(num_views, false);
-  std::vector<GroundPlane> grounds(num_views);
-  for (size_t v = 0; v < num_views; ++v) {
-    bool lidar = false;
-    int64_t ground = 0;
-    measured[v] = MeasuredDepth(views[v], inputs.sweeps, tracks, options.completion, &lidar,
-                                &ground, &grounds[v]);
-    from_lidar[v] = lidar;
-    stats.ground_pixels += ground;
-    stats.lidar_views += lidar ? 1 : 0;
-  }
-  if (options.completion.facades) {
-    stats.facade_pixels = ExtendFacades(views, from_lidar, grounds, &measured);
-  }
-  for (size_t v = 0; v < num_views; ++v) {
-    // The far layer lies beyond the scene, not beyond the ego body's depth.
-    for (size_t j = 0; j < measured[v].pixels.size(); ++j) {
-      if (!views[v].is_ego(j)) max_depths[v] = std::max(max_depths[v], measured[v].pixels[j]);
-    }
-    stats.views_without_depth += max_depths[v] > 0.f ? 0 : 1;
-  }
-  const FarLayer far = FarLayerFor(views, max_depths);
-  std::vector<ViewDepth> depths(num_views);
-  for (size_t v = 0; v < num_views; ++v) {
-    depths[v] = WithFarLayer(measured[v], from_lidar[v], views[v], far);
-    measured[v] = ImageF();
-  }
-  clock.Done("depth", absl::StrCat(" (", stats.lidar_views, " of ", num_views,
-                                   " views from LiDAR, ", stats.ground_pixels,
+  // 1. Depth: measured (map or LiDAR, completed), facades, then the far layer.
+  DepthStage stage = MeasureViewDepths(views, inputs.sweeps, tracks, options.completion);
+  stats.lidar_views = stage.lidar_views;
+  stats.sparse_map_views = stage.sparse_map_views;
+  stats.ground_pixels = stage.ground_pixels;
+  stats.facade_pixels = stage.facade_pixels;
+  stats.views_without_depth = stage.views_without_depth;
+  const std::vector<ViewDepth> depths = AddFarLayer(views, &stage);
+  const std::string sparse_maps =
+      stage.sparse_map_views > 0
+          ? absl::StrCat(", ", stage.sparse_map_views, " from sparse depth maps, completed")
+          : "";
+  clock.Done("depth", absl::StrCat(" (", stats.lidar_views, " of ", num_views, " views from LiDAR",
+                                   sparse_maps, ", ", stats.ground_pixels,
                                    " pixels from the ground plane, ", stats.facade_pixels,
-                                   " from facades, far layer radius ", far.radius, " m)"));
+                                   " from facades, far layer radius ", stage.far.radius, " m)"));
   if (stats.views_without_depth > 0) {
     clock.Progress(absl::StrCat("warning: ", stats.views_without_depth, " of ", num_views,
                                 " views have no depth map and no LiDAR point; all their pixels "

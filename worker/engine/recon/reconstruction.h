@@ -85,8 +85,9 @@ struct ReconStats {
   int64_t far_gaussians = 0;
   int64_t dynamic_gaussians = 0;
   int lidar_views = 0;          // Views whose depth came from LiDAR.
-  int64_t ground_pixels = 0;    // LiDAR views' pixels set by the ground fill (view_depth.h).
-  int64_t facade_pixels = 0;    // LiDAR views' pixels set by facades (facade_depth.h).
+  int sparse_map_views = 0;     // Views whose sparse depth map was completed (view_depth.h).
+  int64_t ground_pixels = 0;    // Completed views' pixels set by the ground fill (view_depth.h).
+  int64_t facade_pixels = 0;    // Completed views' pixels set by facades (facade_depth.h).
   int views_without_depth = 0;  // No depth map, no LiDAR point: all far layer.
   // The scene's colours carry gradients (the fit ran with them; a fit over
   // the memory bound with them falls back to flat colours).

@@ -335,16 +335,59 @@ int64_t FillFromGround(const GroundPlane& ground, const Vec3& sensor_origin,
   const Vec3& o = world_from_camera.translation;
   const double height = Dot(ground.normal, o) - ground.offset;
   if (height <= 0) return 0;  // A camera under the road sees no road from above.
-  // Measured pixels whose point lies on the road.
-  const int w = depth->width;
+  // The z depth at which pixel centre (x, y)'s ray meets the plane, 0 when
+  // it does not (at or above the horizon).
+  auto plane_depth = [&](int x, int y, Vec3* dir) {
+    Vec3 ray;
+    if (!camera.Unproject(x + 0.5, y + 0.5, &ray)) return 0.0;
+    *dir = world_from_camera.rotation * ray;  // z-scaled: s is the z depth.
+    const double down = -Dot(ground.normal, *dir);
+    return down > 1e-9 ? height / down : 0.0;
+  };
+  // Measured pixels whose point lies on the road, and the ratio of their
+  // depth to the plane's there: the road's local departure from the plane
+  // (a crown, a change of slope). Each measurement's ratio also carries its
+  // position inside its pixel (up to half a pixel off the centre the plane
+  // is met through), so the ratio used is the mean over the road
+  // measurements within the completion radius: the departure stays, the
+  // pixel noise averages out.
+  const int w = depth->width, h = depth->height;
   std::vector<uint8_t> on_ground(sources.size(), 0);
+  // Summed-area tables, [H + 1, W + 1], of the ratios (less 1) and of the
+  // road measurements.
+  auto at = [&](int x, int y) { return static_cast<size_t>(y) * (w + 1) + x; };
+  std::vector<double> ratio_sum(static_cast<size_t>(w + 1) * (h + 1), 0.0);
+  std::vector<double> count(ratio_sum.size(), 0.0);
   for (size_t i = 0; i < sources.size(); ++i) {
     if (sources[i] != static_cast<int32_t>(i)) continue;
     Vec3 p;
-    if (!LiftPixel(camera, world_from_camera, i % w + 0.5, i / w + 0.5, depth->pixels[i], &p))
-      continue;
+    const int x = static_cast<int>(i % w), y = static_cast<int>(i / w);
+    if (!LiftPixel(camera, world_from_camera, x + 0.5, y + 0.5, depth->pixels[i], &p)) continue;
     on_ground[i] = std::abs(Dot(ground.normal, p) - ground.offset) < kGroundOnPlane;
+    Vec3 dir;
+    const double s = on_ground[i] ? plane_depth(x, y, &dir) : 0.0;
+    if (s > 0 && std::abs(depth->pixels[i] - s) <= kGroundSnap * s) {
+      ratio_sum[at(x + 1, y + 1)] = depth->pixels[i] / s - 1.0;
+      count[at(x + 1, y + 1)] = 1.0;
+    }
   }
+  for (int y = 1; y <= h; ++y) {
+    for (int x = 1; x <= w; ++x) {
+      ratio_sum[at(x, y)] +=
+          ratio_sum[at(x - 1, y)] + ratio_sum[at(x, y - 1)] - ratio_sum[at(x - 1, y - 1)];
+      count[at(x, y)] += count[at(x - 1, y)] + count[at(x, y - 1)] - count[at(x - 1, y - 1)];
+    }
+  }
+  const int radius = CompletionRadius(h);
+  auto local_ratio = [&](int x, int y) {
+    const int x0 = std::max(0, x - radius), x1 = std::min(w, x + radius + 1);
+    const int y0 = std::max(0, y - radius), y1 = std::min(h, y + radius + 1);
+    const double n = count[at(x1, y1)] - count[at(x0, y1)] - count[at(x1, y0)] + count[at(x0, y0)];
+    if (n < 0.5) return 1.0;
+    return 1.0 + (ratio_sum[at(x1, y1)] - ratio_sum[at(x0, y1)] - ratio_sum[at(x1, y0)] +
+                  ratio_sum[at(x0, y0)]) /
+                     n;
+  };
   std::atomic<int64_t> filled{0};
   DefaultThreadPool().ParallelFor(0, depth->height, 16, [&](int64_t y0, int64_t y1) {
     int64_t local = 0;
@@ -353,18 +396,15 @@ int64_t FillFromGround(const GroundPlane& ground, const Vec3& sensor_origin,
         const size_t i = static_cast<size_t>(y) * depth->width + x;
         if (sources[i] == static_cast<int32_t>(i)) continue;  // Measured.
         float& d = depth->at(x, static_cast<int>(y));
-        Vec3 ray;
-        if (!camera.Unproject(x + 0.5, y + 0.5, &ray)) continue;
-        const Vec3 dir = world_from_camera.rotation * ray;  // z-scaled: s is the z depth.
-        const double down = -Dot(ground.normal, dir);
-        if (down <= 1e-9) continue;
-        const double s = height / down;
+        Vec3 dir;
+        const double s = plane_depth(x, static_cast<int>(y), &dir);
+        if (s <= 0) continue;
         if (ReachOf(o + s * dir, sensor_origin, ground.normal) > ground.reach) continue;
-        if (d > 0.f &&
-            !(sources[i] >= 0 && on_ground[sources[i]] && std::abs(d - s) <= kGroundSnap * s)) {
+        const bool from_road = sources[i] >= 0 && on_ground[sources[i]];
+        if (d > 0.f && !(from_road && std::abs(d - s) <= kGroundSnap * s)) {
           continue;  // Completed from another surface.
         }
-        d = static_cast<float>(s);
+        d = static_cast<float>(s * local_ratio(x, static_cast<int>(y)));
         ++local;
       }
     }
@@ -405,30 +445,40 @@ FarLayer FarLayerFor(const std::vector<ContextView>& views, const std::vector<fl
   return far;
 }
 
-ImageF MeasuredDepth(const ContextView& view, const std::vector<LidarSweepData>& sweeps,
-                     const std::vector<InstanceTrack>& tracks, const CompletionOptions& options,
-                     bool* from_lidar, int64_t* ground_pixels, GroundPlane* ground) {
-  if (from_lidar != nullptr) *from_lidar = false;
-  if (ground_pixels != nullptr) *ground_pixels = 0;
-  if (ground != nullptr) *ground = GroundPlane{};
-  if (view.depth.width > 0) {
-    ImageF depth = view.depth;
-    for (float& d : depth.pixels)
-      if (!(d > 0.f) || !std::isfinite(d)) d = 0.f;
-    return depth;
+namespace {
+
+// The known pixels of a sparse depth map as a sweep: lifted to the world,
+// seen from the camera centre, "up" being the camera's image-up axis (level
+// on a car's cameras), so that the ground plane is fitted to them as to a
+// LiDAR's points.
+LidarSweepData SweepFromDepthMap(const ContextView& view, const ImageF& sparse) {
+  LidarSweepData sweep;
+  sweep.timestamp_us = view.timestamp_us;
+  sweep.sensor_origin = view.world_from_camera.translation;
+  sweep.sensor_up = Normalized(view.world_from_camera.rotation * Vec3{0, -1, 0});
+  for (int y = 0; y < sparse.height; ++y) {
+    for (int x = 0; x < sparse.width; ++x) {
+      const float d = sparse.at(x, y);
+      Vec3 ray;
+      if (!(d > 0.f) || !view.camera.Unproject(x + 0.5, y + 0.5, &ray)) continue;
+      const Vec3 p = view.world_from_camera * (ray * double(d));
+      sweep.points.insert(sweep.points.end(), {float(p.x), float(p.y), float(p.z)});
+    }
   }
-  const int nearest = NearestSweep(sweeps, view.timestamp_us);
-  if (nearest < 0) return ImageF(view.width(), view.height(), 1);
-  if (from_lidar != nullptr) *from_lidar = true;
-  const LidarSweepData& sweep = sweeps[nearest];
-  const std::vector<float> points = PointsAtTime(sweep, tracks, view.timestamp_us);
+  return sweep;
+}
+
+// Completes `sparse` (measured pixels of `view`, 0 unknown) by `options`:
+// nearest or IP-Basic completion, then the ground plane of `sweep`.
+ImageF CompleteMeasured(const ImageF& sparse, const LidarSweepData& sweep, const ContextView& view,
+                        const CompletionOptions& options, int64_t* ground_pixels,
+                        GroundPlane* ground) {
   std::vector<int32_t> sources;
-  const ImageF projected = ProjectPoints(points, view.camera, view.world_from_camera);
-  ImageF depth = CompleteDepth(projected, options, options.ground_fill ? &sources : nullptr);
+  ImageF depth = CompleteDepth(sparse, options, options.ground_fill ? &sources : nullptr);
   if (options.method == CompletionOptions::Method::kIpBasic) {
     IpBasicOptions ip_basic;
     ip_basic.extrapolate = false;
-    const ImageF dense = CompleteDepthIpBasic(projected, ip_basic);
+    const ImageF dense = CompleteDepthIpBasic(sparse, ip_basic);
     for (size_t i = 0; i < depth.pixels.size(); ++i) {
       if (dense.pixels[i] > 0.f) depth.pixels[i] = dense.pixels[i];
     }
@@ -444,7 +494,36 @@ ImageF MeasuredDepth(const ContextView& view, const std::vector<LidarSweepData>&
   return depth;
 }
 
-ViewDepth WithFarLayer(const ImageF& measured, bool from_lidar, const ContextView& view,
+}  // namespace
+
+ImageF MeasuredDepth(const ContextView& view, const std::vector<LidarSweepData>& sweeps,
+                     const std::vector<InstanceTrack>& tracks, const CompletionOptions& options,
+                     MeasuredSource* source, int64_t* ground_pixels, GroundPlane* ground) {
+  if (source != nullptr) *source = MeasuredSource::kNone;
+  if (ground_pixels != nullptr) *ground_pixels = 0;
+  if (ground != nullptr) *ground = GroundPlane{};
+  if (view.depth.width > 0) {
+    ImageF depth = view.depth;
+    for (float& d : depth.pixels)
+      if (!(d > 0.f) || !std::isfinite(d)) d = 0.f;
+    if (!IsSparseDepth(depth)) {
+      if (source != nullptr) *source = MeasuredSource::kDepthMap;
+      return depth;
+    }
+    if (source != nullptr) *source = MeasuredSource::kSparseDepthMap;
+    return CompleteMeasured(depth, SweepFromDepthMap(view, depth), view, options, ground_pixels,
+                            ground);
+  }
+  const int nearest = NearestSweep(sweeps, view.timestamp_us);
+  if (nearest < 0) return ImageF(view.width(), view.height(), 1);
+  if (source != nullptr) *source = MeasuredSource::kLidar;
+  const LidarSweepData& sweep = sweeps[nearest];
+  const std::vector<float> points = PointsAtTime(sweep, tracks, view.timestamp_us);
+  const ImageF projected = ProjectPoints(points, view.camera, view.world_from_camera);
+  return CompleteMeasured(projected, sweep, view, options, ground_pixels, ground);
+}
+
+ViewDepth WithFarLayer(const ImageF& measured, bool completed, const ContextView& view,
                        const FarLayer& far) {
   ViewDepth out;
   out.width = measured.width;
@@ -453,7 +532,7 @@ ViewDepth WithFarLayer(const ImageF& measured, bool from_lidar, const ContextVie
   out.depth.resize(n);
   out.source.resize(n);
   const uint8_t measured_source =
-      uint8_t(from_lidar ? DepthSource::kLidar : DepthSource::kDepthMap);
+      uint8_t(completed ? DepthSource::kCompleted : DepthSource::kDepthMap);
   DefaultThreadPool().ParallelFor(0, out.height, 16, [&](int64_t y0, int64_t y1) {
     for (int64_t y = y0; y < y1; ++y) {
       for (int x = 0; x < out.width; ++x) {

@@ -107,7 +107,10 @@ GroundPlane FitGroundPlane(const LidarSweepData& sweep);
 // `depth` is unknown (0), and where completion copied the depth of a
 // measured point that lies on the road (within 0.15 m of the plane) and the
 // plane's depth is within 15 % of it: between rings, completion gives the
-// road the nearest ring's depth, the plane gives each pixel its own.
+// road the nearest ring's depth, the plane gives each pixel its own. The
+// plane's depth is scaled by the road's local departure from it: the mean
+// ratio of measured to plane depth over the road measurements (within 15 %
+// of the plane) within CompletionRadius of the pixel, 1 where there is none.
 // `sources` is CompleteDepth's (measured pixels are their own source).
 // Measured pixels and other surfaces are kept. Returns how many pixels it
 // set.
@@ -147,8 +150,10 @@ double FarDepth(const FarLayer& far, const CameraModel& camera, const Rigid& wor
 FarLayer FarLayerFor(const std::vector<ContextView>& views, const std::vector<float>& max_depths,
                      double min_radius = 200.0);
 
-// Where a pixel's depth came from.
-enum class DepthSource : uint8_t { kDepthMap = 0, kLidar = 1, kFar = 2 };
+// Where a pixel's depth came from: a dense depth map, completion of sparse
+// measurements (LiDAR, a sparse depth map) with the ground plane and
+// facades, or the far layer.
+enum class DepthSource : uint8_t { kDepthMap = 0, kCompleted = 1, kFar = 2 };
 
 // The depth of one view, ready for lifting.
 struct ViewDepth {
@@ -158,18 +163,39 @@ struct ViewDepth {
   bool is_far(size_t pixel) const { return source[pixel] == uint8_t(DepthSource::kFar); }
 };
 
-// Returns the measured depth of `view` before the far layer: its depth map
-// when it has one, else the completed projection of the nearest sweep (moved
-// to the view's time) with the ground fill of `options`, else all unknown.
-// [H, W], 0 unknown. `from_lidar` says which one was used; `ground_pixels`
-// how many pixels the ground fill set, `ground` the plane it used.
+// What MeasuredDepth started from.
+enum class MeasuredSource {
+  kNone,            // No depth map and no LiDAR sweep: all unknown.
+  kDepthMap,        // The frame's dense depth map, as it is.
+  kSparseDepthMap,  // The frame's sparse depth map (IsSparseDepth), completed.
+  kLidar,           // The nearest LiDAR sweep, projected and completed.
+};
+
+// True when MeasuredDepth completed sparse measurements (facades may extend
+// such a view above its highest measurement).
+inline bool IsCompleted(MeasuredSource source) {
+  return source == MeasuredSource::kSparseDepthMap || source == MeasuredSource::kLidar;
+}
+
+// Returns the measured depth of `view` before the far layer, 0 unknown,
+// [H, W]:
+// - a dense depth map as it is (0 and non-finite values unknown);
+// - a sparse one (IsSparseDepth: LiDAR or stereo points written into the
+//   manifest) completed as LiDAR is, its ground plane fitted to its own
+//   points lifted to the world (the camera's image-up axis as "up");
+// - without a depth map, the nearest sweep (moved to the view's time)
+//   projected and completed;
+// completion and ground fill by `options`. `source` says which one was used;
+// `ground_pixels` how many pixels the ground fill set, `ground` the plane it
+// used.
 ImageF MeasuredDepth(const ContextView& view, const std::vector<LidarSweepData>& sweeps,
                      const std::vector<InstanceTrack>& tracks, const CompletionOptions& options,
-                     bool* from_lidar = nullptr, int64_t* ground_pixels = nullptr,
+                     MeasuredSource* source = nullptr, int64_t* ground_pixels = nullptr,
                      GroundPlane* ground = nullptr);
 
-// Fills the unknown pixels of `measured` from the far layer.
-ViewDepth WithFarLayer(const ImageF& measured, bool from_lidar, const ContextView& view,
+// Fills the unknown pixels of `measured` from the far layer; the known ones
+// are DepthSource::kCompleted when `completed`, else kDepthMap.
+ViewDepth WithFarLayer(const ImageF& measured, bool completed, const ContextView& view,
                        const FarLayer& far);
 
 // What lies behind the near side of depth edges. A view sees one surface per

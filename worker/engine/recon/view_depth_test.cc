@@ -102,9 +102,9 @@ TEST(ViewDepth, FarLayerPixelsLieOnTheSphere) {
   EXPECT_NEAR(FarDepth(far, kCamera, view.world_from_camera, 20, 15), 100.0, 1e-9);
   ImageF measured(40, 30, 1);
   measured.at(5, 5) = 7.f;
-  const ViewDepth depth = WithFarLayer(measured, /*from_lidar=*/true, view, far);
+  const ViewDepth depth = WithFarLayer(measured, /*completed=*/true, view, far);
   EXPECT_FLOAT_EQ(depth.depth[5 * 40 + 5], 7.f);
-  EXPECT_EQ(depth.source[5 * 40 + 5], uint8_t(DepthSource::kLidar));
+  EXPECT_EQ(depth.source[5 * 40 + 5], uint8_t(DepthSource::kCompleted));
   // A corner pixel: its ray (x/z, y/z) = (-19.5/40, -14.5/40) hits the sphere
   // at distance 100, so z = 100 / |ray|.
   const double rx = -19.5 / 40, ry = -14.5 / 40;
@@ -162,23 +162,32 @@ TEST(ViewDepth, FarLayerEnclosesCamerasAndMeasurements) {
 }
 
 TEST(ViewDepth, MeasuredDepthPrefersTheDepthMap) {
+  // A dense map (a rendered or stereo one: unknown only in a whole region)
+  // is taken as it is.
   ContextView view;
   view.camera = kCamera;
   view.depth = ImageF(40, 30, 1);
-  view.depth.at(1, 1) = 3.f;
+  for (float& d : view.depth.pixels) d = 3.f;
+  for (int x = 0; x < 40; ++x) view.depth.at(x, 0) = 0.f;  // "Sky": stays unknown.
   view.depth.at(2, 1) = std::nanf("");
   LidarSweepData sweep;
   sweep.points = {0, 0, 10};
-  bool from_lidar = true;
-  const ImageF measured = MeasuredDepth(view, {sweep}, {}, {}, &from_lidar);
-  EXPECT_FALSE(from_lidar);
+  MeasuredSource source = MeasuredSource::kNone;
+  const ImageF measured = MeasuredDepth(view, {sweep}, {}, {}, &source);
+  EXPECT_EQ(source, MeasuredSource::kDepthMap);
+  EXPECT_FALSE(IsCompleted(source));
   EXPECT_FLOAT_EQ(measured.at(1, 1), 3.f);
+  EXPECT_FLOAT_EQ(measured.at(5, 0), 0.f);
   EXPECT_FLOAT_EQ(measured.at(2, 1), 0.f);  // Non-finite means unknown.
   view.depth = ImageF();
-  const ImageF lidar = MeasuredDepth(view, {sweep}, {}, {}, &from_lidar);
-  EXPECT_TRUE(from_lidar);
+  const ImageF lidar = MeasuredDepth(view, {sweep}, {}, {}, &source);
+  EXPECT_EQ(source, MeasuredSource::kLidar);
+  EXPECT_TRUE(IsCompleted(source));
   EXPECT_FLOAT_EQ(lidar.at(20, 15), 10.f);
   EXPECT_FLOAT_EQ(lidar.at(22, 16), 10.f);  // Completed around the measurement.
+  view.timestamp_us = 5;
+  EXPECT_FLOAT_EQ(MeasuredDepth(view, {}, {}, {}, &source).at(20, 15), 0.f);
+  EXPECT_EQ(source, MeasuredSource::kNone);
 }
 
 // --completion ip-basic: IP-Basic's depth (no upward extension) wherever it
@@ -338,22 +347,26 @@ TEST(ViewDepth, LidarDepthReachesTheRoadBelowTheLowestRing) {
   const LidarSweepData sweep = GroundRings(6, 30);
   CompletionOptions options;
   options.ground_fill = false;
-  bool from_lidar = false;
-  const ImageF without = MeasuredDepth(view, {sweep}, {}, options, &from_lidar);
-  EXPECT_TRUE(from_lidar);
+  MeasuredSource source = MeasuredSource::kNone;
+  const ImageF without = MeasuredDepth(view, {sweep}, {}, options, &source);
+  EXPECT_EQ(source, MeasuredSource::kLidar);
   EXPECT_FLOAT_EQ(without.at(80, 119), 0.f);
   options.ground_fill = true;
   int64_t ground_pixels = 0;
-  const ImageF with = MeasuredDepth(view, {sweep}, {}, options, &from_lidar, &ground_pixels);
+  const ImageF with = MeasuredDepth(view, {sweep}, {}, options, &source, &ground_pixels);
   EXPECT_NEAR(with.at(80, 119), 1.5 * 160 / 59.5, 1e-3);
   EXPECT_NEAR(with.at(10, 118), 1.5 * 160 / 58.5, 1e-3);
   EXPECT_GE(ground_pixels, 160 * 4);
   // Between rings, completion copies the nearest ring's depth (up to half a
-  // ring's spacing off); with the ground fill every road pixel has its own.
+  // ring's spacing off); with the ground fill every road pixel has its own,
+  // scaled by the mean measured-to-plane ratio around it, which here (a flat
+  // road) is 1 but for the measurements' places inside their pixels (each up
+  // to half a pixel, 1/40 of the depth at row 80, off the centre).
   // Above the horizon nothing is set but what completion spread from the
   // farthest ring.
   const ImageF sparse = ProjectPoints(GroundRings(6, 30).points, camera, view.world_from_camera);
-  double worst_without = 0, worst_with = 0;
+  double worst_without = 0, worst_with = 0, mean_without = 0, mean_with = 0;
+  int pixels = 0;
   for (int y = 80; y < 100; ++y) {
     const double road = 1.5 * 160 / (y + 0.5 - 60);
     for (int x = 40; x < 120; ++x) {
@@ -361,14 +374,69 @@ TEST(ViewDepth, LidarDepthReachesTheRoadBelowTheLowestRing) {
         EXPECT_EQ(with.at(x, y), sparse.at(x, y));  // Measured: kept.
         continue;
       }
-      worst_without = std::max(worst_without, std::abs(without.at(x, y) - road) / road);
-      worst_with = std::max(worst_with, std::abs(with.at(x, y) - road) / road);
+      const double error_without = std::abs(without.at(x, y) - road) / road;
+      const double error_with = std::abs(with.at(x, y) - road) / road;
+      worst_without = std::max(worst_without, error_without);
+      worst_with = std::max(worst_with, error_with);
+      mean_without += error_without;
+      mean_with += error_with;
+      ++pixels;
     }
   }
+  mean_without /= pixels;
+  mean_with /= pixels;
   EXPECT_GT(worst_without, 0.02);
-  EXPECT_LT(worst_with, 1e-4);
+  EXPECT_LT(worst_with, 0.015);
+  EXPECT_LT(mean_with, 0.006);
+  EXPECT_LT(mean_with, 0.4 * mean_without) << mean_without;
   for (int y = 0; y < 50; ++y)
     for (int x = 0; x < 160; ++x) EXPECT_EQ(with.at(x, y), 0.f);
+}
+
+// A sparse depth map in the manifest (LiDAR written as depth maps) is
+// completed as the LiDAR itself is: between rings and below the lowest one
+// the road gets its own depth from the ground plane fitted to the map's
+// points, where before it was taken as final (95 % unknown: the far layer).
+TEST(ViewDepth, ASparseDepthMapIsCompletedAsLidarIs) {
+  // 640 x 480: a pixel is 1.6 mrad, so lifting a point through its pixel's
+  // centre moves it under 5 cm at 30 m.
+  const CameraModel camera(640, 480, 640, 640, 320, 240);
+  ContextView view;
+  view.camera = camera;
+  view.world_from_camera = LevelCameraLookingAlongX(1.5);
+  const LidarSweepData sweep = GroundRings(6, 30);
+  view.depth = ProjectPoints(sweep.points, camera, view.world_from_camera);
+  ASSERT_TRUE(IsSparseDepth(view.depth));
+  MeasuredSource source = MeasuredSource::kNone;
+  int64_t ground_pixels = 0;
+  GroundPlane ground;
+  const ImageF from_map = MeasuredDepth(view, {}, {}, {}, &source, &ground_pixels, &ground);
+  EXPECT_EQ(source, MeasuredSource::kSparseDepthMap);
+  EXPECT_TRUE(IsCompleted(source));
+  // The plane fitted to the map's points lifted to the world is the road's.
+  ASSERT_TRUE(ground.valid);
+  EXPECT_NEAR(ground.normal.z, 1.0, 1e-3);
+  EXPECT_NEAR(ground.offset, 0.0, 0.01);
+  EXPECT_GE(ground_pixels, 640 * 60);
+  // Below the lowest ring (6 m: row 400) and between rings (6-12 m: rows
+  // 320-400) every road pixel has its own depth; the nearest ring's copy is
+  // up to half a ring's spacing off.
+  double worst = 0;
+  for (int y = 320; y < 480; ++y) {
+    const double road = 1.5 * 640 / (y + 0.5 - 240);
+    for (int x = 160; x < 480; ++x) {
+      if (view.depth.at(x, y) > 0.f) {
+        EXPECT_EQ(from_map.at(x, y), view.depth.at(x, y));  // Measured: kept.
+        continue;
+      }
+      worst = std::max(worst, std::abs(from_map.at(x, y) - road) / road);
+    }
+  }
+  EXPECT_LT(worst, 0.005);
+  // Above the horizon: nothing but what completion spread from the farthest
+  // ring (row 272, radius 19 px).
+  for (int y = 0; y < 240; ++y)
+    for (int x = 0; x < 640; ++x) ASSERT_EQ(from_map.at(x, y), 0.f) << x << "," << y;
 }
 
 }  // namespace
