@@ -26,15 +26,16 @@
 namespace pf {
 namespace {
 
-constexpr char kDepthEvalHelp[] = R"(usage: pf depth-eval CLIP.json [--hide half|top] [--top-share F] [--json FILE]
+constexpr char kDepthEvalHelp[] =
+    R"(usage: pf depth-eval CLIP.json [--hide half|top] [--top-share F] [--json FILE]
                      [--completion nearest|ip-basic] [--no-ground-fill] [--no-facades]
                      [--working-space srgb|linear] [--allow-outside-paths]
 
 Measures the dense depth of the clip's CONTEXT views where the clip measured
 depth that the depth stage was not given. A part of every LiDAR sweep (and of
 every sparse depth map) is hidden; each method completes the rest; the hidden
-points a camera sees (the nearest point in their pixel, ego pixels left out)
-are the truth:
+points a camera sees (the nearest point in their pixel, in pixels no kept point
+falls in, ego pixels left out) are the truth:
   --hide half       a random half of the points (fixed seed; the default)
   --hide top        the highest share of them by elevation above the sensor's
                     level plane (--top-share, default 0.25): above the kept
@@ -107,8 +108,8 @@ absl::Status DepthEvalCommand(const CommandLine& cl) {
               clip_path.c_str(), static_cast<long long>(report.hidden_points), report.views,
               HoldOutModeName(hold_out.mode), static_cast<long long>(report.kept_measurements),
               report.seconds);
-  std::printf("  %-8s %9s %9s %8s %8s %8s | common: %8s %8s %8s\n", "method", "points",
-              "coverage", "AbsRel", "RMSE m", "within5", "AbsRel", "RMSE m", "within5");
+  std::printf("  %-8s %9s %9s %8s %8s %8s | common: %8s %8s %8s\n", "method", "points", "coverage",
+              "AbsRel", "RMSE m", "within5", "AbsRel", "RMSE m", "within5");
   nlohmann::ordered_json methods;
   for (const DepthHoldOutMethod& method : report.methods) {
     const DepthErrors all = method.all.Mean(), common = method.common.Mean();

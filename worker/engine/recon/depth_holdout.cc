@@ -49,8 +49,8 @@ const char* HoldOutModeName(HoldOutOptions::Mode mode) {
   return mode == HoldOutOptions::Mode::kHalf ? "half" : "top";
 }
 
-void HoldOutSweep(const LidarSweepData& sweep, const HoldOutOptions& options,
-                  LidarSweepData* kept, LidarSweepData* hidden) {
+void HoldOutSweep(const LidarSweepData& sweep, const HoldOutOptions& options, LidarSweepData* kept,
+                  LidarSweepData* hidden) {
   *kept = sweep;
   *hidden = sweep;
   kept->points.clear();
@@ -69,8 +69,8 @@ void HoldOutSweep(const LidarSweepData& sweep, const HoldOutOptions& options,
     threshold = TopThreshold(elevations, options.top_share);
   }
   for (size_t i = 0; i < n; ++i) {
-    const bool hide = options.mode == HoldOutOptions::Mode::kHalf ? InHiddenHalf(i)
-                                                                 : elevations[i] > threshold;
+    const bool hide =
+        options.mode == HoldOutOptions::Mode::kHalf ? InHiddenHalf(i) : elevations[i] > threshold;
     std::vector<float>& to = hide ? hidden->points : kept->points;
     to.insert(to.end(), sweep.points.begin() + 3 * i, sweep.points.begin() + 3 * i + 3);
   }
@@ -160,9 +160,12 @@ absl::StatusOr<DepthHoldOutReport> EvaluateDepthHoldOut(ReconInputs inputs,
       const ImageF all = project(inputs.sweeps[s]);
       truth[v] = project(hidden[s]);
       sparse[v] = project(kept[s]);
-      // A pixel whose nearest point was kept does not see the hidden one.
-      for (size_t i = 0; i < all.pixels.size(); ++i)
-        if (truth[v].pixels[i] != all.pixels[i]) truth[v].pixels[i] = 0.f;
+      // A pixel whose nearest point was kept does not see the hidden one; a
+      // pixel a kept point also falls in is measured, not hidden.
+      for (size_t i = 0; i < all.pixels.size(); ++i) {
+        if (truth[v].pixels[i] != all.pixels[i] || sparse[v].pixels[i] > 0.f)
+          truth[v].pixels[i] = 0.f;
+      }
     }
     int64_t in_sight = 0;
     for (size_t i = 0; i < truth[v].pixels.size(); ++i) {
@@ -198,8 +201,7 @@ absl::StatusOr<DepthHoldOutReport> EvaluateDepthHoldOut(ReconInputs inputs,
       report.methods[m].common.Add(MeasureDepthCompletion(dense[m], common));
     }
   }
-  report.seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return report;
 }
 

@@ -2,7 +2,8 @@
 // clip measured depth that the depth stage was not given. A part of every
 // LiDAR sweep (and of every sparse depth map) is hidden from the depth
 // stage; the rest is completed by each method; the hidden points the camera
-// sees (the nearest point in their pixel) are the truth.
+// sees (the nearest point in their pixel, in pixels no kept point falls in)
+// are the truth.
 //
 // Methods, each on the same kept measurements:
 //   "nearest": CompleteDepth alone (each pixel the nearest measurement's
@@ -46,8 +47,8 @@ const char* HoldOutModeName(HoldOutOptions::Mode mode);
 
 // Splits `sweep`'s points by `options`: `kept` gets the points the depth
 // stage sees, `hidden` the rest (each with the sweep's time and pose).
-void HoldOutSweep(const LidarSweepData& sweep, const HoldOutOptions& options,
-                  LidarSweepData* kept, LidarSweepData* hidden);
+void HoldOutSweep(const LidarSweepData& sweep, const HoldOutOptions& options, LidarSweepData* kept,
+                  LidarSweepData* hidden);
 
 // The same for a sparse depth map of `view` (0 unknown): `kept` and
 // `hidden` are maps of its size.
@@ -70,12 +71,12 @@ struct DepthHoldOutMethod {
 
 struct DepthHoldOutReport {
   HoldOutOptions options;
-  int views = 0;                 // Views with a hidden point in sight.
-  int64_t hidden_points = 0;     // Hidden points in sight, over all views.
-  int64_t kept_measurements = 0; // Pixels the kept measurements mark, over all views.
+  int views = 0;                            // Views with a hidden point in sight.
+  int64_t hidden_points = 0;                // Hidden points in sight, over all views.
+  int64_t kept_measurements = 0;            // Pixels the kept measurements mark, over all views.
   std::vector<DepthHoldOutMethod> methods;  // nearest, ipBasic, ours.
-  int64_t facade_pixels = 0;     // Set by "ours"' facades.
-  int64_t ground_pixels = 0;     // Set by "ours"' ground fill.
+  int64_t facade_pixels = 0;                // Set by "ours"' facades.
+  int64_t ground_pixels = 0;                // Set by "ours"' ground fill.
   double seconds = 0;
 };
 

@@ -19,8 +19,8 @@ DepthStage MeasureViewDepths(const std::vector<ContextView>& views,
   std::vector<bool> completed(n, false);
   for (size_t v = 0; v < n; ++v) {
     int64_t ground = 0;
-    stage.measured[v] = MeasuredDepth(views[v], sweeps, tracks, options, &stage.sources[v],
-                                      &ground, &stage.grounds[v]);
+    stage.measured[v] = MeasuredDepth(views[v], sweeps, tracks, options, &stage.sources[v], &ground,
+                                      &stage.grounds[v]);
     stage.ground_pixels += ground;
     stage.lidar_views += stage.sources[v] == MeasuredSource::kLidar;
     stage.sparse_map_views += stage.sources[v] == MeasuredSource::kSparseDepthMap;
@@ -51,8 +51,8 @@ std::vector<ViewDepth> AddFarLayer(const std::vector<ContextView>& views, DepthS
   stage->far = FarLayerFor(views, max_depths);
   std::vector<ViewDepth> depths(n);
   for (size_t v = 0; v < n; ++v) {
-    depths[v] = WithFarLayer(stage->measured[v], IsCompleted(stage->sources[v]), views[v],
-                             stage->far);
+    depths[v] =
+        WithFarLayer(stage->measured[v], IsCompleted(stage->sources[v]), views[v], stage->far);
     stage->measured[v] = ImageF();
   }
   return depths;

@@ -18,15 +18,15 @@
 namespace pf {
 
 struct DepthStage {
-  std::vector<ImageF> measured;          // [H, W] per view, 0 unknown (before the far layer).
-  std::vector<MeasuredSource> sources;   // What each view's depth started from.
-  std::vector<GroundPlane> grounds;      // Each completed view's ground plane.
-  int lidar_views = 0;                   // Views completed from a LiDAR sweep.
-  int sparse_map_views = 0;              // Views completed from a sparse depth map.
-  int64_t ground_pixels = 0;             // Pixels the ground fill set, in all views.
-  int64_t facade_pixels = 0;             // Pixels facades set, in all views.
-  int views_without_depth = 0;           // No known pixel at all (before the far layer).
-  FarLayer far;                          // Set by AddFarLayer.
+  std::vector<ImageF> measured;         // [H, W] per view, 0 unknown (before the far layer).
+  std::vector<MeasuredSource> sources;  // What each view's depth started from.
+  std::vector<GroundPlane> grounds;     // Each completed view's ground plane.
+  int lidar_views = 0;                  // Views completed from a LiDAR sweep.
+  int sparse_map_views = 0;             // Views completed from a sparse depth map.
+  int64_t ground_pixels = 0;            // Pixels the ground fill set, in all views.
+  int64_t facade_pixels = 0;            // Pixels facades set, in all views.
+  int views_without_depth = 0;          // No known pixel at all (before the far layer).
+  FarLayer far;                         // Set by AddFarLayer.
 };
 
 // Measures the depth of every view: MeasuredDepth by `options`, then, with
