@@ -60,12 +60,17 @@ example:
   pf depth-eval clip.json --hide top --json depth.json
 )";
 
+// The share of held-out points where the method has a depth.
+double Coverage(const DepthErrors& e) {
+  return e.points + e.missing > 0 ? double(e.points) / (e.points + e.missing) : 0.0;
+}
+
 nlohmann::ordered_json ErrorsJson(const DepthErrors& e, bool with_coverage) {
   nlohmann::ordered_json j;
   j["points"] = e.points;
   if (with_coverage) {
     j["missing"] = e.missing;
-    j["coverage"] = e.points + e.missing > 0 ? double(e.points) / (e.points + e.missing) : 0.0;
+    j["coverage"] = Coverage(e);
   }
   j["absRel"] = e.abs_rel;
   j["rmse"] = e.rmse;
@@ -113,10 +118,8 @@ absl::Status DepthEvalCommand(const CommandLine& cl) {
   nlohmann::ordered_json methods;
   for (const DepthHoldOutMethod& method : report.methods) {
     const DepthErrors all = method.all.Mean(), common = method.common.Mean();
-    const double coverage =
-        all.points + all.missing > 0 ? double(all.points) / (all.points + all.missing) : 0.0;
     std::printf("  %-8s %9lld %9.3f %8.4f %8.3f %8.3f | common: %8.4f %8.3f %8.3f\n",
-                method.name.c_str(), static_cast<long long>(all.points), coverage, all.abs_rel,
+                method.name.c_str(), static_cast<long long>(all.points), Coverage(all), all.abs_rel,
                 all.rmse, all.within_5pct, common.abs_rel, common.rmse, common.within_5pct);
     nlohmann::ordered_json j = ErrorsJson(all, true);
     j["common"] = ErrorsJson(common, false);

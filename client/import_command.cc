@@ -8,7 +8,6 @@
 //       [--frames A:B] [--scale S] [--roles ...]
 //   any of them [--lidar-as-depth-maps]: the LiDAR written as a sparse depth
 //       map per frame instead of sweeps
-// The generated protobuf header first (see image_io.h).
 #include <cstdio>
 #include <filesystem>
 #include <map>

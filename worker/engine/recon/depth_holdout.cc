@@ -29,13 +29,6 @@ double TopThreshold(std::vector<double> elevations, double share) {
   return elevations[k];
 }
 
-ImageF WithoutUnknown(const ImageF& depth) {
-  ImageF out = depth;
-  for (float& d : out.pixels)
-    if (!(d > 0.f) || !std::isfinite(d)) d = 0.f;
-  return out;
-}
-
 }  // namespace
 
 absl::StatusOr<HoldOutOptions::Mode> ParseHoldOutMode(const std::string& name) {
@@ -78,34 +71,31 @@ void HoldOutSweep(const LidarSweepData& sweep, const HoldOutOptions& options, Li
 
 void HoldOutDepthMap(const ContextView& view, const ImageF& sparse, const HoldOutOptions& options,
                      ImageF* kept, ImageF* hidden) {
-  *kept = WithoutUnknown(sparse);
+  *kept = KnownDepthOnly(sparse);
   *hidden = ImageF(sparse.width, sparse.height, 1);
-  // Elevation of each known pixel's ray above the camera's level plane
-  // (image up is camera -y).
-  auto elevation = [&](int x, int y) {
-    Vec3 ray;
-    if (!view.camera.Unproject(x + 0.5, y + 0.5, &ray)) return 0.0;
-    return -ray.y / Norm(ray);
-  };
+  // The known pixels, and with kTop the elevation of each one's ray above
+  // the camera's level plane (image up is camera -y).
+  std::vector<size_t> known;
+  for (size_t i = 0; i < kept->pixels.size(); ++i)
+    if (kept->pixels[i] > 0.f) known.push_back(i);
+  std::vector<double> elevations;
   double threshold = 0;
   if (options.mode == HoldOutOptions::Mode::kTop) {
-    std::vector<double> elevations;
-    for (int y = 0; y < sparse.height; ++y)
-      for (int x = 0; x < sparse.width; ++x)
-        if (kept->at(x, y) > 0.f) elevations.push_back(elevation(x, y));
-    threshold = TopThreshold(std::move(elevations), options.top_share);
-  }
-  for (int y = 0; y < sparse.height; ++y) {
-    for (int x = 0; x < sparse.width; ++x) {
-      float& d = kept->at(x, y);
-      if (!(d > 0.f)) continue;
-      const bool hide = options.mode == HoldOutOptions::Mode::kHalf
-                            ? InHiddenHalf(static_cast<uint64_t>(y) * sparse.width + x)
-                            : elevation(x, y) > threshold;
-      if (!hide) continue;
-      hidden->at(x, y) = d;
-      d = 0.f;
+    elevations.resize(known.size(), 0.0);
+    for (size_t k = 0; k < known.size(); ++k) {
+      Vec3 ray;
+      const size_t x = known[k] % sparse.width, y = known[k] / sparse.width;
+      if (view.camera.Unproject(x + 0.5, y + 0.5, &ray)) elevations[k] = -ray.y / Norm(ray);
     }
+    threshold = TopThreshold(elevations, options.top_share);
+  }
+  for (size_t k = 0; k < known.size(); ++k) {
+    const size_t i = known[k];
+    const bool hide =
+        options.mode == HoldOutOptions::Mode::kHalf ? InHiddenHalf(i) : elevations[k] > threshold;
+    if (!hide) continue;
+    hidden->pixels[i] = kept->pixels[i];
+    kept->pixels[i] = 0.f;
   }
 }
 
@@ -146,9 +136,8 @@ absl::StatusOr<DepthHoldOutReport> EvaluateDepthHoldOut(ReconInputs inputs,
   for (size_t v = 0; v < n; ++v) {
     ContextView& view = inputs.views[v];
     if (view.depth.width > 0) {
-      const ImageF map = WithoutUnknown(view.depth);
-      if (!IsSparseDepth(map)) continue;
-      HoldOutDepthMap(view, map, options, &sparse[v], &truth[v]);
+      if (!IsSparseDepth(view.depth)) continue;
+      HoldOutDepthMap(view, view.depth, options, &sparse[v], &truth[v]);
       view.depth = sparse[v];
     } else {
       const int s = NearestSweep(inputs.sweeps, view.timestamp_us);

@@ -29,12 +29,6 @@ DepthStage MeasureViewDepths(const std::vector<ContextView>& views,
   if (options.facades) {
     stage.facade_pixels = ExtendFacades(views, completed, stage.grounds, &stage.measured);
   }
-  for (size_t v = 0; v < n; ++v) {
-    bool any = false;
-    const std::vector<float>& pixels = stage.measured[v].pixels;
-    for (size_t j = 0; j < pixels.size() && !any; ++j) any = pixels[j] > 0.f && !views[v].is_ego(j);
-    stage.views_without_depth += !any;
-  }
   return stage;
 }
 
@@ -48,6 +42,8 @@ std::vector<ViewDepth> AddFarLayer(const std::vector<ContextView>& views, DepthS
       if (!views[v].is_ego(j)) max_depths[v] = std::max(max_depths[v], measured.pixels[j]);
     }
   }
+  stage->views_without_depth =
+      static_cast<int>(std::count(max_depths.begin(), max_depths.end(), 0.f));
   stage->far = FarLayerFor(views, max_depths);
   std::vector<ViewDepth> depths(n);
   for (size_t v = 0; v < n; ++v) {

@@ -25,8 +25,10 @@ struct DepthStage {
   int sparse_map_views = 0;             // Views completed from a sparse depth map.
   int64_t ground_pixels = 0;            // Pixels the ground fill set, in all views.
   int64_t facade_pixels = 0;            // Pixels facades set, in all views.
-  int views_without_depth = 0;          // No known pixel at all (before the far layer).
-  FarLayer far;                         // Set by AddFarLayer.
+  // Set by AddFarLayer: views with no known pixel off the ego body, and the
+  // far layer.
+  int views_without_depth = 0;
+  FarLayer far;
 };
 
 // Measures the depth of every view: MeasuredDepth by `options`, then, with
@@ -38,7 +40,8 @@ DepthStage MeasureViewDepths(const std::vector<ContextView>& views,
 
 // Returns each view's depth with its unknown pixels on the far layer
 // (FarLayerFor over the views' deepest measured non-ego pixels), which it
-// records in `stage->far`; frees `stage->measured` as it goes.
+// records in `stage->far`, with `stage->views_without_depth`; frees
+// `stage->measured` as it goes.
 std::vector<ViewDepth> AddFarLayer(const std::vector<ContextView>& views, DepthStage* stage);
 
 }  // namespace pf

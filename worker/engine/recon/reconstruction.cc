@@ -115,8 +115,8 @@ absl::StatusOr<ReconResult> ReconstructInputs(const ReconInputs& inputs,
   stats.sparse_map_views = stage.sparse_map_views;
   stats.ground_pixels = stage.ground_pixels;
   stats.facade_pixels = stage.facade_pixels;
-  stats.views_without_depth = stage.views_without_depth;
   const std::vector<ViewDepth> depths = AddFarLayer(views, &stage);
+  stats.views_without_depth = stage.views_without_depth;
   const std::string sparse_maps =
       stage.sparse_map_views > 0
           ? absl::StrCat(", ", stage.sparse_map_views, " from sparse depth maps, completed")

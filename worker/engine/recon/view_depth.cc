@@ -108,6 +108,13 @@ std::vector<float> PointsAtTime(const LidarSweepData& sweep,
   return out;
 }
 
+ImageF KnownDepthOnly(const ImageF& depth) {
+  ImageF out = depth;
+  for (float& d : out.pixels)
+    if (!(d > 0.f) || !std::isfinite(d)) d = 0.f;
+  return out;
+}
+
 ImageF ProjectPoints(const std::vector<float>& points, const CameraModel& camera,
                      const Rigid& world_from_camera) {
   ImageF depth(camera.width(), camera.height(), 1);
@@ -503,9 +510,7 @@ ImageF MeasuredDepth(const ContextView& view, const std::vector<LidarSweepData>&
   if (ground_pixels != nullptr) *ground_pixels = 0;
   if (ground != nullptr) *ground = GroundPlane{};
   if (view.depth.width > 0) {
-    ImageF depth = view.depth;
-    for (float& d : depth.pixels)
-      if (!(d > 0.f) || !std::isfinite(d)) d = 0.f;
+    const ImageF depth = KnownDepthOnly(view.depth);
     if (!IsSparseDepth(depth)) {
       if (source != nullptr) *source = MeasuredSource::kDepthMap;
       return depth;

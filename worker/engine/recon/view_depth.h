@@ -49,6 +49,10 @@ int NearestSweep(const std::vector<LidarSweepData>& sweeps, int64_t timestamp_us
 std::vector<float> PointsAtTime(const LidarSweepData& sweep,
                                 const std::vector<InstanceTrack>& tracks, int64_t timestamp_us);
 
+// Returns `depth` with every value that is not a positive finite depth set
+// to 0 (unknown).
+ImageF KnownDepthOnly(const ImageF& depth);
+
 // Projects world points into a camera: [H, W] z depth of the nearest point
 // per pixel, 0 where none falls.
 ImageF ProjectPoints(const std::vector<float>& points, const CameraModel& camera,
