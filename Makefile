@@ -49,7 +49,9 @@ clean:
 #   between gRPC's own threads in every gRPC test; those run under ASan.
 # Both trees leave LibTorch out (PF_TORCH=OFF): Debian's LibTorch is not
 # instrumented, and fusion runs the C++ kernel there, which
-# tensor_fusion_test checks the LibTorch path against in the GCC tree.
+# tensor_fusion_test checks the LibTorch path against in the GCC tree. They
+# leave CUDA out too (PF_CUDA=OFF): nvcc's objects are not instrumented, and
+# no GPU runs here.
 #
 # CI (.ci/run) runs the short forms: `test-asan` builds and runs the `unit`
 # tests (in-process; `pf_add_test` without E2E) and the fuzzers, `fuzz-smoke`
@@ -58,7 +60,7 @@ clean:
 # The deeper checks: `test-asan-all` (every test under ASan, the e2e ones
 # with a longer patience, tests/test_util.h TimeScale), `test-tsan-all`
 # (TSAN_ALL_TESTS), `fuzz-smoke FUZZ_SECONDS=600`.
-SAN_CMAKE = CC=clang CXX=clang++ cmake -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DPF_TORCH=OFF \
+SAN_CMAKE = CC=clang CXX=clang++ cmake -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DPF_TORCH=OFF -DPF_CUDA=OFF \
 	-DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -gline-tables-only -DNDEBUG" $(CMAKE_ARGS)
 ASAN_FLAGS = -fsanitize=address,undefined -fno-sanitize-recover=undefined -fno-omit-frame-pointer
 TSAN_FLAGS = -fsanitize=thread -fno-omit-frame-pointer

@@ -43,8 +43,10 @@ commands:
   scene info SCENE | scene export SCENE --ply OUT.ply [--time-us T]
         inspect or export a Gaussian scene
   render SCENE --cameras VIEWS.json --out DIR [--outputs rgb,alpha,depth,features,instance,filled]
-        render EXR files and PNG previews of a scene
+        [--device cpu|cuda:N]
+        render EXR files and PNG previews of a scene (on the CPU or a GPU)
   bench raster [--gaussians N] [--width W --height H] [--channels C] [--repeat R] [--seed S]
+        [--device cpu|cuda:N] [--compare-cpu]
         time the rasterizer; prints JSON
   reconstruct CLIP.json --out SCENE [--model analytic|pixel-aligned] [--ns N --nd N]
         [--fusion softmax|average|no-depth] [--no-lifespan] [--refine N] [--splat-sigma S]

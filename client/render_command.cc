@@ -1,5 +1,5 @@
 // pf render SCENE --cameras VIEWS.json --out DIR
-//           [--outputs rgb,alpha,depth,features,instance,filled]
+//           [--outputs rgb,alpha,depth,features,instance,filled] [--device cpu|cuda:N]
 // Renders every view of VIEWS.json (pointforward.v1.RenderViews) of SCENE
 // (our scene file or a 3DGS .ply) into DIR: <view>.exr, <view>.png and a
 // manifest.json. Progress per view goes to stderr, a summary to stdout.
@@ -12,8 +12,10 @@
 #include "absl/strings/str_cat.h"
 #include "client/commands.h"
 #include "common/command_line.h"
+#include "common/compute_device.h"
 #include "common/file_util.h"
 #include "common/status_macros.h"
+#include "worker/engine/render/device_renderer.h"
 #include "worker/engine/render/rasterizer.h"
 #include "worker/engine/render/render_outputs.h"
 #include "worker/engine/render/scene_source.h"
@@ -24,7 +26,7 @@ namespace {
 
 constexpr char kRenderUsage[] =
     "usage: pf render SCENE --cameras VIEWS.json --out DIR "
-    "[--outputs rgb,alpha,depth,features,instance,filled]";
+    "[--outputs rgb,alpha,depth,features,instance,filled] [--device cpu|cuda:N]";
 
 absl::Status RenderCommand(const CommandLine& cl) {
   if (cl.positional().size() != 1) return absl::InvalidArgumentError(kRenderUsage);
@@ -34,13 +36,21 @@ absl::Status RenderCommand(const CommandLine& cl) {
     return absl::InvalidArgumentError(absl::StrCat("--outputs: ", parsed.status().message()));
   }
   const OutputChannels channels = *parsed;
+  ASSIGN_OR_RETURN(const ComputeDevice device,
+                   ParseComputeDevice(cl.Get("device", "cpu"), "--device"));
   const auto start = std::chrono::steady_clock::now();
   ASSIGN_OR_RETURN(OpenedScene opened, OpenScene(cl.positional()[0]));
   ASSIGN_OR_RETURN(const RenderRequest request, LoadRenderViews(cl.Get("cameras"), opened.scene));
   const std::string out_dir = cl.Get("out");
   RETURN_IF_ERROR(MakeDirs(out_dir));
-  std::fprintf(stderr, "pf render: %zu gaussians (%s), %zu views, %zu edits\n", opened.scene.size(),
-               opened.format.c_str(), request.views.size(), request.edits.size());
+  ASSIGN_OR_RETURN(const std::unique_ptr<DeviceRenderer> renderer,
+                   DeviceRenderer::Create(&opened.scene, device, "--device"));
+  std::fprintf(
+      stderr, "pf render: %zu gaussians (%s), %zu views, %zu edits, on %s\n", opened.scene.size(),
+      opened.format.c_str(), request.views.size(), request.edits.size(),
+      device.kind == ComputeDevice::Kind::kCpu
+          ? "the CPU"
+          : absl::StrCat(device.ToString(), ", ", CudaDeviceDescription(device.index)).c_str());
 
   const SceneLabel label{opened.scene_id, opened.model, opened.scene.colour_encoding};
   RenderOptions options;
@@ -53,7 +63,7 @@ absl::Status RenderCommand(const CommandLine& cl) {
     const RenderView& view = request.views[i];
     const auto render_start = std::chrono::steady_clock::now();
     absl::StatusOr<RenderBuffers> buffers =
-        Render(opened.scene, view.camera, view.timestamp_us, request.edits, options);
+        renderer->Render(view.camera, view.timestamp_us, request.edits, options);
     if (!buffers.ok()) return StatusWithContext(buffers.status(), absl::StrCat("views[", i, "]"));
     const double render_ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - render_start)
@@ -89,7 +99,8 @@ absl::Status RenderCommand(const CommandLine& cl) {
 }  // namespace
 
 int RunRender(const std::vector<std::string>& args) {
-  absl::StatusOr<CommandLine> cl = CommandLine::Parse(args, {"cameras", "out", "outputs"});
+  absl::StatusOr<CommandLine> cl =
+      CommandLine::Parse(args, {"cameras", "out", "outputs", "device"});
   if (!cl.ok()) return ReportError("render", cl.status());
   const absl::Status status = RenderCommand(*cl);
   return status.ok() ? kExitOk : ReportError("render", status);

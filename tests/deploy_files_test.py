@@ -652,6 +652,9 @@ class DockerfileTest(unittest.TestCase):
         """{soname: Debian package} of the binary's direct dependencies."""
         dynamic = subprocess.run(["readelf", "-d", binary], capture_output=True, text=True, check=True).stdout
         needed = re.findall(r"\(NEEDED\)\s+Shared library: \[(.*?)\]", dynamic)
+        # The dynamic loader (named by programs that link the CUDA runtime
+        # statically) is libc6's, and ldd lists it without a path.
+        needed = [soname for soname in needed if not soname.startswith("ld-linux")]
         ldd = subprocess.run(["ldd", binary], capture_output=True, text=True, check=True).stdout
         paths = dict(re.findall(r"^\s*(\S+) => (\S+)", ldd, re.MULTILINE))
         resolved = {}

@@ -13,6 +13,7 @@
 #include "common/colour_space.h"
 #include "common/file_util.h"
 #include "tests/test_util.h"
+#include "worker/engine/render/cuda_rasterizer.h"
 #include "worker/engine/render/scene_file.h"
 
 namespace pf {
@@ -251,10 +252,43 @@ TEST_F(RenderCliTest, BadInputExitsTwoNamingTheField) {
   EXPECT_EQ(result.exit_code, 2);
   EXPECT_NE(result.err.find("--ply: required"), std::string::npos) << result.err;
 
+  result = Render("", dir_ + "/bad6", {"--device", "gpu0"});
+  EXPECT_EQ(result.exit_code, 2);
+  EXPECT_NE(result.err.find("--device: unknown device 'gpu0'"), std::string::npos) << result.err;
+  if (!CheckCudaDevice(7).ok()) {  // No eighth GPU: a clear refusal, nothing written.
+    result = Render("", dir_ + "/bad7", {"--device", "cuda:7"});
+    EXPECT_EQ(result.exit_code, 2);
+    EXPECT_NE(result.err.find("--device: 'cuda:7' cannot render: "), std::string::npos)
+        << result.err;
+    EXPECT_FALSE(fs::exists(dir_ + "/bad7/manifest.json"));
+  }
+
   result = RunCommand({BinPath("pf"), "render", dir_ + "/missing.pfscene", "--cameras", path,
                        "--out", dir_ + "/bad4"});
   EXPECT_EQ(result.exit_code, 2);
   EXPECT_NE(result.err.find("file not found"), std::string::npos) << result.err;
+}
+
+TEST_F(RenderCliTest, OnAGpuTheSameViewsGiveTheSameFiles) {
+  if (absl::Status gpu = CheckCudaDevice(0); !gpu.ok()) {
+    GTEST_SKIP() << "no GPU to render on: " << gpu.message();
+  }
+  const testing::CommandResult cpu = Render("", dir_ + "/cpu");
+  ASSERT_EQ(cpu.exit_code, 0) << cpu.err;
+  const testing::CommandResult gpu = Render("", dir_ + "/gpu", {"--device", "cuda:0"});
+  ASSERT_EQ(gpu.exit_code, 0) << gpu.err;
+  EXPECT_NE(gpu.err.find("on cuda:0"), std::string::npos) << gpu.err;
+  for (const char* view : {"t0.exr", "cam_1000000.exr"}) {
+    const Exr a = ReadExr(absl::StrCat(dir_, "/cpu/", view));
+    const Exr b = ReadExr(absl::StrCat(dir_, "/gpu/", view));
+    ASSERT_EQ(a.index, b.index);
+    for (const auto& [name, unused] : a.index) {
+      for (int y = 0; y < 48; y += 3) {
+        for (int x = 0; x < 64; x += 3) EXPECT_NEAR(a.at(x, y, name), b.at(x, y, name), 1e-3);
+      }
+    }
+    EXPECT_EQ(a.instance, b.instance);
+  }
 }
 
 // pf COMMAND --help prints that command's lines of pf help, on stdout.

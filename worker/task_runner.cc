@@ -20,6 +20,7 @@
 #include "worker/engine/clip/clip_io.h"
 #include "worker/engine/recon/recon_flags.h"
 #include "worker/engine/recon/tuning_limits.h"
+#include "worker/engine/render/device_renderer.h"
 #include "worker/engine/render/rasterizer.h"
 #include "worker/engine/render/render_outputs.h"
 #include "worker/engine/render/scene_file.h"
@@ -309,7 +310,8 @@ absl::StatusOr<ReconstructOutput> RunReconstruction(
 absl::StatusOr<RenderChunkOutput> RenderChunk(const pb::RenderWork& work, const OpenedScene& opened,
                                               const std::string& out_dir,
                                               const FramesDoneFn& progress,
-                                              const CancelledFn& cancelled) {
+                                              const CancelledFn& cancelled,
+                                              const DeviceRenderer* renderer) {
   const auto start = std::chrono::steady_clock::now();
   const std::vector<std::string> outputs(work.outputs().begin(), work.outputs().end());
   absl::StatusOr<OutputChannels> parsed_channels = ParseOutputChannels(outputs);
@@ -355,7 +357,9 @@ absl::StatusOr<RenderChunkOutput> RenderChunk(const pb::RenderWork& work, const 
     const RenderView& view = request.views[i];
     const auto render_start = std::chrono::steady_clock::now();
     absl::StatusOr<RenderBuffers> buffers =
-        Render(opened.scene, view.camera, view.timestamp_us, request.edits, options);
+        renderer != nullptr
+            ? renderer->Render(view.camera, view.timestamp_us, request.edits, options)
+            : Render(opened.scene, view.camera, view.timestamp_us, request.edits, options);
     if (!buffers.ok()) return StatusWithContext(buffers.status(), absl::StrCat("views[", i, "]"));
     ManifestEntry entry;
     entry.exr = view.name + ".exr";

@@ -28,6 +28,8 @@
 
 namespace pf {
 
+class DeviceRenderer;
+
 // Writes the blob with SHA-256 `sha256` (hex) to `local_path`.
 using FetchBlobFn =
     std::function<absl::Status(const std::string& sha256, const std::string& local_path)>;
@@ -85,12 +87,15 @@ struct RenderChunkOutput {
 
 // Renders views [first_view, first_view + view_count) of `work` into
 // `out_dir` exactly as `pf render` does (same buffers, EXR and PNG writers,
-// scene label), checking `cancelled()` before each view. INVALID_ARGUMENT
-// naming `outputs`, `views...` or `first_view`/`view_count` for bad input.
+// scene label), checking `cancelled()` before each view; with `renderer`
+// (made for scene.scene, e.g. on a GPU) rather than the CPU rasterizer when
+// not null. INVALID_ARGUMENT naming `outputs`, `views...` or
+// `first_view`/`view_count` for bad input.
 absl::StatusOr<RenderChunkOutput> RenderChunk(const pointforward::v1::RenderWork& work,
                                               const OpenedScene& scene, const std::string& out_dir,
                                               const FramesDoneFn& progress,
-                                              const CancelledFn& cancelled);
+                                              const CancelledFn& cancelled,
+                                              const DeviceRenderer* renderer = nullptr);
 
 }  // namespace pf
 

@@ -25,6 +25,8 @@
 #include "rpc/blob_transfer.h"
 #include "rpc/grpc_status.h"
 #include "spdlog/spdlog.h"
+#include "worker/engine/recon/compute_device.h"
+#include "worker/engine/render/device_renderer.h"
 #include "worker/engine/render/scene_source.h"
 #include "worker/scene_cache.h"
 #include "worker/task_runner.h"
@@ -131,6 +133,11 @@ class Worker {
   std::unique_ptr<pb::WorkerService::Stub> stub_;
   BlobClient blobs_;
   SceneCache cache_;
+  // On a GPU worker, the scene rendered last, kept on the GPU (tasks run one
+  // at a time): its name, the cached host scene it was made from, and it.
+  std::string gpu_scene_name_;
+  std::shared_ptr<const OpenedScene> gpu_scene_host_;
+  std::unique_ptr<DeviceRenderer> gpu_scene_;
   std::atomic<bool> server_down_{false};
   std::atomic<bool> finished_{false};
   std::mutex lease_mu_;
@@ -404,7 +411,13 @@ absl::Status Worker::Reconstruct(const pb::Task& task, const std::string& dir, s
     SetProgress(state, stage, fraction, 0);
   };
   const CancelledFn cancelled = [state] { return state->cancel.load(); };
-  ASSIGN_OR_RETURN(const ComputeDevice device, ParseComputeDevice(options_.device, "--device"));
+  ASSIGN_OR_RETURN(ComputeDevice device, ParseComputeDevice(options_.device, "--device"));
+  if (absl::Status fusion = CheckComputeDevice(device, "--device"); !fusion.ok()) {
+    // A GPU worker whose LibTorch cannot use the GPU renders there but fuses
+    // on the CPU.
+    log.info("fusion runs on the CPU: {}", std::string(fusion.message()));
+    device = ComputeDevice{};
+  }
   ASSIGN_OR_RETURN(ReconstructOutput out,
                    RunReconstruction(work, fetch, dir, progress, cancelled, device));
   SetProgress(state, "upload", 1.0, 0);
@@ -452,9 +465,24 @@ absl::Status Worker::Render(const pb::Task& task, const std::string& dir, spdlog
     SetProgress(state, "render", total > 0 ? double(frames_done) / total : 1.0, frames_done);
   };
   const CancelledFn cancelled = [state] { return state->cancel.load(); };
+  ASSIGN_OR_RETURN(const ComputeDevice device, ParseComputeDevice(options_.device, "--device"));
+  if (device.kind == ComputeDevice::Kind::kCuda && gpu_scene_name_ != work.scene()) {
+    // The hot scene moves to the GPU; the one before leaves it.
+    gpu_scene_.reset();
+    gpu_scene_host_.reset();
+    gpu_scene_name_.clear();
+    const auto upload_start = Clock::now();
+    ASSIGN_OR_RETURN(gpu_scene_, DeviceRenderer::Create(&scene->scene, device, "--device"));
+    gpu_scene_host_ = scene;
+    gpu_scene_name_ = work.scene();
+    log.info("scene {} uploaded to {} in {:.2f} s", work.scene(), device.ToString(),
+             SecondsSince(upload_start));
+  }
   SetProgress(state, "render", 0.0, 0);
-  ASSIGN_OR_RETURN(const RenderChunkOutput chunk,
-                   RenderChunk(work, *scene, dir + "/out", on_frame, cancelled));
+  ASSIGN_OR_RETURN(
+      const RenderChunkOutput chunk,
+      RenderChunk(work, *scene, dir + "/out", on_frame, cancelled,
+                  device.kind == ComputeDevice::Kind::kCuda ? gpu_scene_.get() : nullptr));
 
   pb::RenderResult* result = state->completion.mutable_render();
   for (const RenderedFile& file : chunk.files) {

@@ -21,6 +21,7 @@
 #include "common/metrics_http.h"
 #include "common/status_macros.h"
 #include "worker/engine/recon/compute_device.h"
+#include "worker/engine/render/cuda_rasterizer.h"
 #include "worker/worker_loop.h"
 
 namespace {
@@ -32,8 +33,9 @@ uploads the results. Logs to stderr; SIGTERM or SIGINT stops it after the
 running task.
 
   --server HOST:PORT   pf-server to pull from (default: $PF_SERVER)
-  --device D           where reconstruction's tensor work (fusion) runs: cpu, cuda or
-                       cuda:N; a GPU needs a CUDA LibTorch in the build (default cpu)
+  --device D           cpu, cuda or cuda:N (default cpu). On a GPU, render chunks run
+                       on the CUDA rasterizer, the scene rendered last kept on the GPU,
+                       and fusion runs there when the build's LibTorch has CUDA
   --cache-bytes N      memory budget of the scene cache in bytes (default 2147483648)
   --work-dir DIR       scratch directory, emptied at start; each attempt works in
                        DIR/<task>-<attempt>/ (default /tmp/pf-worker-<id>)
@@ -113,7 +115,13 @@ absl::StatusOr<pf::WorkerOptions> ParseFlags(const pf::CommandLine& cl) {
   }
   ASSIGN_OR_RETURN(const pf::ComputeDevice device,
                    pf::ParseComputeDevice(cl.Get("device", "cpu"), "--device"));
-  RETURN_IF_ERROR(pf::CheckComputeDevice(device, "--device"));
+  // A GPU serves if fusion (LibTorch) or the CUDA rasterizer can use it.
+  if (absl::Status fusion = pf::CheckComputeDevice(device, "--device"); !fusion.ok()) {
+    if (absl::Status raster = pf::CheckCudaDevice(device.index); !raster.ok()) {
+      return absl::FailedPreconditionError(absl::StrCat(
+          fusion.message(), "; and the CUDA rasterizer cannot use it either: ", raster.message()));
+    }
+  }
   options.device = device.ToString();
   ASSIGN_OR_RETURN(options.cache_bytes,
                    IntFlag(cl, "cache-bytes", options.cache_bytes, 0, int64_t{1} << 50));

@@ -9,24 +9,28 @@
 namespace pf {
 
 CameraModel::CameraModel(int width, int height, double fx, double fy, double cx, double cy)
-    : width_(width), height_(height), fx_(fx), fy_(fy), cx_(cx), cy_(cy) {}
+    : width_(width), height_(height) {
+  lens_.fx = fx, lens_.fy = fy, lens_.cx = cx, lens_.cy = cy;
+}
 
 void CameraModel::SetOpenCv(double k1, double k2, double p1, double p2, double k3) {
   kind_ = Kind::kOpenCv;
-  k1_ = k1, k2_ = k2, p1_ = p1, p2_ = p2, k3_ = k3, k4_ = 0;
+  lens_.kind = Lens::kOpenCv;
+  lens_.k1 = k1, lens_.k2 = k2, lens_.p1 = p1, lens_.p2 = p2, lens_.k3 = k3, lens_.k4 = 0;
   UpdateValidRadius();
 }
 
 void CameraModel::SetFisheye(double k1, double k2, double k3, double k4) {
   kind_ = Kind::kFisheye;
-  k1_ = k1, k2_ = k2, k3_ = k3, k4_ = k4, p1_ = 0, p2_ = 0;
+  lens_.kind = Lens::kFisheye;
+  lens_.k1 = k1, lens_.k2 = k2, lens_.k3 = k3, lens_.k4 = k4, lens_.p1 = 0, lens_.p2 = 0;
   UpdateValidRadius();
 }
 
 void CameraModel::UpdateValidRadius() {
   // Walk outwards until the distorted radius stops growing with the
   // undistorted one (or up to a radius far beyond any real lens).
-  max_radius_ = 1e6;
+  lens_.max_radius = 1e6;
   constexpr double kStep = 1e-3, kLimit = 20.0;
   double prev = 0;
   for (double r = kStep; r < kLimit; r += kStep) {
@@ -37,7 +41,7 @@ void CameraModel::UpdateValidRadius() {
     Distort(0, r, &xd2, &yd2);
     const double rd = std::min(std::hypot(xd, yd), std::hypot(xd2, yd2));
     if (rd <= prev) {
-      max_radius_ = r - kStep;
+      lens_.max_radius = r - kStep;
       return;
     }
     prev = rd;
@@ -45,33 +49,7 @@ void CameraModel::UpdateValidRadius() {
 }
 
 void CameraModel::Distort(double xn, double yn, double* xd, double* yd) const {
-  switch (kind_) {
-    case Kind::kPinhole:
-      *xd = xn;
-      *yd = yn;
-      return;
-    case Kind::kOpenCv: {
-      const double r2 = xn * xn + yn * yn;
-      const double radial = 1 + r2 * (k1_ + r2 * (k2_ + r2 * k3_));
-      *xd = xn * radial + 2 * p1_ * xn * yn + p2_ * (r2 + 2 * xn * xn);
-      *yd = yn * radial + p1_ * (r2 + 2 * yn * yn) + 2 * p2_ * xn * yn;
-      return;
-    }
-    case Kind::kFisheye: {
-      const double r = std::sqrt(xn * xn + yn * yn);
-      if (r < 1e-12) {
-        *xd = xn;
-        *yd = yn;
-        return;
-      }
-      const double theta = std::atan(r);
-      const double t2 = theta * theta;
-      const double theta_d = theta * (1 + t2 * (k1_ + t2 * (k2_ + t2 * (k3_ + t2 * k4_))));
-      *xd = xn * theta_d / r;
-      *yd = yn * theta_d / r;
-      return;
-    }
-  }
+  LensDistort(lens_, xn, yn, xd, yd);
 }
 
 bool CameraModel::Undistort(double xd, double yd, double* xn, double* yn) const {
@@ -102,26 +80,19 @@ bool CameraModel::Undistort(double xd, double yd, double* xn, double* yn) const 
   double cx, cy;
   Distort(x, y, &cx, &cy);
   if (std::hypot(cx - xd, cy - yd) > 1e-6) return false;
-  if (std::hypot(x, y) > max_radius_) return false;
+  if (std::hypot(x, y) > lens_.max_radius) return false;
   *xn = x;
   *yn = y;
   return true;
 }
 
 bool CameraModel::Project(const Vec3& p, double* u, double* v) const {
-  if (p.z <= 1e-6) return false;
-  const double xn = p.x / p.z, yn = p.y / p.z;
-  if (kind_ != Kind::kPinhole && xn * xn + yn * yn > max_radius_ * max_radius_) return false;
-  double xd, yd;
-  Distort(xn, yn, &xd, &yd);
-  *u = fx_ * xd + cx_;
-  *v = fy_ * yd + cy_;
-  return true;
+  return LensProject(lens_, p.x, p.y, p.z, u, v);
 }
 
 bool CameraModel::Unproject(double u, double v, Vec3* ray) const {
   double xn, yn;
-  if (!Undistort((u - cx_) / fx_, (v - cy_) / fy_, &xn, &yn)) return false;
+  if (!Undistort((u - lens_.cx) / lens_.fx, (v - lens_.cy) / lens_.fy, &xn, &yn)) return false;
   *ray = {xn, yn, 1.0};
   return true;
 }

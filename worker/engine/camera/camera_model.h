@@ -13,6 +13,7 @@
 
 #include "absl/status/statusor.h"
 #include "common/geometry.h"
+#include "worker/engine/camera/lens.h"
 
 namespace pointforward::v1 {
 class Camera;
@@ -36,19 +37,21 @@ class CameraModel {
   Kind kind() const { return kind_; }
   int width() const { return width_; }
   int height() const { return height_; }
-  double fx() const { return fx_; }
-  double fy() const { return fy_; }
-  double cx() const { return cx_; }
-  double cy() const { return cy_; }
+  double fx() const { return lens_.fx; }
+  double fy() const { return lens_.fy; }
+  double cx() const { return lens_.cx; }
+  double cy() const { return lens_.cy; }
   bool has_distortion() const { return kind_ != Kind::kPinhole; }
   // Distortion coefficients as set (0 when unset): k1..k3, p1, p2 of the
   // OpenCV model; k1..k4 of the fisheye model.
-  double k1() const { return k1_; }
-  double k2() const { return k2_; }
-  double k3() const { return k3_; }
-  double k4() const { return k4_; }
-  double p1() const { return p1_; }
-  double p2() const { return p2_; }
+  double k1() const { return lens_.k1; }
+  double k2() const { return lens_.k2; }
+  double k3() const { return lens_.k3; }
+  double k4() const { return lens_.k4; }
+  double p1() const { return lens_.p1; }
+  double p2() const { return lens_.p2; }
+  // The projection as plain numbers (lens.h), for CUDA kernels.
+  const Lens& lens() const { return lens_; }
 
   // Maps undistorted normalised coordinates (x/z, y/z) to distorted ones.
   // For the fisheye model the input is also (x/z, y/z) with z > 0.
@@ -68,16 +71,14 @@ class CameraModel {
   bool Unproject(double u, double v, Vec3* ray) const;
 
   // The largest undistorted normalised radius Project() accepts.
-  double max_normalized_radius() const { return max_radius_; }
+  double max_normalized_radius() const { return lens_.max_radius; }
 
  private:
   void UpdateValidRadius();
 
   Kind kind_ = Kind::kPinhole;
   int width_ = 0, height_ = 0;
-  double fx_ = 1, fy_ = 1, cx_ = 0, cy_ = 0;
-  double k1_ = 0, k2_ = 0, p1_ = 0, p2_ = 0, k3_ = 0, k4_ = 0;
-  double max_radius_ = 1e6;
+  Lens lens_;
 };
 
 // Builds a CameraModel from a manifest camera. INVALID_ARGUMENT (naming the

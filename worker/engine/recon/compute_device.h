@@ -16,22 +16,9 @@
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
+#include "common/compute_device.h"
 
 namespace pf {
-
-struct ComputeDevice {
-  enum class Kind { kCpu, kCuda };
-  Kind kind = Kind::kCpu;
-  int index = 0;  // The GPU of kCuda.
-
-  // Returns "cpu" or "cuda:N".
-  std::string ToString() const;
-  bool operator==(const ComputeDevice&) const = default;
-};
-
-// Parses "cpu", "cuda" or "cuda:N". INVALID_ARGUMENT naming `field` (e.g.
-// "--device", "options.device") for anything else.
-absl::StatusOr<ComputeDevice> ParseComputeDevice(const std::string& spec, const std::string& field);
 
 // Returns true when this build runs fusion with LibTorch.
 bool HaveTensorBackend();

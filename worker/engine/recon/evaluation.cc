@@ -20,6 +20,7 @@
 #include "worker/engine/recon/image_metrics.h"
 #include "worker/engine/recon/recon_flags.h"
 #include "worker/engine/recon/scene_graph.h"
+#include "worker/engine/render/device_renderer.h"
 #include "worker/engine/render/hole_fill.h"
 #include "worker/engine/render/rasterizer.h"
 
@@ -239,7 +240,8 @@ absl::StatusOr<CheckedViews> CheckExtraViews(const ExtraViews& extra) {
 
 // Renders and measures the extra views, writing their contact sheets into
 // `out_dir`/views/.
-absl::Status EvaluateExtraViews(const GaussianScene& scene, const CheckedViews& checked,
+absl::Status EvaluateExtraViews(const GaussianScene& scene, const DeviceRenderer& renderer,
+                                const CheckedViews& checked,
                                 const std::optional<LaneShiftSpec>& lane_shift,
                                 const ReconOptions& options, const std::string& out_dir,
                                 EvalReport* report) {
@@ -257,7 +259,7 @@ absl::Status EvaluateExtraViews(const GaussianScene& scene, const CheckedViews& 
     }
     const auto start = std::chrono::steady_clock::now();
     absl::StatusOr<RenderBuffers> buffers =
-        Render(scene, view.camera, view.timestamp_us, checked.edits, render_options);
+        renderer.Render(view.camera, view.timestamp_us, checked.edits, render_options);
     if (!buffers.ok()) return StatusWithContext(buffers.status(), what);
     const double render_seconds = SecondsSince(start);
     // With actor edits the tracked boxes are not where the movers are.
@@ -607,6 +609,14 @@ absl::StatusOr<EvalReport> EvaluateClip(const LoadedClip& loaded, const ReconOpt
   report.gaussians = static_cast<int64_t>(scene.size());
   report.stats = recon.stats;
 
+  // Renders run on the GPU that --device names when the CUDA rasterizer can
+  // use it (fusion's LibTorch may not), else on the CPU.
+  const ComputeDevice render_device = options.device.kind == ComputeDevice::Kind::kCuda &&
+                                              CheckCudaDevice(options.device.index).ok()
+                                          ? options.device
+                                          : ComputeDevice{};
+  ASSIGN_OR_RETURN(const std::unique_ptr<DeviceRenderer> renderer,
+                   DeviceRenderer::Create(&scene, render_device, "--device"));
   RenderOptions render_options;
   render_options.features = false;
   render_options.instance = false;
@@ -614,8 +624,9 @@ absl::StatusOr<EvalReport> EvaluateClip(const LoadedClip& loaded, const ReconOpt
   for (size_t t = 0; t < targets.size(); ++t) {
     const ContextView& target = targets[t];
     const auto start = std::chrono::steady_clock::now();
-    ASSIGN_OR_RETURN(RenderBuffers buffers, Render(scene, {target.camera, target.world_from_camera},
-                                                   target.timestamp_us, {}, render_options));
+    ASSIGN_OR_RETURN(RenderBuffers buffers,
+                     renderer->Render({target.camera, target.world_from_camera},
+                                      target.timestamp_us, {}, render_options));
     const double render_seconds = SecondsSince(start);
     const auto metrics_start = std::chrono::steady_clock::now();
     const std::vector<uint8_t> mask =
@@ -655,8 +666,8 @@ absl::StatusOr<EvalReport> EvaluateClip(const LoadedClip& loaded, const ReconOpt
   report.nearest_mean = MeanOf(report.nearest);
   report.warp_mean = MeanOf(report.warp);
   if (extra_views.has_value()) {
-    RETURN_IF_ERROR(
-        EvaluateExtraViews(scene, *extra_views, extra->lane_shift, options, out_dir, &report));
+    RETURN_IF_ERROR(EvaluateExtraViews(scene, *renderer, *extra_views, extra->lane_shift, options,
+                                       out_dir, &report));
   }
   RETURN_IF_ERROR(WriteFileAtomic(absl::StrCat(out_dir, "/report.json"), EvalReportJson(report)));
   return report;

@@ -97,24 +97,8 @@ absl::StatusOr<CompositingWeights> ComputeCompositingWeights(const GaussianScene
   const size_t num_tiles = static_cast<size_t>(tiles_x) * tiles_y;
   std::vector<uint64_t> tile_begin(num_tiles + 1, 0);
   auto for_each_tile = [&](const Splat& g, auto&& body) {
-    const int px0 = std::max(0, static_cast<int>(std::ceil(g.mx - g.ext_x - 0.5f)));
-    const int px1 = std::min(frame.width - 1, static_cast<int>(std::floor(g.mx + g.ext_x - 0.5f)));
-    const int py0 = std::max(0, static_cast<int>(std::ceil(g.my - g.ext_y - 0.5f)));
-    const int py1 = std::min(frame.height - 1, static_cast<int>(std::floor(g.my + g.ext_y - 0.5f)));
-    if (px0 > px1 || py0 > py1) return;
-    const bool single = px0 / kTile == px1 / kTile && py0 / kTile == py1 / kTile;
-    for (int ty = py0 / kTile; ty <= py1 / kTile; ++ty) {
-      const float y0 = std::max(ty * kTile, py0) + 0.5f - g.my;
-      const float y1 = std::min(ty * kTile + kTile - 1, py1) + 0.5f - g.my;
-      for (int tx = px0 / kTile; tx <= px1 / kTile; ++tx) {
-        if (!single) {
-          const float x0 = std::max(tx * kTile, px0) + 0.5f - g.mx;
-          const float x1 = std::min(tx * kTile + kTile - 1, px1) + 0.5f - g.mx;
-          if (raster::MinD2OverRect(g.ca, g.cb, g.cc, x0, x1, y0, y1) > g.span_d2) continue;
-        }
-        body(static_cast<size_t>(ty) * tiles_x + tx);
-      }
-    }
+    raster::VisitTiles(g.mx, g.my, g.ca, g.cb, g.cc, g.span_d2, g.ext_x, g.ext_y, frame.width,
+                       frame.height, tiles_x, [&](uint32_t t) { body(static_cast<size_t>(t)); });
   };
   for (const Splat& splat : splats) for_each_tile(splat, [&](size_t t) { ++tile_begin[t + 1]; });
   for (size_t t = 0; t < num_tiles; ++t) tile_begin[t + 1] += tile_begin[t];

@@ -6,12 +6,16 @@
 #define POINTFORWARD_WORKER_ENGINE_RENDER_RASTER_SH_H_
 
 #include <algorithm>
+#include <cmath>
+
+#include "common/host_device.h"
 
 namespace pf::raster {
 
 // Returns in `rgb` the colour of `coeffs` ([3, (degree+1)^2], channel-major)
 // seen along unit direction (x, y, z) (from the camera towards the Gaussian).
-inline void EvalShColor(const float* coeffs, int degree, float x, float y, float z, float rgb[3]) {
+PF_HD inline void EvalShColor(const float* coeffs, int degree, float x, float y, float z,
+                              float rgb[3]) {
   constexpr float kC0 = 0.28209479177387814f;
   constexpr float kC1 = 0.4886025119029199f;
   constexpr float kC2[5] = {1.0925484305920792f, -1.0925484305920792f, 0.31539156525252005f,
@@ -47,8 +51,19 @@ inline void EvalShColor(const float* coeffs, int degree, float x, float y, float
   for (int c = 0; c < 3; ++c) {
     float sum = 0.f;
     for (int k = 0; k < n; ++k) sum += coeffs[c * n + k] * basis[k];
-    rgb[c] = std::max(0.f, sum + 0.5f);
+    const float value = sum + 0.5f;
+    rgb[c] = value > 0.f ? value : 0.f;
   }
+}
+
+// Returns in `rgb` the colour of `coeffs` for a Gaussian at `mean` seen from
+// `eye` (both in the frame the SH live in, the owner's).
+PF_HD inline void EvalShColorFrom(const float* coeffs, int degree, const float* mean,
+                                  const float* eye, float rgb[3]) {
+  float x = mean[0] - eye[0], y = mean[1] - eye[1], z = mean[2] - eye[2];
+  const float norm = std::sqrt(x * x + y * y + z * z);
+  if (norm > 0) x /= norm, y /= norm, z /= norm;
+  EvalShColor(coeffs, degree, x, y, z, rgb);
 }
 
 }  // namespace pf::raster

@@ -34,6 +34,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "common/thread_pool.h"
+#include "worker/engine/render/raster_frame.h"
 #include "worker/engine/render/raster_sh.h"
 #include "worker/engine/render/raster_tile.h"
 #include "worker/engine/render/splat_projection.h"
@@ -48,11 +49,8 @@ using raster::kTile;
 using raster::kTilePixels;
 using raster::Projected;
 
-// A rigid transform in float: p' = r * p + t, r row-major.
-struct Transform {
-  float r[9];
-  float t[3];
-};
+using raster::RenderFrame;
+using raster::Transform;
 
 Transform ToFloat(const Rigid& x) {
   Transform f;
@@ -63,81 +61,38 @@ Transform ToFloat(const Rigid& x) {
   return f;
 }
 
-// The per-render state shared by the passes: the camera as the projection
-// reads it, and per owner (0 background, k instance k) the camera-from-owner
-// transform, the camera centre in the owner's frame, and whether it is drawn.
-struct Frame : raster::ProjectionCamera {
-  int tiles_x = 0, tiles_y = 0;
-  std::vector<Transform> camera_from_owner;
-  std::vector<float> eye_in_owner;  // [K+1, 3]
-  std::vector<uint8_t> owner_live;
-};
-
 // Projects Gaussian `i` into `out` (and, for a scene with colour gradients,
 // its screen-space gradients into gradients[6 i, 6 i + 6)); false when it
 // cannot be seen.
-bool ProjectGaussian(const GaussianScene& scene, const Frame& frame, size_t i, Projected* out,
+bool ProjectGaussian(const GaussianScene& scene, const RenderFrame& frame, size_t i, Projected* out,
                      float* gradients) {
   const uint32_t owner = scene.owners[i];
   if (!frame.owner_live[owner]) return false;
   const Transform& cam = frame.camera_from_owner[owner];
   raster::SplatGeometry g;
   if (!raster::ProjectSplatGeometry(scene, i, frame, cam.r, cam.t, &g)) return false;
-  out->mx = g.mx;
-  out->my = g.my;
-  out->ca = g.ca;
-  out->cb = g.cb;
-  out->cc = g.cc;
-  out->opacity = g.opacity;
-  out->span_d2 = g.span_d2;
-  out->ext_x = g.ext_x;
-  out->ext_y = g.ext_y;
-  out->depth = g.depth;
-  out->owner = owner;
-  if (gradients != nullptr) raster::ScreenColourGradients(scene, i, g, gradients + 6 * i);
-  out->pad[0] = out->pad[1] = 0;
-  out->rgb[0] = out->rgb[1] = out->rgb[2] = 0;
+  *out = raster::ToProjected(g, owner);
+  if (gradients != nullptr) {
+    raster::ScreenColourGradients(&scene.colour_gradients[6 * i], g, gradients + 6 * i);
+  }
   if (scene.sh_degree >= 0) {
-    // View direction in the owner's frame (SH live in canonical space).
-    const float* eye = &frame.eye_in_owner[3 * owner];
-    const float* m = &scene.means[3 * i];
-    float vx = m[0] - eye[0], vy = m[1] - eye[1], vz = m[2] - eye[2];
-    const float vn = std::sqrt(vx * vx + vy * vy + vz * vz);
-    if (vn > 0) vx /= vn, vy /= vn, vz /= vn;
-    raster::EvalShColor(&scene.sh[i * 3 * scene.sh_coeffs()], scene.sh_degree, vx, vy, vz,
-                        out->rgb);
+    // SH live in canonical space: the view direction in the owner's frame.
+    raster::EvalShColorFrom(&scene.sh[i * 3 * scene.sh_coeffs()], scene.sh_degree,
+                            &scene.means[3 * i], &frame.eye_in_owner[3 * owner], out->rgb);
   }
   return true;
 }
 
 // Appends the tiles Gaussian `g` (index `i`) touches to `tiles` (and `i` to
 // `indices`) and counts them in `histogram`.
-void EmitTiles(const Frame& frame, const Projected& g, uint32_t i, std::vector<uint32_t>* tiles,
-               std::vector<uint32_t>* indices, uint32_t* histogram) {
-  const float ext_x = g.ext_x;
-  // Pixel-centre bounds of the ellipse, clipped to the image.
-  const int px0 = std::max(0, static_cast<int>(std::ceil(g.mx - ext_x - 0.5f)));
-  const int px1 = std::min(frame.width - 1, static_cast<int>(std::floor(g.mx + ext_x - 0.5f)));
-  const int py0 = std::max(0, static_cast<int>(std::ceil(g.my - g.ext_y - 0.5f)));
-  const int py1 = std::min(frame.height - 1, static_cast<int>(std::floor(g.my + g.ext_y - 0.5f)));
-  if (px0 > px1 || py0 > py1) return;
-  const int tx0 = px0 / kTile, tx1 = px1 / kTile, ty0 = py0 / kTile, ty1 = py1 / kTile;
-  const bool single = tx0 == tx1 && ty0 == ty1;
-  for (int ty = ty0; ty <= ty1; ++ty) {
-    const float y0 = std::max(ty * kTile, py0) + 0.5f - g.my;
-    const float y1 = std::min(ty * kTile + kTile - 1, py1) + 0.5f - g.my;
-    for (int tx = tx0; tx <= tx1; ++tx) {
-      if (!single) {
-        const float x0 = std::max(tx * kTile, px0) + 0.5f - g.mx;
-        const float x1 = std::min(tx * kTile + kTile - 1, px1) + 0.5f - g.mx;
-        if (raster::MinD2OverRect(g.ca, g.cb, g.cc, x0, x1, y0, y1) > g.span_d2) continue;
-      }
-      const uint32_t tile = static_cast<uint32_t>(ty * frame.tiles_x + tx);
-      tiles->push_back(tile);
-      indices->push_back(i);
-      ++histogram[tile];
-    }
-  }
+void EmitTiles(const RenderFrame& frame, const Projected& g, uint32_t i,
+               std::vector<uint32_t>* tiles, std::vector<uint32_t>* indices, uint32_t* histogram) {
+  raster::VisitTiles(g.mx, g.my, g.ca, g.cb, g.cc, g.span_d2, g.ext_x, g.ext_y, frame.width,
+                     frame.height, frame.tiles_x, [&](uint32_t tile) {
+                       tiles->push_back(tile);
+                       indices->push_back(i);
+                       ++histogram[tile];
+                     });
 }
 
 // Per-thread buffers of one tile, reused across tiles and renders.
@@ -152,7 +107,7 @@ struct TileScratch {
 
 // Composites tile (tx, ty) from its depth-ordered `indices` and writes its
 // pixels.
-void RenderTile(const Frame& frame, const Projected* projected, const uint32_t* indices,
+void RenderTile(const RenderFrame& frame, const Projected* projected, const uint32_t* indices,
                 size_t num_indices, int tx, int ty, const float* features, int stride, int count,
                 bool sh_rgb, const float* gradients, const RenderOptions& options,
                 RenderBuffers* out, int64_t* tested, int64_t* contributing) {
@@ -306,6 +261,70 @@ Rigid InstancePoseAt(const std::vector<TrackBox>& boxes, int64_t timestamp_us) {
   return BoxPose(InterpolateBox(boxes, timestamp_us)) * BoxPose(boxes.front()).Inverse();
 }
 
+namespace raster {
+
+absl::Status SetUpRenderFrame(const std::vector<InstanceTrack>& instances, int64_t time_origin_us,
+                              const RenderCamera& camera, int64_t timestamp_us,
+                              const std::vector<ActorEdit>& edits, float near_plane,
+                              RenderFrame* frame) {
+  const CameraModel& model = camera.model;
+  if (model.width() <= 0 || model.height() <= 0) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("camera: image size ", model.width(), "x", model.height(), " has no pixels"));
+  }
+  if (int64_t{model.width()} * model.height() > kMaxRenderPixels) {
+    return absl::InvalidArgumentError(absl::StrCat("camera: image size ", model.width(), "x",
+                                                   model.height(), " exceeds ", kMaxRenderPixels,
+                                                   " pixels"));
+  }
+  // Owner poses at this time, with the edits applied.
+  const size_t num_instances = instances.size();
+  std::vector<Rigid> world_from_owner(num_instances + 1);
+  std::vector<uint8_t> live(num_instances + 1, 1);
+  for (size_t k = 0; k < num_instances; ++k) {
+    world_from_owner[k + 1] = InstancePoseAt(instances[k].boxes, timestamp_us);
+  }
+  for (size_t e = 0; e < edits.size(); ++e) {
+    const ActorEdit& edit = edits[e];
+    size_t k = 0;
+    while (k < num_instances && instances[k].id != edit.instance_id) ++k;
+    if (k == num_instances) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("edits[", e, "].instance_id: '", edit.instance_id, "' is not in the scene"));
+    }
+    if (edit.kind == ActorEdit::Kind::kRemove) {
+      live[k + 1] = 0;
+    } else {
+      if (edit.boxes.empty()) {
+        return absl::InvalidArgumentError(
+            absl::StrCat("edits[", e, "].boxes: a trajectory edit needs at least one box"));
+      }
+      const std::vector<TrackBox>& track = instances[k].boxes;
+      const Rigid canonical = track.empty() ? Rigid{} : BoxPose(track.front());
+      world_from_owner[k + 1] =
+          BoxPose(InterpolateBox(edit.boxes, timestamp_us)) * canonical.Inverse();
+    }
+  }
+
+  SetUpProjectionCamera(
+      model, near_plane,
+      static_cast<float>(static_cast<double>(timestamp_us - time_origin_us) * 1e-6), frame);
+  frame->tiles_x = (frame->width + kTile - 1) / kTile;
+  frame->tiles_y = (frame->height + kTile - 1) / kTile;
+  const Rigid camera_from_world = camera.world_from_camera.Inverse();
+  frame->owner_live = live;
+  frame->camera_from_owner.resize(num_instances + 1);
+  frame->eye_in_owner.resize(3 * (num_instances + 1));
+  for (size_t k = 0; k <= num_instances; ++k) {
+    frame->camera_from_owner[k] = ToFloat(camera_from_world * world_from_owner[k]);
+    const Vec3 eye = world_from_owner[k].Inverse() * camera.world_from_camera.translation;
+    for (int c = 0; c < 3; ++c) frame->eye_in_owner[3 * k + c] = static_cast<float>(eye[c]);
+  }
+  return absl::OkStatus();
+}
+
+}  // namespace raster
+
 namespace {
 
 // The per-render arrays, kept per calling thread between renders so that
@@ -332,62 +351,14 @@ struct Workspace {
 absl::StatusOr<RenderBuffers> Render(const GaussianScene& scene, const RenderCamera& camera,
                                      int64_t timestamp_us, const std::vector<ActorEdit>& edits,
                                      const RenderOptions& options) {
-  const CameraModel& model = camera.model;
-  if (model.width() <= 0 || model.height() <= 0) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("camera: image size ", model.width(), "x", model.height(), " has no pixels"));
-  }
-  if (int64_t{model.width()} * model.height() > kMaxRenderPixels) {
-    return absl::InvalidArgumentError(absl::StrCat("camera: image size ", model.width(), "x",
-                                                   model.height(), " exceeds ", kMaxRenderPixels,
-                                                   " pixels"));
+  RenderFrame frame;
+  if (absl::Status status =
+          raster::SetUpRenderFrame(scene.instances, scene.time_origin_us, camera, timestamp_us,
+                                   edits, options.near_plane, &frame);
+      !status.ok()) {
+    return status;
   }
   if (auto status = CheckRenderable(scene); !status.ok()) return status;
-
-  // Owner poses at this time, with the edits applied.
-  const size_t num_instances = scene.instances.size();
-  std::vector<Rigid> world_from_owner(num_instances + 1);
-  std::vector<uint8_t> live(num_instances + 1, 1);
-  for (size_t k = 0; k < num_instances; ++k) {
-    world_from_owner[k + 1] = InstancePoseAt(scene.instances[k].boxes, timestamp_us);
-  }
-  for (size_t e = 0; e < edits.size(); ++e) {
-    const ActorEdit& edit = edits[e];
-    size_t k = 0;
-    while (k < num_instances && scene.instances[k].id != edit.instance_id) ++k;
-    if (k == num_instances) {
-      return absl::InvalidArgumentError(
-          absl::StrCat("edits[", e, "].instance_id: '", edit.instance_id, "' is not in the scene"));
-    }
-    if (edit.kind == ActorEdit::Kind::kRemove) {
-      live[k + 1] = 0;
-    } else {
-      if (edit.boxes.empty()) {
-        return absl::InvalidArgumentError(
-            absl::StrCat("edits[", e, "].boxes: a trajectory edit needs at least one box"));
-      }
-      const std::vector<TrackBox>& track = scene.instances[k].boxes;
-      const Rigid canonical = track.empty() ? Rigid{} : BoxPose(track.front());
-      world_from_owner[k + 1] =
-          BoxPose(InterpolateBox(edit.boxes, timestamp_us)) * canonical.Inverse();
-    }
-  }
-
-  Frame frame;
-  raster::SetUpProjectionCamera(
-      model, options.near_plane,
-      static_cast<float>(static_cast<double>(timestamp_us - scene.time_origin_us) * 1e-6), &frame);
-  frame.tiles_x = (frame.width + kTile - 1) / kTile;
-  frame.tiles_y = (frame.height + kTile - 1) / kTile;
-  const Rigid camera_from_world = camera.world_from_camera.Inverse();
-  frame.owner_live = live;
-  frame.camera_from_owner.resize(num_instances + 1);
-  frame.eye_in_owner.resize(3 * (num_instances + 1));
-  for (size_t k = 0; k <= num_instances; ++k) {
-    frame.camera_from_owner[k] = ToFloat(camera_from_world * world_from_owner[k]);
-    const Vec3 eye = world_from_owner[k].Inverse() * camera.world_from_camera.translation;
-    for (int c = 0; c < 3; ++c) frame.eye_in_owner[3 * k + c] = static_cast<float>(eye[c]);
-  }
 
   RenderBuffers out;
   out.width = frame.width;

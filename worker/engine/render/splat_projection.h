@@ -6,7 +6,8 @@
 // GaussianScene::low_pass; distortion linearised at the mean), its conic and
 // the opacity-aware extent (the Mahalanobis radius where alpha drops to
 // 1/255), and the ellipse-versus-rectangle test of the binning. Header-only so the rasterizer's
-// per-Gaussian loop still inlines it.
+// per-Gaussian loop still inlines it; the PF_HD functions are also the CUDA
+// rasterizer's (cuda_rasterizer.cu), so both paths project the same way.
 #ifndef POINTFORWARD_WORKER_ENGINE_RENDER_SPLAT_PROJECTION_H_
 #define POINTFORWARD_WORKER_ENGINE_RENDER_SPLAT_PROJECTION_H_
 
@@ -15,7 +16,9 @@
 #include <cstddef>
 #include <cstdint>
 
+#include "common/host_device.h"
 #include "worker/engine/camera/camera_model.h"
+#include "worker/engine/camera/lens.h"
 #include "worker/engine/render/gaussian_scene.h"
 #include "worker/engine/render/raster_tile.h"
 
@@ -31,10 +34,12 @@ inline constexpr float kExtentMargin = 1.001f;
 // off screen do not blow up into huge splats.
 inline constexpr float kJacobianGuard = 0.15f;
 
-// A view's camera as the projection reads it, in float.
+PF_HD inline float ClampTo(float x, float lo, float hi) { return x < lo ? lo : (hi < x ? hi : x); }
+
+// A view's camera as the projection reads it, in float (the lens in double).
 struct ProjectionCamera {
   int width = 0, height = 0;
-  const CameraModel* model = nullptr;
+  Lens lens;
   float fx = 0, fy = 0, cx = 0, cy = 0;
   float x_lo = 0, x_hi = 0, y_lo = 0, y_hi = 0;  // Jacobian clamp, normalised.
   float near_plane = 0.01f;
@@ -46,7 +51,7 @@ inline void SetUpProjectionCamera(const CameraModel& model, float near_plane, fl
                                   ProjectionCamera* camera) {
   camera->width = model.width();
   camera->height = model.height();
-  camera->model = &model;
+  camera->lens = model.lens();
   camera->fx = static_cast<float>(model.fx());
   camera->fy = static_cast<float>(model.fy());
   camera->cx = static_cast<float>(model.cx());
@@ -83,12 +88,30 @@ struct SplatGeometry {
   float ux, uy, vx, vy;
 };
 
-// Writes the screen-space colour gradient of Gaussian `i` projected as `g`:
-// out[2c], out[2c + 1] = d channel c / d x, d y (pixels). The scene must
-// have colour gradients.
-inline void ScreenColourGradients(const GaussianScene& scene, size_t i, const SplatGeometry& g,
-                                  float* out) {
-  const float* grad = &scene.colour_gradients[6 * i];
+// The compositing record of geometry `g` of a Gaussian of `owner` (its SH
+// colour zero, for the caller to fill).
+PF_HD inline Projected ToProjected(const SplatGeometry& g, uint32_t owner) {
+  Projected p;
+  p.mx = g.mx;
+  p.my = g.my;
+  p.ca = g.ca;
+  p.cb = g.cb;
+  p.cc = g.cc;
+  p.opacity = g.opacity;
+  p.span_d2 = g.span_d2;
+  p.ext_x = g.ext_x;
+  p.ext_y = g.ext_y;
+  p.depth = g.depth;
+  p.rgb[0] = p.rgb[1] = p.rgb[2] = 0;
+  p.owner = owner;
+  p.pad[0] = p.pad[1] = 0;
+  return p;
+}
+
+// Writes the screen-space colour gradient of a Gaussian with local colour
+// gradients `grad` ([3, 2], GaussianScene::colour_gradients) projected as
+// `g`: out[2c], out[2c + 1] = d channel c / d x, d y (pixels).
+PF_HD inline void ScreenColourGradients(const float* grad, const SplatGeometry& g, float* out) {
   for (int c = 0; c < 3; ++c) {
     const float gu = grad[2 * c], gv = grad[2 * c + 1];
     out[2 * c] = gu * g.ux + gv * g.vx;
@@ -96,12 +119,30 @@ inline void ScreenColourGradients(const GaussianScene& scene, size_t i, const Sp
   }
 }
 
+// The per-Gaussian arrays the projection reads (GaussianScene's, on the
+// host or copied to a GPU).
+struct SplatArrays {
+  const float* means = nullptr;           // [N, 3]
+  const float* rotations = nullptr;       // [N, 4]
+  const float* log_scales = nullptr;      // [N, 3]
+  const float* opacity_logits = nullptr;  // [N]
+  const float* times = nullptr;           // [N]
+  const float* lifespans = nullptr;       // [N]
+  float low_pass = 0;
+};
+
+inline SplatArrays ArraysOf(const GaussianScene& scene) {
+  return {scene.means.data(),      scene.rotations.data(),
+          scene.log_scales.data(), scene.opacity_logits.data(),
+          scene.times.data(),      scene.lifespans.data(),
+          scene.low_pass};
+}
+
 // Projects Gaussian `i`, whose owner frame maps to the camera by `r`
 // (row-major 3x3) and `t`; false when it cannot be seen (faded out, behind
 // the near plane, outside the distortion model or the image).
-inline bool ProjectSplatGeometry(const GaussianScene& scene, size_t i,
-                                 const ProjectionCamera& camera, const float* r, const float* t,
-                                 SplatGeometry* out) {
+PF_HD inline bool ProjectSplat(const SplatArrays& scene, size_t i, const ProjectionCamera& camera,
+                               const float* r, const float* t, SplatGeometry* out) {
   // Opacity, faded by time.
   float opacity = 1.f / (1.f + std::exp(-scene.opacity_logits[i]));
   const float sigma = scene.lifespans[i];
@@ -121,30 +162,30 @@ inline bool ProjectSplatGeometry(const GaussianScene& scene, size_t i,
   // Pixel centre and the 2x2 Jacobian of pixel w.r.t. normalised coordinates.
   const float inv_z = 1.f / pz;
   const float xn = px * inv_z, yn = py * inv_z;
-  const float tx = std::clamp(xn, camera.x_lo, camera.x_hi);
-  const float ty = std::clamp(yn, camera.y_lo, camera.y_hi);
+  const float tx = ClampTo(xn, camera.x_lo, camera.x_hi);
+  const float ty = ClampTo(yn, camera.y_lo, camera.y_hi);
   float mx, my;
   float d00 = camera.fx, d01 = 0, d10 = 0, d11 = camera.fy;
-  const CameraModel& model = *camera.model;
-  if (!model.has_distortion()) {
+  const Lens& lens = camera.lens;
+  if (lens.kind == Lens::kPinhole) {
     mx = camera.fx * xn + camera.cx;
     my = camera.fy * yn + camera.cy;
   } else {
     double u, v;
-    if (!model.Project({px, py, pz}, &u, &v)) return false;
+    if (!LensProject(lens, px, py, pz, &u, &v)) return false;
     mx = static_cast<float>(u);
     my = static_cast<float>(v);
-    // Central differences of Distort at the (clamped) point.
+    // Central differences of the distortion at the (clamped) point.
     constexpr double h = 1e-6;
     double ax, ay, bx, by, cxp, cyp, dx, dy;
-    model.Distort(tx + h, ty, &ax, &ay);
-    model.Distort(tx - h, ty, &bx, &by);
-    model.Distort(tx, ty + h, &cxp, &cyp);
-    model.Distort(tx, ty - h, &dx, &dy);
-    d00 = static_cast<float>(model.fx() * (ax - bx) / (2 * h));
-    d10 = static_cast<float>(model.fy() * (ay - by) / (2 * h));
-    d01 = static_cast<float>(model.fx() * (cxp - dx) / (2 * h));
-    d11 = static_cast<float>(model.fy() * (cyp - dy) / (2 * h));
+    LensDistort(lens, tx + h, ty, &ax, &ay);
+    LensDistort(lens, tx - h, ty, &bx, &by);
+    LensDistort(lens, tx, ty + h, &cxp, &cyp);
+    LensDistort(lens, tx, ty - h, &dx, &dy);
+    d00 = static_cast<float>(lens.fx * (ax - bx) / (2 * h));
+    d10 = static_cast<float>(lens.fy * (ay - by) / (2 * h));
+    d01 = static_cast<float>(lens.fx * (cxp - dx) / (2 * h));
+    d11 = static_cast<float>(lens.fy * (cyp - dy) / (2 * h));
   }
   // J = D * [1/z 0 -tx/z; 0 1/z -ty/z], 2x3.
   const float j00 = d00 * inv_z, j01 = d01 * inv_z, j02 = -(d00 * tx + d01 * ty) * inv_z;
@@ -205,20 +246,58 @@ inline bool ProjectSplatGeometry(const GaussianScene& scene, size_t i,
   return true;
 }
 
+// Projects Gaussian `i` of `scene` (ProjectSplat on the scene's arrays).
+inline bool ProjectSplatGeometry(const GaussianScene& scene, size_t i,
+                                 const ProjectionCamera& camera, const float* r, const float* t,
+                                 SplatGeometry* out) {
+  return ProjectSplat(ArraysOf(scene), i, camera, r, t, out);
+}
+
 // Returns the smallest d^2 of the conic over the rectangle of pixel centres
 // [x0, x1] x [y0, y1] (offsets from the Gaussian's centre): the binning's
 // exact ellipse-versus-rectangle test.
-inline float MinD2OverRect(float ca, float cb, float cc, float x0, float x1, float y0, float y1) {
+PF_HD inline float MinD2OverRect(float ca, float cb, float cc, float x0, float x1, float y0,
+                                 float y1) {
   if (x0 <= 0 && x1 >= 0 && y0 <= 0 && y1 >= 0) return 0;
-  auto edge_x = [&](float dx) {  // Fixed dx, best dy in [y0, y1].
-    const float dy = std::clamp(-cb * dx / cc, y0, y1);
-    return ca * dx * dx + 2 * cb * dx * dy + cc * dy * dy;
-  };
-  auto edge_y = [&](float dy) {  // Fixed dy, best dx in [x0, x1].
-    const float dx = std::clamp(-cb * dy / ca, x0, x1);
-    return ca * dx * dx + 2 * cb * dx * dy + cc * dy * dy;
-  };
-  return std::min(std::min(edge_x(x0), edge_x(x1)), std::min(edge_y(y0), edge_y(y1)));
+  const float dy0 = ClampTo(-cb * x0 / cc, y0, y1);  // Fixed dx, best dy in [y0, y1].
+  const float dy1 = ClampTo(-cb * x1 / cc, y0, y1);
+  const float dx0 = ClampTo(-cb * y0 / ca, x0, x1);  // Fixed dy, best dx in [x0, x1].
+  const float dx1 = ClampTo(-cb * y1 / ca, x0, x1);
+  const float e0 = ca * x0 * x0 + 2 * cb * x0 * dy0 + cc * dy0 * dy0;
+  const float e1 = ca * x1 * x1 + 2 * cb * x1 * dy1 + cc * dy1 * dy1;
+  const float e2 = ca * dx0 * dx0 + 2 * cb * dx0 * y0 + cc * y0 * y0;
+  const float e3 = ca * dx1 * dx1 + 2 * cb * dx1 * y1 + cc * y1 * y1;
+  const float a = e1 < e0 ? e1 : e0, b = e3 < e2 ? e3 : e2;
+  return b < a ? b : a;
+}
+
+// Calls visit(tile) for every 16x16 tile of a width x height image (tiles_x
+// per row, row-major) whose pixel centres the ellipse of (mx, my, conic,
+// span_d2, extents) reaches: the pixel-centre bounds, clipped to the image,
+// then the exact ellipse-versus-rectangle test unless one tile holds them.
+template <typename Visit>
+PF_HD inline void VisitTiles(float mx, float my, float ca, float cb, float cc, float span_d2,
+                             float ext_x, float ext_y, int width, int height, int tiles_x,
+                             Visit&& visit) {
+  const int px0 = std::max(0, static_cast<int>(std::ceil(mx - ext_x - 0.5f)));
+  const int px1 = std::min(width - 1, static_cast<int>(std::floor(mx + ext_x - 0.5f)));
+  const int py0 = std::max(0, static_cast<int>(std::ceil(my - ext_y - 0.5f)));
+  const int py1 = std::min(height - 1, static_cast<int>(std::floor(my + ext_y - 0.5f)));
+  if (px0 > px1 || py0 > py1) return;
+  const int tx0 = px0 / kTile, tx1 = px1 / kTile, ty0 = py0 / kTile, ty1 = py1 / kTile;
+  const bool single = tx0 == tx1 && ty0 == ty1;
+  for (int ty = ty0; ty <= ty1; ++ty) {
+    const float y0 = std::max(ty * kTile, py0) + 0.5f - my;
+    const float y1 = std::min(ty * kTile + kTile - 1, py1) + 0.5f - my;
+    for (int tx = tx0; tx <= tx1; ++tx) {
+      if (!single) {
+        const float x0 = std::max(tx * kTile, px0) + 0.5f - mx;
+        const float x1 = std::min(tx * kTile + kTile - 1, px1) + 0.5f - mx;
+        if (MinD2OverRect(ca, cb, cc, x0, x1, y0, y1) > span_d2) continue;
+      }
+      visit(static_cast<uint32_t>(ty * tiles_x + tx));
+    }
+  }
 }
 
 }  // namespace raster
