@@ -28,6 +28,10 @@ for a in worker/engine/recon/libpf_recon.a worker/engine/synth/libpf_synth.a \
 done
 ar d "$PACK/lib/libpf_recon.a" tensor_fusion.cc.o compute_device.cc.o
 cp /usr/lib/x86_64-linux-gnu/libgtest.a /usr/lib/x86_64-linux-gnu/libgtest_main.a "$PACK/lib/"
+# A build with the CUDA rasterizer in libpf_render.a needs the CUDA runtime
+# it was compiled against.
+cudart=$(dirname "$(command -v nvcc 2>/dev/null || echo /usr/local/cuda/bin/nvcc)")/../lib64/libcudart_static.a
+if [ -f "$cudart" ]; then cp "$cudart" "$PACK/lib/"; fi
 strip --strip-debug "$PACK"/lib/*.a
 objects="$BUILD/worker/engine/recon/CMakeFiles"
 cp "$objects/recon_test.dir/tensor_fusion_test.cc.o" "$objects/recon_test.dir/compute_device_test.cc.o" \

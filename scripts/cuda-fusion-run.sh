@@ -45,6 +45,7 @@ wait $compile1 && wait $compile2 || { echo "compiling failed"; exit 1; }
 echo "compiled in $(($(date +%s) - start)) s"
 libs="$WORK/tensor_fusion.o $WORK/compute_device.o"
 for lib in recon synth render clip image camera proto common; do libs="$libs $PACK/lib/libpf_$lib.a"; done
+if [ -f "$PACK/lib/libcudart_static.a" ]; then libs="$libs $PACK/lib/libcudart_static.a -ldl -lrt"; fi
 link="-L$TORCH_LIBDIR -Wl,--no-as-needed $TORCH_LIBS -Wl,--as-needed $(ls "$PACK"/so/libabsl_*)
       $PACK/so/libspdlog.so.1.10 $PACK/so/libfmt.so.9 $PACK/so/libprotobuf.so.32 -pthread
       -Wl,-rpath,$TORCH_LIBDIR:$PACK/so"
