@@ -19,7 +19,7 @@ int g_default_threads = 0;
 }  // namespace
 
 ThreadPool::ThreadPool(int num_threads) {
-  num_threads = std::max(1, num_threads);
+  num_threads = std::max(0, num_threads);
   workers_.reserve(num_threads);
   for (int i = 0; i < num_threads; ++i) {
     workers_.emplace_back([this] { WorkerLoop(); });
@@ -36,6 +36,13 @@ ThreadPool::~ThreadPool() {
 }
 
 void ThreadPool::Schedule(std::function<void()> task) {
+  if (workers_.empty()) {  // No workers: the scheduling thread runs it.
+    const bool was_in_task = t_in_pool_task;
+    t_in_pool_task = true;
+    task();
+    t_in_pool_task = was_in_task;
+    return;
+  }
   {
     std::lock_guard<std::mutex> lock(mutex_);
     queue_.push_back(std::move(task));
@@ -116,8 +123,9 @@ ThreadPool& DefaultThreadPool() {
       n = env != nullptr ? std::atoi(env) : 0;
     }
     if (n <= 0) n = static_cast<int>(std::thread::hardware_concurrency());
-    // The caller of ParallelFor also works, so the pool holds one fewer.
-    g_default_pool = std::make_unique<ThreadPool>(std::max(1, n - 1));
+    // The caller of ParallelFor also works, so the pool holds one fewer: n
+    // threads work in all.
+    g_default_pool = std::make_unique<ThreadPool>(n - 1);
   }
   return *g_default_pool;
 }

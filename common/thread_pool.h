@@ -19,7 +19,8 @@ namespace pf {
 
 class ThreadPool {
  public:
-  // Starts `num_threads` workers (at least 1).
+  // Starts `num_threads` workers (0: every task runs on the thread that
+  // schedules it, every ParallelFor on its caller).
   explicit ThreadPool(int num_threads);
   ~ThreadPool();
   ThreadPool(const ThreadPool&) = delete;
@@ -47,8 +48,9 @@ class ThreadPool {
   bool stopping_ = false;
 };
 
-// Returns the process-wide pool, sized by SetDefaultThreadCount() or, if that
-// was never called, by the PF_THREADS environment variable or the number of
+// Returns the process-wide pool. N threads work in a ParallelFor on it (N - 1
+// workers and the caller), N set by SetDefaultThreadCount() or, if that was
+// never called, by the PF_THREADS environment variable or the number of
 // hardware threads.
 ThreadPool& DefaultThreadPool();
 

@@ -3,9 +3,11 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <atomic>
 #include <numeric>
 #include <stdexcept>
+#include <thread>
 #include <vector>
 
 namespace pf {
@@ -37,6 +39,23 @@ TEST(ThreadPool, NestedParallelForRunsAndCompletes) {
     pool.ParallelFor(0, 8, 1, [&](int64_t b, int64_t e) { total += static_cast<int>(e - b); });
   });
   EXPECT_EQ(total.load(), 64);
+}
+
+TEST(ThreadPool, WithoutWorkersTheCallerDoesEverything) {
+  ThreadPool pool(0);
+  EXPECT_EQ(pool.num_threads(), 0);
+  const std::thread::id caller = std::this_thread::get_id();
+  std::vector<int> visits(100, 0);
+  bool elsewhere = false;
+  pool.ParallelFor(0, 100, 7, [&](int64_t b, int64_t e) {
+    elsewhere |= std::this_thread::get_id() != caller;
+    for (int64_t i = b; i < e; ++i) ++visits[i];
+  });
+  EXPECT_FALSE(elsewhere);
+  EXPECT_EQ(std::count(visits.begin(), visits.end(), 1), 100);
+  bool ran = false;
+  pool.Schedule([&] { ran = std::this_thread::get_id() == caller; });
+  EXPECT_TRUE(ran);
 }
 
 TEST(ThreadPool, ExceptionInBodyReachesCaller) {

@@ -291,6 +291,24 @@ TEST_F(RenderCliTest, OnAGpuTheSameViewsGiveTheSameFiles) {
   }
 }
 
+// PF_THREADS=N: N threads render (the pool's N - 1 workers and the caller).
+TEST(PfBench, PfThreadsIsTheNumberOfWorkingThreads) {
+  for (const char* threads : {"1", "3"}) {
+    const testing::CommandResult result = RunCommand(
+        {"/usr/bin/env", absl::StrCat("PF_THREADS=", threads), BinPath("pf"), "bench", "raster",
+         "--gaussians", "2000", "--width", "64", "--height", "48", "--repeat", "1"});
+    ASSERT_EQ(result.exit_code, 0) << result.err;
+    const nlohmann::json bench = nlohmann::json::parse(result.out);
+    EXPECT_EQ(bench["threads"], std::stoi(threads)) << result.out;
+    EXPECT_EQ(bench["device"], "cpu");
+    EXPECT_GT(bench["pairs_contributing"].get<int64_t>(), 0);
+  }
+  const testing::CommandResult bad =
+      RunCommand({BinPath("pf"), "bench", "raster", "--device", "tpu"});
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_NE(bad.err.find("--device: unknown device 'tpu'"), std::string::npos) << bad.err;
+}
+
 // pf COMMAND --help prints that command's lines of pf help, on stdout.
 TEST(PfHelp, EveryCommandAnswersHelp) {
   for (const std::string command : {"synth", "validate", "import", "scene", "render", "bench",
