@@ -16,8 +16,8 @@
 #include "common/command_line.h"
 #include "common/geometry.h"
 #include "common/status_macros.h"
+#include "worker/engine/render/instance_pose.h"
 #include "worker/engine/render/ply_io.h"
-#include "worker/engine/render/rasterizer.h"
 #include "worker/engine/render/scene_source.h"
 
 namespace pf {

@@ -7,7 +7,7 @@
 
 #include "common/thread_pool.h"
 #include "worker/engine/camera/image_pixel.h"
-#include "worker/engine/render/rasterizer.h"
+#include "worker/engine/render/instance_pose.h"
 
 namespace pf {
 namespace {

@@ -6,7 +6,7 @@
 #include <limits>
 
 #include "common/thread_pool.h"
-#include "worker/engine/render/rasterizer.h"
+#include "worker/engine/render/instance_pose.h"
 
 namespace pf {
 

@@ -17,7 +17,7 @@
 #include "absl/strings/str_cat.h"
 #include "common/status_macros.h"
 #include "common/thread_pool.h"
-#include "worker/engine/render/rasterizer.h"
+#include "worker/engine/render/instance_pose.h"
 
 namespace pf {
 namespace {

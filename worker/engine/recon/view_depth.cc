@@ -18,7 +18,7 @@
 #include "worker/engine/recon/depth_completion.h"
 #include "worker/engine/recon/query_lifting.h"
 #include "worker/engine/recon/scene_graph.h"
-#include "worker/engine/render/rasterizer.h"
+#include "worker/engine/render/instance_pose.h"
 
 namespace pf {
 

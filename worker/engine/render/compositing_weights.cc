@@ -10,6 +10,7 @@
 #include <cstring>
 
 #include "absl/strings/str_cat.h"
+#include "worker/engine/render/instance_pose.h"
 #include "worker/engine/render/splat_projection.h"
 
 namespace pf {

@@ -13,7 +13,7 @@
 #include "common/file_util.h"
 #include "common/geometry.h"
 #include "common/status_macros.h"
-#include "worker/engine/render/rasterizer.h"
+#include "worker/engine/render/instance_pose.h"
 #include "worker/engine/render/scene_file.h"
 
 namespace pf {

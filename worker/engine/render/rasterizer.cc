@@ -34,6 +34,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "common/thread_pool.h"
+#include "worker/engine/render/instance_pose.h"
 #include "worker/engine/render/raster_frame.h"
 #include "worker/engine/render/raster_sh.h"
 #include "worker/engine/render/raster_tile.h"
@@ -228,37 +229,6 @@ absl::Status CheckRenderable(const GaussianScene& scene) {
     }
   }
   return absl::OkStatus();
-}
-
-namespace {
-
-// Returns the box pose (rotation, centre) as a rigid transform.
-Rigid BoxPose(const TrackBox& box) { return {ToMatrix(box.rotation), box.center}; }
-
-}  // namespace
-
-TrackBox InterpolateBox(const std::vector<TrackBox>& boxes, int64_t timestamp_us) {
-  if (boxes.empty()) return TrackBox{};
-  if (timestamp_us <= boxes.front().timestamp_us) return boxes.front();
-  if (timestamp_us >= boxes.back().timestamp_us) return boxes.back();
-  const auto next =
-      std::upper_bound(boxes.begin(), boxes.end(), timestamp_us,
-                       [](int64_t t, const TrackBox& box) { return t < box.timestamp_us; });
-  const TrackBox& b = *next;
-  const TrackBox& a = *(next - 1);
-  const double s = static_cast<double>(timestamp_us - a.timestamp_us) /
-                   static_cast<double>(b.timestamp_us - a.timestamp_us);
-  TrackBox box;
-  box.timestamp_us = timestamp_us;
-  box.center = a.center + s * (b.center - a.center);
-  box.size = a.size + s * (b.size - a.size);
-  box.rotation = Slerp(a.rotation, b.rotation, s);
-  return box;
-}
-
-Rigid InstancePoseAt(const std::vector<TrackBox>& boxes, int64_t timestamp_us) {
-  if (boxes.empty()) return Rigid{};
-  return BoxPose(InterpolateBox(boxes, timestamp_us)) * BoxPose(boxes.front()).Inverse();
 }
 
 namespace raster {

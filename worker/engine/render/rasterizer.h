@@ -85,15 +85,6 @@ absl::StatusOr<RenderBuffers> Render(const GaussianScene& scene, const RenderCam
                                      int64_t timestamp_us, const std::vector<ActorEdit>& edits,
                                      const RenderOptions& options = {});
 
-// Returns the world-from-canonical transform of `track` at `timestamp_us`:
-// box pose at t' composed with the inverse of the first box's pose. Holds the
-// end box outside the track.
-Rigid InstancePoseAt(const std::vector<TrackBox>& boxes, int64_t timestamp_us);
-
-// Returns the box (centre, rotation, size) of `boxes` interpolated at
-// `timestamp_us` as InstancePoseAt does.
-TrackBox InterpolateBox(const std::vector<TrackBox>& boxes, int64_t timestamp_us);
-
 }  // namespace pf
 
 #endif  // POINTFORWARD_WORKER_ENGINE_RENDER_RASTERIZER_H_

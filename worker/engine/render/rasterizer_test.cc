@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "worker/engine/render/bench_scene.h"
+#include "worker/engine/render/instance_pose.h"
 #include "worker/engine/render/random_scene_testing.h"
 #include "worker/engine/render/raster_tile.h"
 #include "worker/engine/render/reference_renderer.h"

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <numeric>
 
+#include "worker/engine/render/instance_pose.h"
 #include "worker/engine/render/raster_sh.h"
 
 namespace pf::testing {
@@ -21,8 +22,6 @@ struct Splat {
   uint32_t owner = 0;
   double axes[2][2] = {{0, 0}, {0, 0}};  // Screen images of the first two scaled axes (columns).
 };
-
-Rigid BoxPose(const TrackBox& box) { return {ToMatrix(box.rotation), box.center}; }
 
 // 2x3 times 3x3.
 void Mul23(const double a[2][3], const Mat3& b, double out[2][3]) {
