@@ -14,14 +14,12 @@ CameraModel::CameraModel(int width, int height, double fx, double fy, double cx,
 }
 
 void CameraModel::SetOpenCv(double k1, double k2, double p1, double p2, double k3) {
-  kind_ = Kind::kOpenCv;
   lens_.kind = Lens::kOpenCv;
   lens_.k1 = k1, lens_.k2 = k2, lens_.p1 = p1, lens_.p2 = p2, lens_.k3 = k3, lens_.k4 = 0;
   UpdateValidRadius();
 }
 
 void CameraModel::SetFisheye(double k1, double k2, double k3, double k4) {
-  kind_ = Kind::kFisheye;
   lens_.kind = Lens::kFisheye;
   lens_.k1 = k1, lens_.k2 = k2, lens_.k3 = k3, lens_.k4 = k4, lens_.p1 = 0, lens_.p2 = 0;
   UpdateValidRadius();
@@ -53,7 +51,7 @@ void CameraModel::Distort(double xn, double yn, double* xd, double* yd) const {
 }
 
 bool CameraModel::Undistort(double xd, double yd, double* xn, double* yn) const {
-  if (kind_ == Kind::kPinhole) {
+  if (lens_.kind == Lens::kPinhole) {
     *xn = xd;
     *yn = yd;
     return true;

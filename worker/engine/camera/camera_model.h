@@ -23,7 +23,7 @@ namespace pf {
 
 class CameraModel {
  public:
-  enum class Kind { kPinhole, kOpenCv, kFisheye };
+  enum class Kind { kPinhole = Lens::kPinhole, kOpenCv = Lens::kOpenCv, kFisheye = Lens::kFisheye };
 
   CameraModel() = default;
   // A pinhole camera.
@@ -34,14 +34,14 @@ class CameraModel {
   // Sets equidistant fisheye coefficients.
   void SetFisheye(double k1, double k2, double k3, double k4);
 
-  Kind kind() const { return kind_; }
+  Kind kind() const { return static_cast<Kind>(lens_.kind); }
   int width() const { return width_; }
   int height() const { return height_; }
   double fx() const { return lens_.fx; }
   double fy() const { return lens_.fy; }
   double cx() const { return lens_.cx; }
   double cy() const { return lens_.cy; }
-  bool has_distortion() const { return kind_ != Kind::kPinhole; }
+  bool has_distortion() const { return lens_.kind != Lens::kPinhole; }
   // Distortion coefficients as set (0 when unset): k1..k3, p1, p2 of the
   // OpenCV model; k1..k4 of the fisheye model.
   double k1() const { return lens_.k1; }
@@ -76,7 +76,6 @@ class CameraModel {
  private:
   void UpdateValidRadius();
 
-  Kind kind_ = Kind::kPinhole;
   int width_ = 0, height_ = 0;
   Lens lens_;
 };

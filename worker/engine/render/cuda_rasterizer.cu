@@ -185,8 +185,8 @@ struct CompositeArgs {
   int source_stride;
   int first, count;               // Channels [first, first + count) of source.
   const float* gradients;         // [N, 6] screen gradients of channels 0..2, or null.
-  float* out;                     // [H, W, out_stride], channel first + c at c + out_first.
-  int out_stride, out_first;
+  float* out;                     // [H, W, out_stride], channel first + c at first + c.
+  int out_stride;
   float* rgb;                     // [H, W, 3] copy of channels 0..2, or null.
   bool primary;                   // Also write alpha, depth, instance ids, counters.
   float* alpha;                   // [H, W]
@@ -280,7 +280,7 @@ __global__ void __launch_bounds__(kTilePixels) CompositeKernel(CompositeArgs a) 
   if (inside) {
     const size_t pixel = static_cast<size_t>(py) * a.width + px;
     for (int c = 0; c < K && c < a.count; ++c) {
-      a.out[pixel * a.out_stride + a.out_first + c] = acc[c];
+      a.out[pixel * a.out_stride + a.first + c] = acc[c];
       if (a.rgb != nullptr && a.first + c < 3) a.rgb[pixel * 3 + a.first + c] = acc[c];
     }
     if (a.primary) {
@@ -565,7 +565,6 @@ absl::StatusOr<RenderBuffers> CudaScene::Impl::Render(const RenderCamera& camera
     c.count = count;
     c.out = out;
     c.out_stride = out_stride;
-    c.out_first = first;
     c.rgb = rgb;
     c.primary = primary;
     primary = false;

@@ -10,16 +10,18 @@ namespace pf {
 absl::StatusOr<std::unique_ptr<DeviceRenderer>> DeviceRenderer::Create(const GaussianScene* scene,
                                                                        const ComputeDevice& device,
                                                                        const std::string& field) {
-  if (absl::Status s = CheckRenderable(*scene); !s.ok()) return s;
   std::unique_ptr<CudaScene> gpu;
   if (device.kind == ComputeDevice::Kind::kCuda) {
-    if (absl::Status s = CheckCudaDevice(device.index); !s.ok()) {
-      return absl::FailedPreconditionError(
-          absl::StrCat(field, ": '", device.ToString(), "' cannot render: ", s.message()));
-    }
+    // Upload checks the scene, then the device.
     absl::StatusOr<std::unique_ptr<CudaScene>> uploaded = CudaScene::Upload(*scene, device.index);
+    if (absl::IsFailedPrecondition(uploaded.status())) {
+      return absl::FailedPreconditionError(absl::StrCat(
+          field, ": '", device.ToString(), "' cannot render: ", uploaded.status().message()));
+    }
     if (!uploaded.ok()) return uploaded.status();
     gpu = std::move(*uploaded);
+  } else if (absl::Status s = CheckRenderable(*scene); !s.ok()) {
+    return s;
   }
   return std::unique_ptr<DeviceRenderer>(new DeviceRenderer(scene, device, std::move(gpu)));
 }
