@@ -421,6 +421,7 @@ TEST_F(ReconCli, TheScenesLowPassIsStoredAndReported) {
 TEST_F(ReconCli, ColourGradientsAreFittedStoredAndWorthADecibel) {
   const nlohmann::json textured = Report("analytic");
   EXPECT_EQ(textured["colour"], "gradients");
+  EXPECT_EQ(textured["colourFitPixelStride"], 1);  // Every pixel: well within the bound.
   EXPECT_EQ(Report("pixel-aligned")["colour"], "flat");
   const std::string out = *dir_ + "/eval_flat";
   CommandResult result = RunCommand({Pf(), "eval", Clip(), "--out", out, "--colour", "flat"});

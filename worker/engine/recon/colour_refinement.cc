@@ -6,6 +6,7 @@
 #include <array>
 #include <atomic>
 #include <cmath>
+#include <limits>
 
 #include "absl/strings/str_cat.h"
 #include "common/status_macros.h"
@@ -69,14 +70,14 @@ struct Layout {
 // image = A x and out += A^T r for the fit's unknowns: flat colours, or
 // colours with gradients (then the weights carry local coordinates).
 void Apply(const CompositingWeights& a, const float* x, float* image) {
-  if (a.coords.empty()) {
+  if (!a.has_local_coords()) {
     Composite(a, x, 3, image);
   } else {
     CompositeTextured(a, x, image);
   }
 }
 void ApplyTransposed(const CompositingWeights& a, const float* r, float* out) {
-  if (a.coords.empty()) {
+  if (!a.has_local_coords()) {
     AccumulateTransposed(a, r, 3, out);
   } else {
     AccumulateTransposedTextured(a, r, out);
@@ -112,13 +113,16 @@ void InvertSymmetric3(double a, double b, double c, double d, double e, double f
 // not counted): the Gaussian's data weight with nothing in front of it.
 constexpr int kSums = 7;
 void AccumulateSums(const CompositingWeights& a, const std::vector<uint8_t>& fitted, float* out) {
-  const bool textured = !a.coords.empty();
+  const bool textured = a.has_local_coords();
   for (size_t p = 0; p < fitted.size(); ++p) {
     if (!fitted[p]) continue;
+    float px, py;
+    a.PixelCentre(p, &px, &py);
     float in_front = 0.f;
     for (uint64_t k = a.pixel_begin[p]; k < a.pixel_begin[p] + a.pixel_count[p]; ++k) {
       const float w = a.weights[k];
-      const float u = textured ? a.coords[2 * k] : 0.f, v = textured ? a.coords[2 * k + 1] : 0.f;
+      float u = 0.f, v = 0.f;
+      if (textured) a.LocalCoords(k, px, py, &u, &v);
       const float alpha = w / std::max(kMinTransmittance, 1.f - in_front);
       in_front += w;
       const float ww = w * w;
@@ -180,6 +184,74 @@ void Scatter(const std::vector<FitView>& views, int per, const std::vector<ViewS
   }
 }
 
+// Every view's weights (one view per task) and fitted pixels, recorded at
+// 1 pixel in `pixel_stride`; recording stops once the views together pass
+// options.max_pairs units (8 bytes: a unit per pair, and with colour
+// gradients 3 more per Gaussian in view, its screen frame).
+constexpr double kProjectedOverBudget = 1.25;
+
+struct RecordedViews {
+  std::vector<FitView> fit;
+  bool over_budget = false;
+  int64_t units = 0;          // Of the views counted.
+  int64_t frame_units = 0;    // Of which screen frames.
+  int64_t counted_views = 0;  // Views whose units are counted.
+};
+
+absl::StatusOr<RecordedViews> RecordViews(const std::vector<ContextView>& views,
+                                          const GaussianScene& scene,
+                                          const RefinementOptions& options, bool gradients,
+                                          int pixel_stride) {
+  const int64_t num_views = static_cast<int64_t>(views.size());
+  RecordedViews out;
+  out.fit.resize(views.size());
+  std::vector<absl::Status> errors(views.size());
+  std::atomic<int64_t> units{0}, frame_units{0}, counted{0};
+  std::atomic<bool> over_budget{false};
+  DefaultThreadPool().ParallelFor(0, num_views, 1, [&](int64_t b, int64_t e) {
+    for (int64_t v = b; v < e; ++v) {
+      if (over_budget.load()) break;
+      const ContextView& view = views[v];
+      WeightOptions weight_options;
+      weight_options.min_weight = options.min_weight;
+      weight_options.local_coords = gradients;
+      weight_options.pixel_stride = pixel_stride;
+      absl::StatusOr<CompositingWeights> a = ComputeCompositingWeights(
+          scene, {view.camera, view.world_from_camera}, view.timestamp_us, weight_options);
+      if (!a.ok()) {
+        errors[v] = a.status();
+        continue;
+      }
+      const int64_t frames = gradients ? 3 * static_cast<int64_t>(a->gaussians.size()) : 0;
+      const int64_t cost = static_cast<int64_t>(a->entries()) + frames;
+      frame_units += frames;
+      const int64_t views_counted = ++counted;
+      const int64_t total = units.fetch_add(cost) + cost;
+      // Over the bound, or (from two views on) on course for 1.25 times it:
+      // the rest need not be recorded to know.
+      if (total > options.max_pairs ||
+          (views_counted >= 2 && double(total) * double(num_views) / double(views_counted) >
+                                     kProjectedOverBudget * double(options.max_pairs))) {
+        over_budget = true;
+        break;
+      }
+      FitView& fit = out.fit[v];
+      fit.a = *std::move(a);
+      fit.image = &view.rgb;
+      fit.fitted.resize(fit.a.alpha.size());
+      for (size_t p = 0; p < fit.fitted.size(); ++p)
+        fit.fitted[p] = fit.a.alpha[p] >= options.min_alpha && !view.is_ego(p) && fit.a.Records(p);
+    }
+  });
+  for (const absl::Status& error : errors) RETURN_IF_ERROR(error);
+  out.over_budget = over_budget.load();
+  out.units = units.load();
+  out.frame_units = frame_units.load();
+  out.counted_views = counted.load();
+  if (out.over_budget) out.fit.clear();
+  return out;
+}
+
 }  // namespace
 
 absl::StatusOr<RefinementStats> RefineColours(const std::vector<ContextView>& views,
@@ -212,56 +284,47 @@ absl::StatusOr<RefinementStats> RefineColours(const std::vector<ContextView>& vi
     }
   }
 
-  // A_v of every view (one view per task) and the fitted pixels; recording
-  // stops once the views together pass max_pairs.
+  // A_v of every view and the fitted pixels within max_pairs: every pixel
+  // if they fit, else 1 pixel in k, k as small as the views recorded so far
+  // say fits, up to max_pixel_stride; with gradients that do not fit even
+  // then, flat colours the same way; the fit is skipped when those do not
+  // fit either.
   const int64_t num_views = static_cast<int64_t>(views.size());
-  std::vector<FitView> fit(views.size());
-  std::vector<absl::Status> errors(views.size());
-  // Pairs recorded, each counted twice with colour gradients (a pair with
-  // local coordinates takes twice the memory).
-  std::atomic<int64_t> recorded_cost{0};
-  std::atomic<bool> over_budget{false};
-  DefaultThreadPool().ParallelFor(0, num_views, 1, [&](int64_t b, int64_t e) {
-    for (int64_t v = b; v < e; ++v) {
-      if (over_budget.load()) break;
-      const ContextView& view = views[v];
-      WeightOptions weight_options;
-      weight_options.min_weight = options.min_weight;
-      weight_options.local_coords = options.colour_gradients;
-      absl::StatusOr<CompositingWeights> a = ComputeCompositingWeights(
-          *scene, {view.camera, view.world_from_camera}, view.timestamp_us, weight_options);
-      if (!a.ok()) {
-        errors[v] = a.status();
-        continue;
-      }
-      const int64_t cost = static_cast<int64_t>(a->entries()) * (options.colour_gradients ? 2 : 1);
-      if (recorded_cost.fetch_add(cost) + cost > options.max_pairs) {
-        over_budget = true;
-        break;
-      }
-      fit[v].a = *std::move(a);
-      fit[v].image = &view.rgb;
-      fit[v].fitted.resize(fit[v].a.alpha.size());
-      for (size_t p = 0; p < fit[v].fitted.size(); ++p)
-        fit[v].fitted[p] = fit[v].a.alpha[p] >= options.min_alpha && !view.is_ego(p);
+  bool gradients = options.colour_gradients;
+  int pixel_stride = 1;
+  RecordedViews recorded;
+  for (;;) {
+    ASSIGN_OR_RETURN(recorded, RecordViews(views, *scene, options, gradients, pixel_stride));
+    if (!recorded.over_budget) break;
+    // The whole clip's units at stride 1, estimated from the views counted.
+    const double scale = double(num_views) / double(std::max<int64_t>(1, recorded.counted_views));
+    const double entries = double(recorded.units - recorded.frame_units) * pixel_stride * scale;
+    const double frames = double(recorded.frame_units) * scale;
+    // Exact when every view was counted; else 10 % to spare.
+    const double room =
+        (recorded.counted_views == num_views ? 1.0 : 0.9) * double(options.max_pairs);
+    auto stride_for = [&](double fixed) {
+      return room > fixed ? static_cast<int64_t>(std::ceil(entries / (room - fixed)))
+                          : std::numeric_limits<int64_t>::max();
+    };
+    int64_t next = std::max<int64_t>(stride_for(gradients ? frames : 0), pixel_stride + 1);
+    if (next > options.max_pixel_stride && gradients) {
+      gradients = false;
+      next = std::max<int64_t>(1, stride_for(0));
     }
-  });
-  for (const absl::Status& error : errors) RETURN_IF_ERROR(error);
-  if (over_budget && options.colour_gradients) {
-    // Free what was recorded before recording again, flat.
-    std::vector<FitView>().swap(fit);
-    RefinementOptions flat = options;
-    flat.colour_gradients = false;
-    ASSIGN_OR_RETURN(stats, RefineColours(views, flat, scene));
-    stats.flat_fallback = true;
-    return stats;
+    if (next > options.max_pixel_stride) {
+      stats.pairs = recorded.units - recorded.frame_units;
+      stats.skipped_over_budget = true;
+      stats.flat_fallback = options.colour_gradients;
+      scene->colour_gradients.clear();
+      return stats;
+    }
+    pixel_stride = static_cast<int>(next);
   }
-  if (over_budget) {
-    stats.pairs = recorded_cost.load();  // Flat here: one unit a pair.
-    stats.skipped_over_budget = true;
-    scene->colour_gradients.clear();
-    return stats;
-  }
+  std::vector<FitView>& fit = recorded.fit;
+  stats.flat_fallback = options.colour_gradients && !gradients;
+  stats.pixel_stride = pixel_stride;
+  stats.weight_bytes = 8 * recorded.units;
   for (const FitView& view : fit) {
     stats.pairs += static_cast<int64_t>(view.a.entries());
     for (uint8_t f : view.fitted) stats.pixels += f;
@@ -274,7 +337,7 @@ absl::StatusOr<RefinementStats> RefineColours(const std::vector<ContextView>& vi
   // local_out into `out` (zeroed first) unless it is null.
   // With colour gradients the unknowns are [N, 3, 3] (colour, g_u, g_v per
   // channel), the gradients starting (and centred) at 0.
-  const Layout layout{options.colour_gradients ? 3 : 1};
+  const Layout layout{gradients ? 3 : 1};
   const int per = layout.per_gaussian();
   const int kk = layout.k;
   std::vector<float> x(per * n, 0.f);
@@ -442,7 +505,7 @@ absl::StatusOr<RefinementStats> RefineColours(const std::vector<ContextView>& vi
   }
 
   // Gradients are fitted here or not at all (flat colours drop old ones).
-  if (options.colour_gradients) {
+  if (gradients) {
     scene->colour_gradients.assign(6 * n, 0.f);
   } else {
     scene->colour_gradients.clear();

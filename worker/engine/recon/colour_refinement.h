@@ -71,31 +71,38 @@ struct RefinementOptions {
   bool colour_gradients = true;
   double gradient_prior_weight = 0.1;
   float max_gradient = 1.f;
-  // Memory bound: the fit holds every view's weights at once, 8 bytes per
-  // (pixel, Gaussian) pair, 16 with colour gradients (such a pair counts
-  // twice here). A clip whose context views need more than this (1.6 GB; the
-  // default synth clip needs 71 M pairs for analytic, 142 M units with
-  // gradients, 157 M for pixel-aligned; six 1936x1216 DGP cameras at two
-  // times pass it) keeps its decoded colours: the fit is skipped, never
-  // half-done, and RefinementStats says so, so that a worker inside its
-  // memory limit (8 GiB, half of it scene cache, in deploy/k8s) does not run
-  // out on large real clips. A fit with gradients over the bound is done
-  // flat instead, if that fits (RefinementStats::flat_fallback).
-  int64_t max_pairs = 200'000'000;
+  // Memory bound, in units of 8 bytes: the fit holds every view's weights
+  // at once, 8 bytes per (pixel, Gaussian) pair, and with colour gradients
+  // 24 more per Gaussian in each view (its screen frame, 3 units); 2 GB.
+  // The default synth clip needs 71 M pairs for analytic, 157 M for
+  // pixel-aligned; six 1936x1216 DGP cameras at two times 177 M pairs and
+  // 201 M units with gradients, twelve views 386 M pairs. A clip whose context views need more is
+  // fitted on 1 pixel in k of each view (RefinementStats::pixel_stride; k the smallest that fits,
+  // at most max_pixel_stride), with gradients if they fit so, else flat
+  // (RefinementStats::flat_fallback); if even flat colours do not fit, the decoded colours are
+  // kept: the fit is skipped, never half-done, and RefinementStats says so. So a worker inside its
+  // memory limit (8 GiB, half of it scene cache, in deploy/k8s) does not run out on large real
+  // clips.
+  int64_t max_pairs = 256'000'000;
+  int max_pixel_stride = 4;
 };
 
 // What a refinement did, over the fitted context pixels.
 struct RefinementStats {
-  int64_t pixels = 0;      // Context pixels in the fit (alpha >= min_alpha).
-  int64_t pairs = 0;       // Contributing (pixel, Gaussian) pairs over all views.
+  int64_t pixels = 0;  // Context pixels in the fit (alpha >= min_alpha).
+  int64_t pairs = 0;   // Contributing (pixel, Gaussian) pairs over all views.
+  // Memory of the recorded weights (8 bytes per unit of max_pairs).
+  int64_t weight_bytes = 0;
+  // The fit's pixels: 1 in pixel_stride of each view (1: every pixel).
+  int pixel_stride = 1;
   double rmse_before = 0;  // RGB root mean square error of the renders, [0, 1] units.
   double rmse_after = 0;
   // True when the views needed more than max_pairs pairs and the colours
   // were left as decoded (pairs is then the count when recording stopped).
   bool skipped_over_budget = false;
-  // True when colour gradients were asked for but their pairs passed
-  // max_pairs, so the colours were fitted flat (skipped_over_budget then
-  // says whether even that passed it).
+  // True when colour gradients were asked for but passed max_pairs even at
+  // max_pixel_stride, so the colours were fitted flat (skipped_over_budget
+  // then says whether even that passed it).
   bool flat_fallback = false;
 };
 

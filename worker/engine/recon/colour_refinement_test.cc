@@ -9,6 +9,7 @@
 #include <random>
 
 #include "worker/engine/recon/gaussian_decoder.h"
+#include "worker/engine/render/compositing_weights.h"
 #include "worker/engine/render/rasterizer.h"
 
 namespace pf {
@@ -329,19 +330,22 @@ GaussianScene GreyWall(int w, int h) {
 
 TEST(ColourRefinement, OverThePairBudgetTheColoursStayAsDecoded) {
   // The wall of the test above, seen by two views: the fit needs every
-  // pair of both. One pair short of that, nothing is changed; at exactly
-  // that many, the fit runs.
+  // pair of both. With every pixel required (max_pixel_stride 1), one pair
+  // short of that nothing is changed; at exactly that many, the fit runs.
   const ContextView view = UniformView(40, 30, 40, 0.8f);
   const GaussianScene scene = GreyWall(40, 30);
   const std::vector<ContextView> views = {view, view};
   RefinementOptions options;
   options.min_alpha = 0;
   options.colour_gradients = false;  // GradientsOverThePairBudget... has them.
+  options.max_pixel_stride = 1;
   GaussianScene unbounded = scene;
   absl::StatusOr<RefinementStats> full = RefineColours(views, options, &unbounded);
   ASSERT_TRUE(full.ok()) << full.status();
   ASSERT_FALSE(full->skipped_over_budget);
   ASSERT_GT(full->pairs, 0);
+  EXPECT_EQ(full->pixel_stride, 1);
+  EXPECT_EQ(full->weight_bytes, 8 * full->pairs);
 
   GaussianScene over = scene;
   options.max_pairs = full->pairs - 1;
@@ -360,15 +364,76 @@ TEST(ColourRefinement, OverThePairBudgetTheColoursStayAsDecoded) {
   EXPECT_EQ(at_budget.features, unbounded.features);  // The same fit as without a budget.
 }
 
+TEST(ColourRefinement, OverThePairBudgetEveryOtherPixelIsFitted) {
+  // The same two views with strides allowed: one pair short of every
+  // pixel, the fit takes 1 pixel in 2 of each view (a checkerboard, half
+  // the pairs) and still pulls every colour to the image's grey; a budget
+  // under a quarter of the pairs (the largest stride allowed, 4) skips it.
+  const ContextView view = UniformView(40, 30, 40, 0.8f);
+  const GaussianScene scene = GreyWall(40, 30);
+  const std::vector<ContextView> views = {view, view};
+  RefinementOptions options;
+  options.min_alpha = 0;
+  options.colour_gradients = false;
+  GaussianScene unbounded = scene;
+  absl::StatusOr<RefinementStats> full = RefineColours(views, options, &unbounded);
+  ASSERT_TRUE(full.ok()) << full.status();
+
+  options.max_pairs = full->pairs - 1;
+  GaussianScene strided = scene;
+  absl::StatusOr<RefinementStats> half = RefineColours(views, options, &strided);
+  ASSERT_TRUE(half.ok()) << half.status();
+  EXPECT_FALSE(half->skipped_over_budget);
+  EXPECT_EQ(half->pixel_stride, 2);
+  EXPECT_LE(half->pairs, options.max_pairs);
+  EXPECT_NEAR(double(half->pairs) / double(full->pairs), 0.5, 0.02);
+  EXPECT_EQ(half->pixels, full->pixels / 2);
+  // The wall's discs start away from 0.8; both fits bring the visible ones
+  // there: the render of the strided fit matches the full fit's.
+  const RenderCamera camera{view.camera, view.world_from_camera};
+  absl::StatusOr<RenderBuffers> a = Render(unbounded, camera, view.timestamp_us, {}, {});
+  absl::StatusOr<RenderBuffers> b = Render(strided, camera, view.timestamp_us, {}, {});
+  absl::StatusOr<RenderBuffers> before = Render(scene, camera, view.timestamp_us, {}, {});
+  ASSERT_TRUE(a.ok() && b.ok() && before.ok());
+  double diff = 0, moved = 0;
+  for (size_t i = 0; i < a->rgb.size(); ++i) {
+    diff = std::max(diff, double(std::abs(a->rgb[i] - b->rgb[i])));
+    moved = std::max(moved, double(std::abs(a->rgb[i] - before->rgb[i])));
+  }
+  EXPECT_GT(moved, 0.05);
+  EXPECT_LT(diff, 0.02);
+
+  // Eight such views and a budget of 0.6 of their pairs: recording stops
+  // after two views (on course for 1.7 times the bound), and the estimate
+  // from those two gives 1 pixel in 2.
+  const std::vector<ContextView> eight(8, view);
+  GaussianScene eight_scene = scene;
+  RefinementOptions eight_options = options;
+  eight_options.max_pairs = 4 * full->pairs * 6 / 10;
+  absl::StatusOr<RefinementStats> eight_stats = RefineColours(eight, eight_options, &eight_scene);
+  ASSERT_TRUE(eight_stats.ok()) << eight_stats.status();
+  EXPECT_EQ(eight_stats->pixel_stride, 2);
+  EXPECT_EQ(eight_stats->pixels, 4 * half->pixels);
+
+  options.max_pairs = full->pairs / 4 - 1;
+  GaussianScene none = scene;
+  absl::StatusOr<RefinementStats> skipped = RefineColours(views, options, &none);
+  ASSERT_TRUE(skipped.ok()) << skipped.status();
+  EXPECT_TRUE(skipped->skipped_over_budget);
+  EXPECT_EQ(none.features, scene.features);
+}
+
 TEST(ColourRefinement, GradientsOverThePairBudgetFallBackToAFlatFit) {
-  // The wall again: with gradients a pair counts twice, so at a budget of
-  // exactly the flat fit's pairs the gradients do not fit and the colours
-  // are fitted flat, as a flat fit does them.
+  // The wall again: with gradients each Gaussian in view costs 3 units more
+  // (its screen frame), so at a budget of exactly the flat fit's pairs the
+  // gradients do not fit and the colours are fitted flat, as a flat fit does
+  // them.
   const ContextView view = UniformView(40, 30, 40, 0.8f);
   const GaussianScene scene = GreyWall(40, 30);
   RefinementOptions options;
   options.min_alpha = 0;
   options.colour_gradients = false;
+  options.max_pixel_stride = 1;  // Every pixel or nothing, for the counts below.
   GaussianScene flat = scene;
   absl::StatusOr<RefinementStats> flat_stats = RefineColours({view}, options, &flat);
   ASSERT_TRUE(flat_stats.ok()) << flat_stats.status();
@@ -383,8 +448,21 @@ TEST(ColourRefinement, GradientsOverThePairBudgetFallBackToAFlatFit) {
   EXPECT_FALSE(fallback.has_colour_gradients());
   EXPECT_EQ(fallback.features, flat.features);
   EXPECT_NE(fallback.features, scene.features);
-  // Twice the pairs: the gradients fit.
-  options.max_pairs = 2 * flat_stats->pairs;
+  // The pairs and 3 units per Gaussian in view: the gradients fit; one unit
+  // less and they do not.
+  WeightOptions recorded;
+  recorded.min_weight = options.min_weight;
+  absl::StatusOr<CompositingWeights> a = ComputeCompositingWeights(
+      scene, {view.camera, view.world_from_camera}, view.timestamp_us, recorded);
+  ASSERT_TRUE(a.ok()) << a.status();
+  ASSERT_GT(a->gaussians.size(), 0u);
+  const int64_t with_frames = flat_stats->pairs + 3 * int64_t(a->gaussians.size());
+  options.max_pairs = with_frames - 1;
+  GaussianScene short_one = scene;
+  stats = RefineColours({view}, options, &short_one);
+  ASSERT_TRUE(stats.ok()) << stats.status();
+  EXPECT_TRUE(stats->flat_fallback);
+  options.max_pairs = with_frames;
   GaussianScene textured = scene;
   stats = RefineColours({view}, options, &textured);
   ASSERT_TRUE(stats.ok()) << stats.status();
@@ -398,6 +476,19 @@ TEST(ColourRefinement, GradientsOverThePairBudgetFallBackToAFlatFit) {
   EXPECT_TRUE(stats->flat_fallback);
   EXPECT_TRUE(stats->skipped_over_budget);
   EXPECT_EQ(none.features, scene.features);
+  // With strides allowed, a budget of the flat fit's pairs keeps the
+  // gradients, fitted on 1 pixel in 2: half the pairs and the frames fit.
+  options.max_pixel_stride = 4;
+  options.max_pairs = flat_stats->pairs;
+  GaussianScene strided = scene;
+  stats = RefineColours({view}, options, &strided);
+  ASSERT_TRUE(stats.ok()) << stats.status();
+  EXPECT_FALSE(stats->flat_fallback);
+  EXPECT_FALSE(stats->skipped_over_budget);
+  EXPECT_EQ(stats->pixel_stride, 2);
+  EXPECT_TRUE(strided.has_colour_gradients());
+  EXPECT_LE(stats->weight_bytes, 8 * options.max_pairs);
+  EXPECT_EQ(stats->weight_bytes, 8 * (stats->pairs + 3 * int64_t(a->gaussians.size())));
 }
 
 TEST(ColourRefinement, RejectsBadOptionsAndScenes) {

@@ -486,6 +486,12 @@ std::string EvalReportJson(const EvalReport& report) {
   // What the scene has, not what was asked: --refine 0, or a fit over the
   // memory bound, leaves it flat.
   j["colour"] = report.stats.colour_gradients ? "gradients" : "flat";
+  // 1 pixel in k of each view fitted (1: all; null: no fit).
+  if (report.stats.colour_fit_pixel_stride > 0) {
+    j["colourFitPixelStride"] = report.stats.colour_fit_pixel_stride;
+  } else {
+    j["colourFitPixelStride"] = nullptr;
+  }
   // Colours are blended and fitted in workingSpace; every figure is measured
   // on the sRGB-encoded [0, 1] images (metricsColour), as the papers do.
   j["workingSpace"] = ColourEncodingName(report.options.colour_encoding);

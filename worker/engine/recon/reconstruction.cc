@@ -202,18 +202,32 @@ absl::StatusOr<ReconResult> ReconstructInputs(const ReconInputs& inputs,
     refinement.colour_gradients = ColourGradientsFor(options);
     ASSIGN_OR_RETURN(const RefinementStats refined,
                      RefineColours(views, refinement, &result.scene));
-    const std::string fallback =
-        refined.flat_fallback ? "; flat colours: with gradients the pairs pass the memory bound"
-                              : "";
+    const int max_stride = options.refinement.max_pixel_stride;
+    std::string fallback =
+        refined.flat_fallback
+            ? absl::StrCat(
+                  "; flat colours: with gradients the weights pass the memory bound "
+                  "even on 1 pixel in ",
+                  max_stride)
+            : "";
+    if (refined.pixel_stride > 1) {
+      absl::StrAppend(&fallback, "; fitted on 1 pixel in ", refined.pixel_stride,
+                      " of each view to stay within the memory bound");
+    }
+    if (!refined.skipped_over_budget && refined.pixels > 0) {
+      stats.colour_fit_pixel_stride = refined.pixel_stride;
+    }
     if (refined.skipped_over_budget) {
-      clock.Done("refine", absl::StrCat(" (skipped: the context views need more than ",
-                                        options.refinement.max_pairs,
-                                        " pixel-Gaussian pairs, the fit's memory bound; colours "
-                                        "kept as decoded)"));
-    } else {
       clock.Done("refine",
-                 absl::StrCat(" (", refined.pairs, " pixel-Gaussian pairs, context RMSE ",
-                              refined.rmse_before, " -> ", refined.rmse_after, fallback, ")"));
+                 absl::StrCat(" (skipped: the context views' weights pass the fit's memory bound, ",
+                              absl::SixDigits(8e-9 * double(options.refinement.max_pairs)),
+                              " GB, even on 1 pixel in ", max_stride,
+                              " of each view; colours kept as decoded)"));
+    } else {
+      clock.Done("refine", absl::StrCat(" (", refined.pairs, " pixel-Gaussian pairs, ",
+                                        absl::SixDigits(double(refined.weight_bytes) / 1e9),
+                                        " GB of weights, context RMSE ", refined.rmse_before,
+                                        " -> ", refined.rmse_after, fallback, ")"));
     }
   }
   stats.colour_gradients = result.scene.has_colour_gradients();

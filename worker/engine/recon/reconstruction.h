@@ -54,8 +54,7 @@ struct ReconOptions {
   // Whether the colour fit gives each Gaussian a colour gradient
   // (GaussianScene::colour_gradients); unset: the model's default, on for
   // analytic, off for pixel-aligned (one Gaussian per pixel has no room
-  // for a gradient inside its pixel, and the gradients would double the
-  // memory of its fit, pushing it over refinement.max_pairs).
+  // for a gradient inside its pixel).
   // refinement.colour_gradients is overwritten with the result.
   std::optional<bool> colour_gradients;
   CompletionOptions completion;
@@ -92,6 +91,9 @@ struct ReconStats {
   // The scene's colours carry gradients (the fit ran with them; a fit over
   // the memory bound with them falls back to flat colours).
   bool colour_gradients = false;
+  // The colour fit's pixels: 1 in colour_fit_pixel_stride of each view (1:
+  // every pixel; 0: no fit ran).
+  int colour_fit_pixel_stride = 0;
   std::vector<std::pair<std::string, double>> stage_seconds;  // In order.
   double total_seconds = 0;
 };

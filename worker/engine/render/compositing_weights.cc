@@ -46,6 +46,10 @@ absl::StatusOr<CompositingWeights> ComputeCompositingWeights(const GaussianScene
         absl::StrCat("camera: image size ", model.width(), "x", model.height(), " has no pixels"));
   }
   if (absl::Status status = CheckRenderable(scene); !status.ok()) return status;
+  if (options.pixel_stride < 1) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("pixel_stride: must be at least 1, got ", options.pixel_stride));
+  }
 
   ViewFrame frame;
   raster::SetUpProjectionCamera(
@@ -114,6 +118,7 @@ absl::StatusOr<CompositingWeights> ComputeCompositingWeights(const GaussianScene
   CompositingWeights out;
   out.width = frame.width;
   out.height = frame.height;
+  out.pixel_stride = options.pixel_stride;
   const size_t pixels = static_cast<size_t>(frame.width) * frame.height;
   out.pixel_begin.assign(pixels, 0);
   out.pixel_count.assign(pixels, 0);
@@ -123,7 +128,6 @@ absl::StatusOr<CompositingWeights> ComputeCompositingWeights(const GaussianScene
     uint32_t gaussian;  // Depth rank.
     float weight;
     uint8_t pixel;
-    float u, v;  // Local coordinates (options.local_coords).
   };
   std::vector<Entry> tile_entries;
   float trans[kTile * kTile];
@@ -165,13 +169,8 @@ absl::StatusOr<CompositingWeights> ComputeCompositingWeights(const GaussianScene
             const float alpha = std::min(kMaxAlpha, g.opacity * std::exp(-0.5f * d2));
             if (!(alpha >= kMinAlpha)) continue;
             const float weight = alpha * tp;
-            if (weight >= options.min_weight) {
-              Entry entry{i, weight, static_cast<uint8_t>(p), 0.f, 0.f};
-              if (options.local_coords) {
-                entry.u = g.ux * dx + g.uy * dy;
-                entry.v = g.vx * dx + g.vy * dy;
-              }
-              tile_entries.push_back(entry);
+            if (weight >= options.min_weight && OnPixelLattice(col, row, options.pixel_stride)) {
+              tile_entries.push_back({i, weight, static_cast<uint8_t>(p)});
             }
             trans[p] = tp * (1.f - alpha);
             active -= trans[p] < kMinTransmittance;
@@ -196,15 +195,10 @@ absl::StatusOr<CompositingWeights> ComputeCompositingWeights(const GaussianScene
       }
       ranked.resize(start);
       out.weights.resize(start);
-      if (options.local_coords) out.coords.resize(2 * start);
       for (const Entry& e : tile_entries) {
         const uint64_t slot = cursor[e.pixel]++;
         ranked[slot] = e.gaussian;
         out.weights[slot] = e.weight;
-        if (options.local_coords) {
-          out.coords[2 * slot] = e.u;
-          out.coords[2 * slot + 1] = e.v;
-        }
       }
     }
   }
@@ -220,6 +214,21 @@ absl::StatusOr<CompositingWeights> ComputeCompositingWeights(const GaussianScene
   }
   out.local.resize(ranked.size());
   for (size_t e = 0; e < ranked.size(); ++e) out.local[e] = to_local[scene_index[ranked[e]]];
+  if (options.local_coords) {
+    out.local_frames.resize(6 * out.gaussians.size());
+    for (size_t k = 0; k < splats.size(); ++k) {
+      const uint32_t l = to_local[scene_index[k]];
+      if (l == UINT32_MAX) continue;
+      const Splat& g = splats[k];
+      float* f = &out.local_frames[6 * static_cast<size_t>(l)];
+      f[0] = g.mx;
+      f[1] = g.my;
+      f[2] = g.ux;
+      f[3] = g.uy;
+      f[4] = g.vx;
+      f[5] = g.vy;
+    }
+  }
   return out;
 }
 
@@ -257,9 +266,13 @@ inline void AccumulatePixel(const CompositingWeights& a, size_t p, const float* 
 inline void CompositePixelTextured(const CompositingWeights& a, size_t p, const float* params,
                                    float* dst) {
   dst[0] = dst[1] = dst[2] = 0.f;
+  float px, py;
+  a.PixelCentre(p, &px, &py);
   const uint64_t begin = a.pixel_begin[p], end = begin + a.pixel_count[p];
   for (uint64_t e = begin; e < end; ++e) {
-    const float w = a.weights[e], wu = w * a.coords[2 * e], wv = w * a.coords[2 * e + 1];
+    float u, v;
+    a.LocalCoords(e, px, py, &u, &v);
+    const float w = a.weights[e], wu = w * u, wv = w * v;
     const float* src = params + static_cast<size_t>(a.local[e]) * 9;
     for (int c = 0; c < 3; ++c)
       dst[c] += w * src[3 * c] + wu * src[3 * c + 1] + wv * src[3 * c + 2];
@@ -268,9 +281,13 @@ inline void CompositePixelTextured(const CompositingWeights& a, size_t p, const 
 
 inline void AccumulatePixelTextured(const CompositingWeights& a, size_t p, const float* r,
                                     float* out) {
+  float px, py;
+  a.PixelCentre(p, &px, &py);
   const uint64_t begin = a.pixel_begin[p], end = begin + a.pixel_count[p];
   for (uint64_t e = begin; e < end; ++e) {
-    const float w = a.weights[e], wu = w * a.coords[2 * e], wv = w * a.coords[2 * e + 1];
+    float u, v;
+    a.LocalCoords(e, px, py, &u, &v);
+    const float w = a.weights[e], wu = w * u, wv = w * v;
     float* dst = out + static_cast<size_t>(a.local[e]) * 9;
     for (int c = 0; c < 3; ++c) {
       dst[3 * c] += w * r[c];
@@ -309,7 +326,7 @@ void AccumulateTransposedTextured(const CompositingWeights& a, const float* resi
 
 void AccumulateNormal(const CompositingWeights& a, const std::vector<uint8_t>& mask, const float* x,
                       float* out) {
-  const bool textured = !a.coords.empty();
+  const bool textured = a.has_local_coords();
   for (size_t p = 0; p < a.pixel_begin.size(); ++p) {
     if (!mask[p]) continue;
     float v[3];

@@ -11,18 +11,19 @@
 // same per-row pixel spans, alpha clamped to 0.99, contributions under 1/255
 // skipped, a pixel done once its transmittance is under 1e-4), so
 // Composite(A, c) reproduces Render()'s premultiplied rgb for feature colours
-// (to float rounding: the rasterizer's exp is a polynomial), and
-// AccumulateTransposed() is the colour-only backward pass: the gradient of
-// sum_p |rgb_p - image_p|^2 / 2 with respect to the colours is
-// A^T (A c - image). Least-squares colour fits (recon/colour_refinement.h)
+// (to float rounding: the rasterizer's exp is a polynomial) on the pixels
+// it records, and AccumulateTransposed() is the colour-only backward pass:
+// the gradient of sum_p |rgb_p - image_p|^2 / 2 with respect to the colours
+// is A^T (A c - image). Least-squares colour fits (recon/colour_refinement.h)
 // apply both without re-rendering. The forward rasterizer is not touched.
 //
 // Single-threaded per view (callers parallelise over views); memory is
-// 8 bytes per contributing (pixel, Gaussian) pair (16 with local
-// coordinates) plus 16 per pixel.
+// 8 bytes per contributing (pixel, Gaussian) pair plus 16 per pixel (and,
+// with local coordinates, 24 per contributing Gaussian).
 #ifndef POINTFORWARD_WORKER_ENGINE_RENDER_COMPOSITING_WEIGHTS_H_
 #define POINTFORWARD_WORKER_ENGINE_RENDER_COMPOSITING_WEIGHTS_H_
 
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <vector>
@@ -33,10 +34,23 @@
 
 namespace pf {
 
+// Whether pixel (x, y) is on the lattice of 1 pixel in `stride`
+// (WeightOptions::pixel_stride): (x + s y) mod stride == 0, s about
+// sqrt(stride), so the recorded pixels spread evenly (stride 2: a
+// checkerboard). Every pixel for stride 1.
+inline bool OnPixelLattice(int x, int y, int stride) {
+  if (stride <= 1) return true;
+  const int shift = stride == 2 ? 1 : static_cast<int>(std::lround(std::sqrt(double(stride))));
+  return (x + shift * y) % stride == 0;
+}
+
 // The sparse compositing matrix A of one view, one row per pixel.
 struct CompositingWeights {
   int width = 0;
   int height = 0;
+  // Rows recorded: the pixels OnPixelLattice(x, y, pixel_stride); the others
+  // have no entries (their `alpha` is still the render's).
+  int pixel_stride = 1;
   // Scene indices of the Gaussians with any weight in this view, ascending.
   std::vector<uint32_t> gaussians;
   // Entries of pixel p = y * width + x are [pixel_begin[p], pixel_end[p]),
@@ -46,12 +60,33 @@ struct CompositingWeights {
   std::vector<uint32_t> local;        // [E] index into `gaussians`
   std::vector<float> weights;         // [E] w_ip
   std::vector<float> alpha;           // [H * W] 1 - transmittance, as Render()'s alpha
-  // [E, 2] the expected local coordinates (u, v) of each entry's pixel on
-  // its Gaussian (GaussianScene::colour_gradients); empty unless
-  // WeightOptions::local_coords.
-  std::vector<float> coords;
+  // [gaussians.size(), 6] each contributing Gaussian's screen frame in this
+  // view: centre (mx, my) and the rows (ux, uy), (vx, vy) that map a pixel
+  // centre's offset from it to the local coordinates (u, v) of the colour
+  // gradients (GaussianScene::colour_gradients); empty unless
+  // WeightOptions::local_coords. An entry's (u, v) is a function of its
+  // pixel and its Gaussian (LocalCoords), so it is not stored per entry.
+  std::vector<float> local_frames;
 
   size_t entries() const { return weights.size(); }
+  bool has_local_coords() const { return !local_frames.empty(); }
+  // The centre (x + 0.5, y + 0.5) of pixel p = y * width + x.
+  void PixelCentre(size_t pixel, float* px, float* py) const {
+    *px = static_cast<float>(pixel % static_cast<size_t>(width)) + 0.5f;
+    *py = static_cast<float>(pixel / static_cast<size_t>(width)) + 0.5f;
+  }
+  bool Records(size_t pixel) const {
+    return OnPixelLattice(static_cast<int>(pixel % static_cast<size_t>(width)),
+                          static_cast<int>(pixel / static_cast<size_t>(width)), pixel_stride);
+  }
+  // (u, v) of entry `e` at the pixel whose centre is (px, py) (x + 0.5,
+  // y + 0.5): the values Render() gives the Gaussian's colour gradients.
+  void LocalCoords(uint64_t e, float px, float py, float* u, float* v) const {
+    const float* f = &local_frames[6 * static_cast<size_t>(local[e])];
+    const float dx = px - f[0], dy = py - f[1];
+    *u = f[2] * dx + f[3] * dy;
+    *v = f[4] * dx + f[5] * dy;
+  }
 };
 
 struct WeightOptions {
@@ -59,8 +94,13 @@ struct WeightOptions {
   // Entries with w_ip < min_weight are not recorded (they still attenuate
   // the Gaussians behind them, and count in `alpha`). 0 records A exactly.
   float min_weight = 0.f;
-  // Also record CompositingWeights::coords (8 more bytes per entry).
+  // Also record CompositingWeights::local_frames (24 bytes per contributing
+  // Gaussian).
   bool local_coords = false;
+  // Record the entries of 1 pixel in pixel_stride only (OnPixelLattice):
+  // about 1 / pixel_stride of the memory, for fits too large for every
+  // pixel. Compositing is unchanged: every pixel attenuates as before.
+  int pixel_stride = 1;
 };
 
 // Records A for `scene` seen through `camera` at scene time `timestamp_us`
@@ -84,16 +124,16 @@ void AccumulateTransposed(const CompositingWeights& a, const float* residual, in
 // render is linear in the centre colours and the gradients too): `params` and
 // `out` are [a.gaussians.size(), 3, 3], per RGB channel (colour, g_u, g_v) as
 // GaussianScene::colour_gradients; `image` and `residual` are [H * W, 3].
-// `a` must have coords.
+// `a` must have local coordinates (WeightOptions::local_coords).
 void CompositeTextured(const CompositingWeights& a, const float* params, float* image);
 void AccumulateTransposedTextured(const CompositingWeights& a, const float* residual, float* out);
 
 // Adds A^T M A x to `out`, M the pixels where `mask` ([H * W]) is non-zero:
-// textured (`x`, `out` as CompositeTextured's params) when `a` has coords,
-// else flat RGB ([a.gaussians.size(), 3]). One pass: each pixel's entries
-// are read from memory once and, still in cache, again for the transposed
-// product, where Composite then AccumulateTransposed read them all twice
-// (the colour fit's iterations are mostly this).
+// textured (`x`, `out` as CompositeTextured's params) when `a` has local
+// coordinates, else flat RGB ([a.gaussians.size(), 3]). One pass: each
+// pixel's entries are read from memory once and, still in cache, again for
+// the transposed product, where Composite then AccumulateTransposed read
+// them all twice (the colour fit's iterations are mostly this).
 void AccumulateNormal(const CompositingWeights& a, const std::vector<uint8_t>& mask, const float* x,
                       float* out);
 

@@ -228,7 +228,7 @@ TEST(CompositingWeights, WithLocalCoordinatesReproducesRenderOfColourGradients) 
     absl::StatusOr<CompositingWeights> a =
         ComputeCompositingWeights(scene, camera, 300000, weight_options);
     ASSERT_TRUE(a.ok()) << a.status();
-    ASSERT_EQ(a->coords.size(), 2 * a->entries());
+    ASSERT_EQ(a->local_frames.size(), 6 * a->gaussians.size());
     std::vector<float> image(render->rgb.size());
     const std::vector<float> params = LocalTexturedColours(scene, *a);
     CompositeTextured(*a, params.data(), image.data());
@@ -301,6 +301,56 @@ TEST(CompositingWeights, AccumulateNormalIsTheTransposeOfTheMaskedComposite) {
     EXPECT_GT(max_value, 0.1);
     EXPECT_LT(max_error, 1e-5 * max_value);
   }
+}
+
+TEST(CompositingWeights, APixelStrideRecordsTheLatticePixelsOnly) {
+  // With pixel_stride k only the pixels OnPixelLattice(x, y, k) have
+  // entries, and exactly the entries (Gaussians, weights, local
+  // coordinates) a full recording gives them; alpha is every pixel's.
+  const GaussianScene scene = WithRandomGradients(RandomScene(7, 2000), 5);
+  const RenderCamera camera = SimpleCamera(96, 64, 80);
+  WeightOptions options;
+  options.local_coords = true;
+  absl::StatusOr<CompositingWeights> full = ComputeCompositingWeights(scene, camera, 0, options);
+  ASSERT_TRUE(full.ok()) << full.status();
+  for (const int stride : {2, 3, 4}) {
+    SCOPED_TRACE(stride);
+    options.pixel_stride = stride;
+    absl::StatusOr<CompositingWeights> a = ComputeCompositingWeights(scene, camera, 0, options);
+    ASSERT_TRUE(a.ok()) << a.status();
+    EXPECT_EQ(a->alpha, full->alpha);
+    size_t lattice = 0, compared = 0;
+    for (int y = 0; y < 64; ++y) {
+      for (int x = 0; x < 96; ++x) {
+        const size_t p = static_cast<size_t>(y) * 96 + x;
+        ASSERT_EQ(a->Records(p), OnPixelLattice(x, y, stride));
+        if (!a->Records(p)) {
+          ASSERT_EQ(a->pixel_count[p], 0u);
+          continue;
+        }
+        ++lattice;
+        ASSERT_EQ(a->pixel_count[p], full->pixel_count[p]);
+        for (uint32_t j = 0; j < a->pixel_count[p]; ++j) {
+          const uint64_t e = a->pixel_begin[p] + j, f = full->pixel_begin[p] + j;
+          ASSERT_EQ(a->gaussians[a->local[e]], full->gaussians[full->local[f]]);
+          ASSERT_EQ(a->weights[e], full->weights[f]);
+          float u, v, fu, fv;
+          a->LocalCoords(e, x + 0.5f, y + 0.5f, &u, &v);
+          full->LocalCoords(f, x + 0.5f, y + 0.5f, &fu, &fv);
+          ASSERT_EQ(u, fu);
+          ASSERT_EQ(v, fv);
+          ++compared;
+        }
+      }
+    }
+    // 1 pixel in k, spread: every row and every column holds about 1 in k.
+    EXPECT_NEAR(double(lattice) / (96 * 64), 1.0 / stride, 0.01);
+    EXPECT_GT(compared, 0u);
+    EXPECT_LT(a->entries(), full->entries() / (stride - 0.5));
+  }
+  options.pixel_stride = 0;
+  EXPECT_EQ(ComputeCompositingWeights(scene, camera, 0, options).status().code(),
+            absl::StatusCode::kInvalidArgument);
 }
 
 TEST(CompositingWeights, RejectsEmptyCameraAndBadScenes) {
