@@ -184,12 +184,14 @@ void Scatter(const std::vector<FitView>& views, int per, const std::vector<ViewS
   }
 }
 
-// Every view's weights (one view per task) and fitted pixels, recorded at
-// 1 pixel in `pixel_stride`; recording stops once the views together pass
-// options.max_pairs units (8 bytes: a unit per pair, and with colour
-// gradients 3 more per Gaussian in view, its screen frame).
+// Recording stops early once the views counted (two at least) put the
+// whole clip on course for this many times the bound.
 constexpr double kProjectedOverBudget = 1.25;
 
+// Every view's weights (one view per task) and fitted pixels, recorded at
+// 1 pixel in `pixel_stride`; recording stops once the views together pass
+// options.max_pairs units (kWeightUnitBytes: a unit per pair, and with
+// colour gradients 3 more per Gaussian in view, its screen frame).
 struct RecordedViews {
   std::vector<FitView> fit;
   bool over_budget = false;
@@ -227,8 +229,8 @@ absl::StatusOr<RecordedViews> RecordViews(const std::vector<ContextView>& views,
       frame_units += frames;
       const int64_t views_counted = ++counted;
       const int64_t total = units.fetch_add(cost) + cost;
-      // Over the bound, or (from two views on) on course for 1.25 times it:
-      // the rest need not be recorded to know.
+      // Over the bound, or on course for kProjectedOverBudget times it: the
+      // rest need not be recorded to know.
       if (total > options.max_pairs ||
           (views_counted >= 2 && double(total) * double(num_views) / double(views_counted) >
                                      kProjectedOverBudget * double(options.max_pairs))) {
@@ -324,7 +326,7 @@ absl::StatusOr<RefinementStats> RefineColours(const std::vector<ContextView>& vi
   std::vector<FitView>& fit = recorded.fit;
   stats.flat_fallback = options.colour_gradients && !gradients;
   stats.pixel_stride = pixel_stride;
-  stats.weight_bytes = 8 * recorded.units;
+  stats.weight_bytes = kWeightUnitBytes * recorded.units;
   for (const FitView& view : fit) {
     stats.pairs += static_cast<int64_t>(view.a.entries());
     for (uint8_t f : view.fitted) stats.pixels += f;

@@ -44,6 +44,10 @@
 
 namespace pf {
 
+// The unit of RefinementOptions::max_pairs: the bytes of one recorded
+// pixel-Gaussian pair (a weight and a Gaussian index).
+constexpr int64_t kWeightUnitBytes = 8;
+
 struct RefinementOptions {
   int iterations = 24;         // Conjugate-gradient iterations; 0: no refinement.
   double prior_weight = 0.05;  // Pull towards the decoded colours, relative to the data.
@@ -91,7 +95,7 @@ struct RefinementOptions {
 struct RefinementStats {
   int64_t pixels = 0;  // Context pixels in the fit (alpha >= min_alpha).
   int64_t pairs = 0;   // Contributing (pixel, Gaussian) pairs over all views.
-  // Memory of the recorded weights (8 bytes per unit of max_pairs).
+  // Memory of the recorded weights (kWeightUnitBytes per unit of max_pairs).
   int64_t weight_bytes = 0;
   // The fit's pixels: 1 in pixel_stride of each view (1: every pixel).
   int pixel_stride = 1;

@@ -328,16 +328,28 @@ GaussianScene GreyWall(int w, int h) {
   return scene;
 }
 
+// The wall above seen by two identical 0.8-grey views, with flat colours
+// (GradientsOverThePairBudget... has them) and every pixel fitted.
+struct TwoViewWall {
+  ContextView view = UniformView(40, 30, 40, 0.8f);
+  GaussianScene scene = GreyWall(40, 30);
+  std::vector<ContextView> views = {view, view};
+  RefinementOptions options = [] {
+    RefinementOptions o;
+    o.min_alpha = 0;
+    o.colour_gradients = false;
+    return o;
+  }();
+};
+
 TEST(ColourRefinement, OverThePairBudgetTheColoursStayAsDecoded) {
-  // The wall of the test above, seen by two views: the fit needs every
-  // pair of both. With every pixel required (max_pixel_stride 1), one pair
-  // short of that nothing is changed; at exactly that many, the fit runs.
-  const ContextView view = UniformView(40, 30, 40, 0.8f);
-  const GaussianScene scene = GreyWall(40, 30);
-  const std::vector<ContextView> views = {view, view};
-  RefinementOptions options;
-  options.min_alpha = 0;
-  options.colour_gradients = false;  // GradientsOverThePairBudget... has them.
+  // The wall, seen by two views: the fit needs every pair of both. With
+  // every pixel required (max_pixel_stride 1), one pair short of that
+  // nothing is changed; at exactly that many, the fit runs.
+  const TwoViewWall wall;
+  const GaussianScene& scene = wall.scene;
+  const std::vector<ContextView>& views = wall.views;
+  RefinementOptions options = wall.options;
   options.max_pixel_stride = 1;
   GaussianScene unbounded = scene;
   absl::StatusOr<RefinementStats> full = RefineColours(views, options, &unbounded);
@@ -345,7 +357,7 @@ TEST(ColourRefinement, OverThePairBudgetTheColoursStayAsDecoded) {
   ASSERT_FALSE(full->skipped_over_budget);
   ASSERT_GT(full->pairs, 0);
   EXPECT_EQ(full->pixel_stride, 1);
-  EXPECT_EQ(full->weight_bytes, 8 * full->pairs);
+  EXPECT_EQ(full->weight_bytes, kWeightUnitBytes * full->pairs);
 
   GaussianScene over = scene;
   options.max_pairs = full->pairs - 1;
@@ -369,12 +381,11 @@ TEST(ColourRefinement, OverThePairBudgetEveryOtherPixelIsFitted) {
   // pixel, the fit takes 1 pixel in 2 of each view (a checkerboard, half
   // the pairs) and still pulls every colour to the image's grey; a budget
   // under a quarter of the pairs (the largest stride allowed, 4) skips it.
-  const ContextView view = UniformView(40, 30, 40, 0.8f);
-  const GaussianScene scene = GreyWall(40, 30);
-  const std::vector<ContextView> views = {view, view};
-  RefinementOptions options;
-  options.min_alpha = 0;
-  options.colour_gradients = false;
+  const TwoViewWall wall;
+  const ContextView& view = wall.view;
+  const GaussianScene& scene = wall.scene;
+  const std::vector<ContextView>& views = wall.views;
+  RefinementOptions options = wall.options;
   GaussianScene unbounded = scene;
   absl::StatusOr<RefinementStats> full = RefineColours(views, options, &unbounded);
   ASSERT_TRUE(full.ok()) << full.status();
@@ -403,9 +414,9 @@ TEST(ColourRefinement, OverThePairBudgetEveryOtherPixelIsFitted) {
   EXPECT_GT(moved, 0.05);
   EXPECT_LT(diff, 0.02);
 
-  // Eight such views and a budget of 0.6 of their pairs: recording stops
-  // after two views (on course for 1.7 times the bound), and the estimate
-  // from those two gives 1 pixel in 2.
+  // Eight such views and a budget of 0.6 of their pairs: the estimate from
+  // the views recorded before the bound is passed (or projected to be)
+  // gives 1 pixel in 2, whichever of the two stops the recording.
   const std::vector<ContextView> eight(8, view);
   GaussianScene eight_scene = scene;
   RefinementOptions eight_options = options;
@@ -487,8 +498,9 @@ TEST(ColourRefinement, GradientsOverThePairBudgetFallBackToAFlatFit) {
   EXPECT_FALSE(stats->skipped_over_budget);
   EXPECT_EQ(stats->pixel_stride, 2);
   EXPECT_TRUE(strided.has_colour_gradients());
-  EXPECT_LE(stats->weight_bytes, 8 * options.max_pairs);
-  EXPECT_EQ(stats->weight_bytes, 8 * (stats->pairs + 3 * int64_t(a->gaussians.size())));
+  EXPECT_LE(stats->weight_bytes, kWeightUnitBytes * options.max_pairs);
+  EXPECT_EQ(stats->weight_bytes,
+            kWeightUnitBytes * (stats->pairs + 3 * int64_t(a->gaussians.size())));
 }
 
 TEST(ColourRefinement, RejectsBadOptionsAndScenes) {

@@ -203,7 +203,7 @@ absl::StatusOr<ReconResult> ReconstructInputs(const ReconInputs& inputs,
     ASSIGN_OR_RETURN(const RefinementStats refined,
                      RefineColours(views, refinement, &result.scene));
     const int max_stride = options.refinement.max_pixel_stride;
-    std::string fallback =
+    std::string detail =
         refined.flat_fallback
             ? absl::StrCat(
                   "; flat colours: with gradients the weights pass the memory bound "
@@ -211,7 +211,7 @@ absl::StatusOr<ReconResult> ReconstructInputs(const ReconInputs& inputs,
                   max_stride)
             : "";
     if (refined.pixel_stride > 1) {
-      absl::StrAppend(&fallback, "; fitted on 1 pixel in ", refined.pixel_stride,
+      absl::StrAppend(&detail, "; fitted on 1 pixel in ", refined.pixel_stride,
                       " of each view to stay within the memory bound");
     }
     if (!refined.skipped_over_budget && refined.pixels > 0) {
@@ -220,14 +220,15 @@ absl::StatusOr<ReconResult> ReconstructInputs(const ReconInputs& inputs,
     if (refined.skipped_over_budget) {
       clock.Done("refine",
                  absl::StrCat(" (skipped: the context views' weights pass the fit's memory bound, ",
-                              absl::SixDigits(8e-9 * double(options.refinement.max_pairs)),
+                              absl::SixDigits(1e-9 * double(kWeightUnitBytes) *
+                                              double(options.refinement.max_pairs)),
                               " GB, even on 1 pixel in ", max_stride,
                               " of each view; colours kept as decoded)"));
     } else {
       clock.Done("refine", absl::StrCat(" (", refined.pairs, " pixel-Gaussian pairs, ",
                                         absl::SixDigits(double(refined.weight_bytes) / 1e9),
                                         " GB of weights, context RMSE ", refined.rmse_before,
-                                        " -> ", refined.rmse_after, fallback, ")"));
+                                        " -> ", refined.rmse_after, detail, ")"));
     }
   }
   stats.colour_gradients = result.scene.has_colour_gradients();
