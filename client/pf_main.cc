@@ -49,7 +49,7 @@ commands:
         [--device cpu|cuda:N] [--compare-cpu]
         time the rasterizer; prints JSON
   reconstruct CLIP.json --out SCENE [--model analytic|pixel-aligned] [--ns N --nd N]
-        [--fusion softmax|average|no-depth] [--no-lifespan] [--refine N] [--splat-sigma S]
+        [--fusion softmax|average|no-depth] [--lifespan] [--refine N] [--splat-sigma S]
         [--low-pass PX2] [--hidden-band PX] [--no-ground-fill] [--no-facades] [--device cpu|cuda[:N]]
         [--colour gradients|flat] [--working-space srgb|linear] [--completion nearest|ip-basic]
         [--allow-outside-paths]
@@ -70,7 +70,7 @@ Before the command: [--tls-ca PEM] (TLS; or PF_TLS_CA) [--tls-cert PEM --tls-key
 (mutual TLS; or PF_TLS_CERT, PF_TLS_KEY) [--token-file PATH] (bearer token; else
 the token in PF_TOKEN):
   scene create CLIP.json|file:///abs/clip.json [--wait] [--model M] [--ns N] [--nd N]
-        [--fusion F] [--no-lifespan] [--device D] [--request-id ID] [TUNING]
+        [--fusion F] [--lifespan] [--device D] [--request-id ID] [TUNING]
         upload the clip and every file it names (or let the server read a file://
         clip), start its reconstruction; prints the operation name. --wait waits
         and prints the scene
@@ -79,7 +79,7 @@ the token in PF_TOKEN):
         inspect, list, delete scenes; export one as a 3DGS PLY (sha256 checked)
   render SCENE --cameras VIEWS.json [--out DIR --wait] [--outputs LIST]
          [--chunk-frames N] [--request-id ID]
-  render --clip CLIP.json [--model M] [--ns N] [--nd N] [--fusion F] [--no-lifespan]
+  render --clip CLIP.json [--model M] [--ns N] [--nd N] [--fusion F] [--lifespan]
          [--device D] [TUNING] --cameras VIEWS.json [--out DIR --wait] [--outputs LIST]
         submit a render job (of a clip: reconstructed first unless cached);
         TUNING: [--refine N] [--splat-sigma S] [--low-pass PX2] [--hidden-band PX]

@@ -1,6 +1,6 @@
 // pf reconstruct CLIP.json --out SCENE [--model analytic|pixel-aligned]
 //                [--ns N --nd N] [--fusion softmax|average|no-depth]
-//                [--no-lifespan] [--refine N] [--splat-sigma S] [--low-pass PX2]
+//                [--lifespan] [--refine N] [--splat-sigma S] [--low-pass PX2]
 //                [--hidden-band PX] [--no-ground-fill] [--no-facades]
 //                [--device cpu|cuda[:N]] [--colour gradients|flat]
 //                [--working-space srgb|linear] [--allow-outside-paths]
@@ -29,7 +29,7 @@ namespace {
 
 constexpr char kReconstructUsage[] =
     "usage: pf reconstruct CLIP.json --out SCENE [--model analytic|pixel-aligned] "
-    "[--ns N --nd N] [--fusion softmax|average|no-depth] [--no-lifespan] [--refine N] "
+    "[--ns N --nd N] [--fusion softmax|average|no-depth] [--lifespan] [--refine N] "
     "[--splat-sigma S] [--low-pass PX2] [--hidden-band PX] [--no-ground-fill] [--no-facades] "
     "[--device cpu|cuda[:N]] [--colour gradients|flat] [--working-space srgb|linear] "
     "[--completion nearest|ip-basic] [--allow-outside-paths]";

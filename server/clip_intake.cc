@@ -262,6 +262,12 @@ absl::StatusOr<v1::ReconstructionOptions> NormalizeOptions(
     return absl::InvalidArgumentError(absl::StrCat("options.fusion: unknown fusion '", out.fusion(),
                                                    "'; expected softmax, average or no-depth"));
   }
+  if (out.lifespan() && out.no_lifespan()) {
+    return absl::InvalidArgumentError(
+        "options.lifespan: set together with options.no_lifespan; set one (lifespans are off "
+        "unless options.lifespan is set)");
+  }
+  out.clear_no_lifespan();  // The default; one key for both ways of asking.
   if (out.ns() < 0) {
     return absl::InvalidArgumentError(absl::StrCat("options.ns: must be >= 0, got ", out.ns()));
   }
@@ -291,7 +297,7 @@ std::string SceneCacheKey(const v1::UploadedClip& clip, const v1::Reconstruction
   field("ns", absl::StrCat(options.ns()));
   field("nd", absl::StrCat(options.nd()));
   field("fusion", options.fusion());
-  field("lifespan", options.no_lifespan() ? "off" : "on");
+  field("lifespan", options.lifespan() ? "on" : "off");
   // The tuning values enter the key only when set, so the keys of scenes
   // made with the defaults stay as they were.
   if (options.has_refine()) field("refine", absl::StrCat(options.refine()));

@@ -96,5 +96,28 @@ TEST(SceneCacheKey, TuningValuesThatAreSetMakeAnotherScene) {
   EXPECT_EQ(keys.size(), 8u);
 }
 
+// Lifespans are off unless asked for; an earlier client's no_lifespan asks
+// for the default and gets the default's scene; both at once is refused.
+TEST(SceneCacheKey, LifespanOnIsAnotherSceneAndNoLifespanIsTheDefault) {
+  v1::UploadedClip clip;
+  clip.mutable_manifest()->set_sha256("abc");
+  const std::string key = SceneCacheKey(clip, *NormalizeOptions({}));
+  v1::ReconstructionOptions off;
+  off.set_no_lifespan(true);
+  absl::StatusOr<v1::ReconstructionOptions> normalized = NormalizeOptions(off);
+  ASSERT_TRUE(normalized.ok()) << normalized.status();
+  EXPECT_FALSE(normalized->no_lifespan());
+  EXPECT_EQ(SceneCacheKey(clip, *normalized), key);
+  v1::ReconstructionOptions on;
+  on.set_lifespan(true);
+  normalized = NormalizeOptions(on);
+  ASSERT_TRUE(normalized.ok()) << normalized.status();
+  EXPECT_NE(SceneCacheKey(clip, *normalized), key);
+  on.set_no_lifespan(true);
+  const absl::Status both = NormalizeOptions(on).status();
+  EXPECT_EQ(both.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(both.message().find("options.lifespan"), std::string::npos) << both;
+}
+
 }  // namespace
 }  // namespace pf

@@ -346,28 +346,31 @@ TEST_F(ReconCli, AnEgoMaskKeepsTheHoodOutOfTheSceneAndTheFigures) {
 TEST_F(ReconCli, AblationFlagsAreRecordedInTheReport) {
   const std::string out = *dir_ + "/eval_ablation";
   const CommandResult result =
-      RunCommand({Pf(), "eval", Clip(), "--out", out, "--fusion", "average", "--no-lifespan"});
+      RunCommand({Pf(), "eval", Clip(), "--out", out, "--fusion", "average", "--lifespan"});
   ASSERT_EQ(result.exit_code, 0) << result.err;
   const nlohmann::json report = ReadJsonFile(out + "/report.json");
   EXPECT_EQ(report["fusion"], "average");
-  EXPECT_EQ(report["lifespan"], false);
+  EXPECT_EQ(report["lifespan"], true);
 }
 
-// The ablations reach the scene, not only the report: without lifespans no
-// Gaussian fades (the default gives a few finite ones, 15 of 13,842 here:
-// views that disagree in time), and plain averaging gives other colours.
+// The flags reach the scene, not only the report: by default no Gaussian
+// fades, --lifespan gives a few finite lifespans (15 of 13,842 here: views
+// that disagree in time), --no-lifespan is the default, and plain averaging
+// gives other colours.
 TEST_F(ReconCli, AblationFlagsChangeTheScene) {
   auto finite_lifespans = [](const GaussianScene& s) {
     return std::count_if(s.lifespans.begin(), s.lifespans.end(),
                          [](float l) { return std::isfinite(l); });
   };
   const GaussianScene base = ReconstructWith({});
+  const GaussianScene lifespan = ReconstructWith({"--lifespan"});
   const GaussianScene no_lifespan = ReconstructWith({"--no-lifespan"});
   const GaussianScene average = ReconstructWith({"--fusion", "average"});
   ASSERT_GT(base.size(), 0u);
-  EXPECT_GT(finite_lifespans(base), 0);
-  EXPECT_EQ(finite_lifespans(no_lifespan), 0);
-  EXPECT_EQ(no_lifespan.size(), base.size());
+  EXPECT_EQ(finite_lifespans(base), 0);
+  EXPECT_GT(finite_lifespans(lifespan), 0);
+  EXPECT_EQ(lifespan.size(), base.size());
+  EXPECT_EQ(no_lifespan.lifespans, base.lifespans);
   ASSERT_EQ(average.size(), base.size());  // Fusion weighs; it does not place.
   EXPECT_EQ(average.means, base.means);
   EXPECT_NE(average.features, base.features);
@@ -609,6 +612,11 @@ TEST_F(ReconCli, BadFlagsAreBadInputNamingTheFlag) {
   EXPECT_EQ(unknown_device.exit_code, 2);
   EXPECT_NE(unknown_device.err.find("--device: unknown device 'gpu'"), std::string::npos)
       << unknown_device.err;
+  const CommandResult lifespan = RunCommand(
+      {Pf(), "reconstruct", Clip(), "--out", *dir_ + "/x", "--lifespan", "--no-lifespan"});
+  EXPECT_EQ(lifespan.exit_code, 2);
+  EXPECT_NE(lifespan.err.find("--lifespan: given with --no-lifespan"), std::string::npos)
+      << lifespan.err;
   const CommandResult missing =
       RunCommand({Pf(), "reconstruct", *dir_ + "/nope.json", "--out", *dir_ + "/x"});
   EXPECT_EQ(missing.exit_code, 2);

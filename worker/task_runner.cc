@@ -184,7 +184,11 @@ absl::StatusOr<ReconOptions> ReconOptionsFromProto(const pb::ReconstructionOptio
     return absl::InvalidArgumentError(absl::StrCat("options.fusion: unknown weighting '", fusion,
                                                    "' (expected softmax, average or no-depth)"));
   }
-  options.fusion.lifespan = !proto.no_lifespan();
+  if (proto.lifespan() && proto.no_lifespan()) {
+    return absl::InvalidArgumentError(
+        "options.lifespan: set together with options.no_lifespan; set one");
+  }
+  options.fusion.lifespan = proto.lifespan();
   options.completion.ground_fill = !proto.no_ground_fill();
   options.completion.facades = !proto.no_facades();
   RETURN_IF_ERROR(CheckTuningFields(proto));

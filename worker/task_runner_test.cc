@@ -296,6 +296,19 @@ TEST(ReconOptionsFromProto, TuningFieldsMapOntoTheOptions) {
   EXPECT_TRUE(options->completion.facades);
   EXPECT_FALSE(options->colour_gradients.has_value());  // The model's default.
   EXPECT_TRUE(ColourGradientsFor(*options));
+  EXPECT_FALSE(options->fusion.lifespan);  // Off unless asked for.
+
+  proto.set_lifespan(true);
+  options = ReconOptionsFromProto(proto);
+  ASSERT_TRUE(options.ok()) << options.status();
+  EXPECT_TRUE(options->fusion.lifespan);
+  proto.set_no_lifespan(true);
+  EXPECT_EQ(ReconOptionsFromProto(proto).status().code(), absl::StatusCode::kInvalidArgument);
+  proto.set_lifespan(false);
+  options = ReconOptionsFromProto(proto);
+  ASSERT_TRUE(options.ok()) << options.status();
+  EXPECT_FALSE(options->fusion.lifespan);
+  proto.set_no_lifespan(false);
 
   proto.set_colour("flat");
   options = ReconOptionsFromProto(proto);

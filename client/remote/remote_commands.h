@@ -39,7 +39,7 @@ inline bool WantsHelp(const std::vector<std::string>& args) {
 inline const std::set<std::string> kReconValueFlags = {
     "model",  "ns",          "nd",       "fusion",      "device",
     "refine", "splat-sigma", "low-pass", "hidden-band", "colour"};
-inline const std::set<std::string> kReconBoolFlags = {"no-lifespan", "no-ground-fill",
+inline const std::set<std::string> kReconBoolFlags = {"lifespan", "no-lifespan", "no-ground-fill",
                                                       "no-facades"};
 
 // Returns the ReconstructionOptions the flags of `cl` ask for

@@ -36,7 +36,7 @@ constexpr char kRemoteRenderUsage[] =
     "usage: pf --server ADDR render SCENE --cameras VIEWS.json [--out DIR --wait] "
     "[--outputs rgb,alpha,depth,features,instance,filled] [--chunk-frames N] [--request-id ID]\n"
     "       pf --server ADDR render --clip CLIP.json [--model M] [--ns N] [--nd N] [--fusion F] "
-    "[--no-lifespan] [--device D] [--refine N] [--splat-sigma S] [--low-pass PX2] "
+    "[--lifespan] [--device D] [--refine N] [--splat-sigma S] [--low-pass PX2] "
     "[--hidden-band PX] [--no-ground-fill] [--no-facades] [--colour gradients|flat] --cameras "
     "VIEWS.json [--out DIR --wait] "
     "...";

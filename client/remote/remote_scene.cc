@@ -38,7 +38,7 @@ namespace {
 
 constexpr char kRemoteSceneUsage[] =
     "usage: pf --server ADDR scene create CLIP.json|file:///abs/clip.json [--wait] [--model M] "
-    "[--ns N] [--nd N] [--fusion F] [--no-lifespan] [--device D] [--request-id ID]\n"
+    "[--ns N] [--nd N] [--fusion F] [--lifespan] [--device D] [--request-id ID]\n"
     "         [--refine N] [--splat-sigma S] [--low-pass PX2] [--hidden-band PX] "
     "[--no-ground-fill] "
     "[--no-facades] [--colour gradients|flat]\n"
@@ -242,7 +242,11 @@ absl::StatusOr<v1::ReconstructionOptions> ReconstructionOptionsFromFlags(const C
   options.set_model(cl.Get("model"));
   options.set_fusion(cl.Get("fusion"));
   options.set_device(cl.Get("device"));
-  options.set_no_lifespan(cl.Has("no-lifespan"));
+  if (cl.Has("lifespan") && cl.Has("no-lifespan")) {
+    return absl::InvalidArgumentError(
+        "--lifespan: given with --no-lifespan; give one (lifespans are off by default)");
+  }
+  options.set_lifespan(cl.Has("lifespan"));
   ASSIGN_OR_RETURN(const int64_t ns, cl.GetInt("ns", 0));
   ASSIGN_OR_RETURN(const int64_t nd, cl.GetInt("nd", 0));
   if (ns < 0) return absl::InvalidArgumentError("--ns: must not be negative");

@@ -22,7 +22,8 @@
 // that sees the point from twice as far sees it at half the resolution); the
 // fused colour is the weighted mean of the bilinearly sampled colours. Agreement is
 // observations / (observations + contradictions), the source view included.
-// Lifespan: +inf (never fades) for dynamic queries and for static ones no
+// Lifespan (FusionOptions::lifespan, off by default; otherwise every one is
+// +inf): +inf (never fades) for dynamic queries and for static ones no
 // view contradicts; otherwise the largest time gap between the query's own
 // view and a view that observes it, in seconds (so it fades away from the
 // times it was seen, exp(-0.5 ((t' - t) / (sigma + 1))^2) at render time).
@@ -52,7 +53,7 @@ struct FusionOptions {
   FusionWeights weights = FusionWeights::kDepthSoftmax;
   double tau = 0.01;                   // Softmax temperature on relative |d_i|.
   double visibility_tolerance = 0.03;  // Relative |d_i| of an observation.
-  bool lifespan = true;                // false: every lifespan is +inf.
+  bool lifespan = false;               // false: every lifespan is +inf.
   bool resolution_weighting = true;    // Prefer views that see the point closer.
 };
 

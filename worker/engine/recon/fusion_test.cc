@@ -165,12 +165,15 @@ TEST(Fusion, SeeingPastAPointShortensItsLifespan) {
   const FlatView later_same(1, 0, 0, 10, 300000);
   const FlatView through(0, 0, 1, 20, 1000000);  // At 1 s the view sees 10 m further.
   const std::vector<FusionView> views = {source.fusion(), later_same.fusion(), through.fusion()};
-  const FusedQueries f = FuseQueries(OneQuery(), views, {}, {});
+  FusionOptions lifespan;
+  lifespan.lifespan = true;
+  const FusedQueries f = FuseQueries(OneQuery(), views, {}, lifespan);
   EXPECT_NEAR(f.lifespans[0], 0.3f, 1e-6);  // Seen 0.3 s away from its own time.
   EXPECT_NEAR(f.agreement[0], 2.f / 3, 1e-6);
-  FusionOptions no_lifespan;
-  no_lifespan.lifespan = false;
-  EXPECT_TRUE(std::isinf(FuseQueries(OneQuery(), views, {}, no_lifespan).lifespans[0]));
+  // Off by default: the same contradiction, no fading.
+  const FusedQueries by_default = FuseQueries(OneQuery(), views, {}, {});
+  EXPECT_TRUE(std::isinf(by_default.lifespans[0]));
+  EXPECT_NEAR(by_default.agreement[0], 2.f / 3, 1e-6);
 }
 
 TEST(Fusion, InstanceQueriesAreReposedToEachViewsTime) {

@@ -15,8 +15,8 @@ const std::set<std::string>& ReconValueFlags() {
 }
 
 const std::set<std::string>& ReconBoolFlags() {
-  static const std::set<std::string> flags = {"no-lifespan", "no-ground-fill", "no-facades",
-                                              "allow-outside-paths"};
+  static const std::set<std::string> flags = {"lifespan", "no-lifespan", "no-ground-fill",
+                                              "no-facades", "allow-outside-paths"};
   return flags;
 }
 
@@ -62,7 +62,11 @@ absl::StatusOr<ReconOptions> ReconOptionsFromFlags(const CommandLine& cl) {
     return absl::InvalidArgumentError(absl::StrCat("--fusion: unknown weighting '", fusion,
                                                    "' (expected softmax, average or no-depth)"));
   }
-  options.fusion.lifespan = !cl.Has("no-lifespan");
+  if (cl.Has("lifespan") && cl.Has("no-lifespan")) {
+    return absl::InvalidArgumentError(
+        "--lifespan: given with --no-lifespan; give one (lifespans are off by default)");
+  }
+  options.fusion.lifespan = cl.Has("lifespan");
   options.completion.ground_fill = !cl.Has("no-ground-fill");
   options.completion.facades = !cl.Has("no-facades");
   const std::string completion = cl.Get("completion", "nearest");

@@ -5,7 +5,9 @@
 //   --ns N  --nd N                   N_s per view, N_d per instance
 //                                    (default 100K / 10K scaled to the image size)
 //   --fusion softmax|average|no-depth  fusion weights (ablations; default softmax)
-//   --no-lifespan                    every Gaussian lives forever (ablation)
+//   --lifespan                       static Gaussians that a view at another time
+//                                    sees past fade with time (off by default;
+//                                    --no-lifespan, the default, is accepted)
 //   --no-ground-fill                 LiDAR depth without the ground plane (view_depth.h;
 //                                    ablation)
 //   --no-facades                     LiDAR depth without facades above the top beam
