@@ -16,10 +16,10 @@
 #include "common/file_util.h"
 #include "common/hash.h"
 #include "common/status_macros.h"
+#include "common/version.h"
 #include "worker/engine/clip/clip_io.h"
 #include "worker/engine/clip/clip_validator.h"
 #include "worker/engine/recon/tuning_limits.h"
-#include "worker/engine/render/render_outputs.h"
 
 namespace pf {
 namespace {

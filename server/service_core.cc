@@ -17,6 +17,7 @@
 #include "common/bounded_json.h"
 #include "common/file_util.h"
 #include "common/status_macros.h"
+#include "common/version.h"
 #include "server/clip_intake.h"
 #include "server/server_metrics.h"
 #include "server/task_results.h"

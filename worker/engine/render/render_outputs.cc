@@ -16,6 +16,7 @@
 #include "absl/strings/str_format.h"
 #include "common/file_util.h"
 #include "common/status_macros.h"
+#include "common/version.h"
 #include "worker/engine/image/image_io.h"
 #include "worker/engine/render/hole_fill.h"
 
@@ -91,8 +92,6 @@ absl::Status CheckLayer(const char* name, size_t actual, size_t expected) {
 }
 
 }  // namespace
-
-const char* SoftwareVersion() { return PF_SOFTWARE_VERSION; }
 
 absl::StatusOr<OutputChannels> ParseOutputChannels(const std::vector<std::string>& names) {
   if (names.empty()) return OutputChannels{};

@@ -61,9 +61,6 @@
 
 namespace pf {
 
-// The software version written into outputs.
-const char* SoftwareVersion();
-
 // Which layers an EXR carries (`--outputs rgb,alpha,depth,features,instance,filled`).
 struct OutputChannels {
   bool rgb = true;

@@ -11,6 +11,7 @@
 
 #include "absl/strings/str_format.h"
 #include "common/file_util.h"
+#include "common/version.h"
 #include "tests/test_util.h"
 #include "worker/engine/image/image_io.h"
 #include "worker/engine/render/hole_fill.h"

@@ -1,0 +1,7 @@
+#include "common/version.h"
+
+namespace pf {
+
+const char* SoftwareVersion() { return PF_SOFTWARE_VERSION; }
+
+}  // namespace pf
