@@ -332,8 +332,8 @@ PY
 
   # Faults: workers that report progress slowly enough to be caught mid-task.
   stop_workers
-  start_worker 1 300
-  start_worker 2 300
+  start_worker 1 1000
+  start_worker 2 1000
   local job victim since
   since=$(date -u +%Y-%m-%dT%H:%M:%S.%NZ)
   "$PF" --server "$ADDR" render "$SCENE" --cameras "$OUT/views.json" --chunk-frames 2 \
@@ -358,7 +358,7 @@ PY
   say "worker killed: the job finished, every output present once and identical"
 
   "${P[@]}" rm -f "$victim" >/dev/null
-  start_worker 3 300
+  start_worker 3 1000
   since=$(date -u +%Y-%m-%dT%H:%M:%S.%NZ)
   "$PF" --server "$ADDR" render "$SCENE" --cameras "$OUT/views.json" --chunk-frames 2 \
     >"$OUT/submit-restart.log" 2>&1 || { cat "$OUT/submit-restart.log" >&2; die "render submit failed"; }
