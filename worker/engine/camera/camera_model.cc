@@ -130,4 +130,13 @@ absl::StatusOr<CameraModel> CameraModelFromProto(const pointforward::v1::Camera&
   return model;
 }
 
+bool LiftPixel(const CameraModel& camera, const Rigid& world_from_camera, double u, double v,
+               double depth, Vec3* world) {
+  if (!(depth > 0)) return false;
+  Vec3 ray;
+  if (!camera.Unproject(u, v, &ray)) return false;
+  *world = world_from_camera * (depth * ray);
+  return true;
+}
+
 }  // namespace pf

@@ -84,6 +84,11 @@ class CameraModel {
 // field) for a non-positive size or focal length or non-finite numbers.
 absl::StatusOr<CameraModel> CameraModelFromProto(const pointforward::v1::Camera& camera);
 
+// Returns the world point seen through continuous pixel (u, v) at z depth
+// `depth`; false when the pixel cannot be unprojected or depth <= 0.
+bool LiftPixel(const CameraModel& camera, const Rigid& world_from_camera, double u, double v,
+               double depth, Vec3* world);
+
 }  // namespace pf
 
 #endif  // POINTFORWARD_WORKER_ENGINE_CAMERA_CAMERA_MODEL_H_

@@ -113,5 +113,29 @@ TEST(CameraModel, FromProtoRejectsBadIntrinsicsNamingTheField) {
   EXPECT_NE(model.status().message().find("camera 'front'.intrinsics"), std::string::npos);
 }
 
+TEST(CameraModel, LiftPixelInvertsProjection) {
+  CameraModel camera(64, 48, 50, 52, 31.5, 24.2);
+  camera.SetOpenCv(-0.1, 0.01, 0.001, -0.002, 0.0);
+  Rigid pose;  // Turned 0.3 rad about y, then moved.
+  const double a = 0.3;
+  pose.rotation.m = {{{std::cos(a), 0, std::sin(a)}, {0, 1, 0}, {-std::sin(a), 0, std::cos(a)}}};
+  pose.translation = {2, -1, 0.5};
+  const Rigid camera_from_world = pose.Inverse();
+  for (double u : {3.5, 20.25, 60.5}) {
+    for (double v : {1.5, 30.75}) {
+      Vec3 world;
+      ASSERT_TRUE(LiftPixel(camera, pose, u, v, 7.5, &world));
+      const Vec3 pc = camera_from_world * world;
+      EXPECT_NEAR(pc.z, 7.5, 1e-9);
+      double pu, pv;
+      ASSERT_TRUE(camera.Project(pc, &pu, &pv));
+      EXPECT_NEAR(pu, u, 1e-6);
+      EXPECT_NEAR(pv, v, 1e-6);
+    }
+  }
+  Vec3 unused;
+  EXPECT_FALSE(LiftPixel(camera, pose, 10, 10, 0.0, &unused));
+}
+
 }  // namespace
 }  // namespace pf

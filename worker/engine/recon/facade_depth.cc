@@ -7,8 +7,8 @@
 #include <cmath>
 
 #include "common/thread_pool.h"
+#include "worker/engine/camera/camera_model.h"
 #include "worker/engine/camera/image_pixel.h"
-#include "worker/engine/recon/query_lifting.h"
 
 namespace pf {
 namespace {

@@ -7,15 +7,6 @@
 
 namespace pf {
 
-bool LiftPixel(const CameraModel& camera, const Rigid& world_from_camera, double u, double v,
-               double depth, Vec3* world) {
-  if (!(depth > 0)) return false;
-  Vec3 ray;
-  if (!camera.Unproject(u, v, &ray)) return false;
-  *world = world_from_camera * (depth * ray);
-  return true;
-}
-
 std::array<float, 6> PluckerRay(const Vec3& origin, const Vec3& direction) {
   const Vec3 d = Normalized(direction);
   const Vec3 m = Cross(origin, d);

@@ -17,11 +17,6 @@
 
 namespace pf {
 
-// Returns the world point seen through continuous pixel (u, v) at z depth
-// `depth`; false when the pixel cannot be unprojected or depth <= 0.
-bool LiftPixel(const CameraModel& camera, const Rigid& world_from_camera, double u, double v,
-               double depth, Vec3* world);
-
 // Returns the Plücker coordinates (d, o x d) of the ray from `origin` along
 // `direction` (normalised here).
 std::array<float, 6> PluckerRay(const Vec3& origin, const Vec3& direction);

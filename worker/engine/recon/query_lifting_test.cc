@@ -1,4 +1,4 @@
-// Tests of lifting: it inverts projection; Plücker rays; normals.
+// Tests of lifting: queries and their Plücker rays; normals.
 #include "worker/engine/recon/query_lifting.h"
 
 #include <gtest/gtest.h>
@@ -14,27 +14,6 @@ Rigid SomePose() {
   pose.rotation.m = {{{std::cos(a), 0, std::sin(a)}, {0, 1, 0}, {-std::sin(a), 0, std::cos(a)}}};
   pose.translation = {2, -1, 0.5};
   return pose;
-}
-
-TEST(QueryLifting, LiftingInvertsProjection) {
-  CameraModel camera(64, 48, 50, 52, 31.5, 24.2);
-  camera.SetOpenCv(-0.1, 0.01, 0.001, -0.002, 0.0);
-  const Rigid pose = SomePose();
-  const Rigid camera_from_world = pose.Inverse();
-  for (double u : {3.5, 20.25, 60.5}) {
-    for (double v : {1.5, 30.75}) {
-      Vec3 world;
-      ASSERT_TRUE(LiftPixel(camera, pose, u, v, 7.5, &world));
-      const Vec3 pc = camera_from_world * world;
-      EXPECT_NEAR(pc.z, 7.5, 1e-9);
-      double pu, pv;
-      ASSERT_TRUE(camera.Project(pc, &pu, &pv));
-      EXPECT_NEAR(pu, u, 1e-6);
-      EXPECT_NEAR(pv, v, 1e-6);
-    }
-  }
-  Vec3 unused;
-  EXPECT_FALSE(LiftPixel(camera, pose, 10, 10, 0.0, &unused));
 }
 
 TEST(QueryLifting, QueryHasPointColourAndPluckerRay) {

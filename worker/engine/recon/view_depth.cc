@@ -13,10 +13,10 @@
 #include "absl/strings/str_cat.h"
 #include "common/thread_pool.h"
 #include "pointforward/v1/clip.pb.h"
+#include "worker/engine/camera/camera_model.h"
 #include "worker/engine/camera/image_pixel.h"
 #include "worker/engine/clip/clip_validator.h"
 #include "worker/engine/recon/depth_completion.h"
-#include "worker/engine/recon/query_lifting.h"
 #include "worker/engine/recon/scene_graph.h"
 #include "worker/engine/render/instance_pose.h"
 
