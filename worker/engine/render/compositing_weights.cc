@@ -131,6 +131,7 @@ absl::StatusOr<CompositingWeights> ComputeCompositingWeights(const GaussianScene
   };
   std::vector<Entry> tile_entries;
   float trans[kTile * kTile];
+  bool recorded[kTile * kTile];  // The tile's pixels on the lattice (pixel_stride).
   uint32_t counts[kTile * kTile];
   for (int ty = 0; ty < tiles_y; ++ty) {
     for (int tx = 0; tx < tiles_x; ++tx) {
@@ -139,6 +140,12 @@ absl::StatusOr<CompositingWeights> ComputeCompositingWeights(const GaussianScene
       const int x_end = std::min(x_begin + kTile, frame.width);
       const int y_end = std::min(y_begin + kTile, frame.height);
       std::fill(trans, trans + kTile * kTile, 1.f);
+      for (int row = y_begin; row < y_end; ++row) {
+        for (int col = x_begin; col < x_end; ++col) {
+          recorded[(row - y_begin) * kTile + (col - x_begin)] =
+              OnPixelLattice(col, row, options.pixel_stride);
+        }
+      }
       tile_entries.clear();
       int active = (x_end - x_begin) * (y_end - y_begin);  // Pixels not done yet.
       for (uint64_t k = tile_begin[t]; k < tile_begin[t + 1] && active > 0; ++k) {
@@ -169,7 +176,7 @@ absl::StatusOr<CompositingWeights> ComputeCompositingWeights(const GaussianScene
             const float alpha = std::min(kMaxAlpha, g.opacity * std::exp(-0.5f * d2));
             if (!(alpha >= kMinAlpha)) continue;
             const float weight = alpha * tp;
-            if (weight >= options.min_weight && OnPixelLattice(col, row, options.pixel_stride)) {
+            if (weight >= options.min_weight && recorded[p]) {
               tile_entries.push_back({i, weight, static_cast<uint8_t>(p)});
             }
             trans[p] = tp * (1.f - alpha);
