@@ -179,10 +179,15 @@ free_port() {
   /usr/bin/python3 -c 'import socket; s = socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])'
 }
 
-cleanup_check() {
+# Removes the containers whose names start with $1.
+remove_containers() {
   local names
-  names=$("${P[@]}" ps -a --format '{{.Names}}' | grep "^$PREFIX-" || true)
+  names=$("${P[@]}" ps -a --format '{{.Names}}' | grep "^$1" || true)
   [[ -z $names ]] || "${P[@]}" rm -f -t 2 $names >/dev/null 2>&1 || true
+}
+
+cleanup_check() {
+  remove_containers "$PREFIX-"
   "${P[@]}" volume rm -f "$PREFIX-data" >/dev/null 2>&1 || true
 }
 
@@ -192,13 +197,15 @@ start_server() {
     -e PF_LEASE_SECONDS=5 "$SERVER_IMAGE" >/dev/null
 }
 
+# wait_server ADDR CONTAINER SECONDS: waits for the pf-server in CONTAINER
+# to answer on ADDR; else shows its log and fails.
 wait_server() {
-  for _ in $(seq 150); do
-    "$PF" --server "$ADDR" scene list >/dev/null 2>&1 && return 0
+  for _ in $(seq $(($3 * 5))); do
+    "$PF" --server "$1" scene list >/dev/null 2>&1 && return 0
     sleep 0.2
   done
-  "${P[@]}" logs "$PREFIX-server" >&2 || true
-  die "pf-server container did not answer on $ADDR within 30 s"
+  "${P[@]}" logs "$2" >&2 || true
+  die "the pf-server container $2 did not answer on $1 within $3 s"
 }
 
 # start_worker N [STAGE_DELAY_MS]
@@ -206,12 +213,6 @@ start_worker() {
   "${P[@]}" run -d --name "$PREFIX-worker-$1" --network host \
     -e PF_SERVER="$ADDR" -e PF_WORKER_ID="ctr-w$1" -e PF_METRICS_LISTEN="127.0.0.1:$(free_port)" \
     -e PF_STAGE_DELAY_MS="${2:-0}" "$WORKER_IMAGE" >/dev/null
-}
-
-stop_workers() {
-  local names
-  names=$("${P[@]}" ps -a --format '{{.Names}}' | grep "^$PREFIX-worker-" || true)
-  [[ -z $names ]] || "${P[@]}" rm -f -t 2 $names >/dev/null
 }
 
 # render NAME: the scene rendered with the check's views into $OUT/NAME,
@@ -303,7 +304,7 @@ json.dump({"cameras": [cam], "views": views}, open(sys.argv[2], "w"), indent=1)
 PY
 
   start_server
-  wait_server
+  wait_server "$ADDR" "$PREFIX-server" 30
   start_worker 1
   start_worker 2
   say "pf-server container on $ADDR, 2 pf-worker containers"
@@ -331,7 +332,7 @@ PY
   [[ $count -eq 16 ]] || die "a render job wrote $count EXRs, expected 16"
 
   # Faults: workers that report progress slowly enough to be caught mid-task.
-  stop_workers
+  remove_containers "$PREFIX-worker-"
   start_worker 1 1000
   start_worker 2 1000
   local job victim since
@@ -367,7 +368,7 @@ PY
   busy_worker "$since" >/dev/null
   "${P[@]}" restart -t 10 "$PREFIX-server" >/dev/null
   say "restarted the pf-server container while $job was running"
-  wait_server
+  wait_server "$ADDR" "$PREFIX-server" 30
   "$PF" --server "$ADDR" jobs wait "$job" --out "$OUT/run-server-restarted" \
     >"$OUT/run-server-restarted.log" 2>&1 ||
     { cat "$OUT/run-server-restarted.log" >&2; die "$job failed after the server restarted"; }
@@ -474,12 +475,8 @@ YAML
     { cat "$OUT/compose-up.log" >&2; die "docker-compose up failed"; }
   figure composeUpSeconds "$(elapsed "$start")"
   local addr=127.0.0.1:50051
-  for _ in $(seq 300); do
-    "$PF" --server "$addr" scene list >/dev/null 2>&1 && break
-    sleep 0.2
-  done
-  "$PF" --server "$addr" scene list >/dev/null || die "compose: server-a does not answer on $addr"
-  "$PF" --server 127.0.0.1:50052 scene list >/dev/null || die "compose: server-b does not answer on 127.0.0.1:50052"
+  wait_server "$addr" "${COMPOSE_PROJECT}_server-a_1" 60
+  wait_server 127.0.0.1:50052 "${COMPOSE_PROJECT}_server-b_1" 1
   start=$(now)
   "$PF" --server "$addr" render --clip "$OUT/clip/clip.json" --cameras "$OUT/views.json" \
     --out "$OUT/compose-2-workers" --chunk-frames 2 --wait >"$OUT/compose-2-workers.log" 2>&1 ||
