@@ -1,10 +1,10 @@
-// pf bench raster: the rasterizer benchmark (worker/engine/render/raster_bench.h).
+// pf bench raster: the rasterizer benchmark (engine/render/raster_bench.h).
 #include <string>
 #include <vector>
 
 #include "absl/strings/str_cat.h"
 #include "client/commands.h"
-#include "worker/engine/render/raster_bench.h"
+#include "engine/render/raster_bench.h"
 
 namespace pf {
 

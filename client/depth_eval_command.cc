@@ -3,7 +3,7 @@
 //               [--working-space srgb|linear] [--allow-outside-paths]
 // Hides a part of the clip's LiDAR (and sparse depth maps) from the depth
 // stage and measures each method's dense depth at the hidden points
-// (worker/engine/recon/depth_holdout.h). Progress to stderr; a table to
+// (engine/recon/depth_holdout.h). Progress to stderr; a table to
 // stdout; --json writes the figures.
 #include <cstdio>
 #include <set>
@@ -17,11 +17,12 @@
 #include "common/command_line.h"
 #include "common/file_util.h"
 #include "common/status_macros.h"
+#include "engine/clip/clip_io.h"
+#include "engine/clip/clip_validator.h"
+#include "engine/recon/depth_holdout.h"
+#include "engine/recon/recon_option_table.h"
+#include "engine/recon/recon_options.h"
 #include "nlohmann/json.hpp"
-#include "worker/engine/clip/clip_io.h"
-#include "worker/engine/clip/clip_validator.h"
-#include "worker/engine/recon/depth_holdout.h"
-#include "worker/engine/recon/recon_flags.h"
 
 namespace pf {
 namespace {
@@ -150,8 +151,8 @@ absl::Status DepthEvalCommand(const CommandLine& cl) {
 int RunDepthEval(const std::vector<std::string>& args) {
   std::set<std::string> value_flags = ReconValueFlags();
   value_flags.insert({"hide", "top-share", "json"});
-  std::set<std::string> bool_flags = ReconBoolFlags();
-  bool_flags.insert("help");
+  std::set<std::string> bool_flags = ReconSwitchFlags();
+  bool_flags.insert({"help", "allow-outside-paths"});
   absl::StatusOr<CommandLine> cl = CommandLine::Parse(args, value_flags, bool_flags);
   if (!cl.ok()) return ReportError("depth-eval", cl.status());
   if (cl->Has("help")) {

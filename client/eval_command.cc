@@ -3,7 +3,7 @@
 //         [--lane-shift D1,D2,... --lane-shift-time-us T]
 // Reconstructs from the clip's CONTEXT frames, renders every TARGET frame
 // and any extra views, and writes DIR/report.json and a contact sheet per
-// frame and view (worker/engine/recon/evaluation.h). A lane shift builds its
+// frame and view (engine/recon/evaluation.h). A lane shift builds its
 // views itself and, for a `pf synth` clip, ray-casts their truth in-process
 // (DIR/lane_shift/views.json, DIR/lane_shift/truth/). Progress to stderr;
 // the mean figures to stdout.
@@ -22,13 +22,14 @@
 #include "common/command_line.h"
 #include "common/file_util.h"
 #include "common/status_macros.h"
-#include "worker/engine/clip/clip_io.h"
-#include "worker/engine/clip/clip_validator.h"
-#include "worker/engine/recon/context_views.h"
-#include "worker/engine/recon/evaluation.h"
-#include "worker/engine/recon/recon_flags.h"
-#include "worker/engine/render/views.h"
-#include "worker/engine/synth/synth_view_renderer.h"
+#include "engine/clip/clip_io.h"
+#include "engine/clip/clip_validator.h"
+#include "engine/recon/context_views.h"
+#include "engine/recon/evaluation.h"
+#include "engine/recon/recon_option_table.h"
+#include "engine/recon/recon_options.h"
+#include "engine/render/views.h"
+#include "engine/synth/synth_view_renderer.h"
 
 namespace pf {
 namespace {
@@ -195,8 +196,8 @@ absl::Status EvalCommand(const CommandLine& cl) {
     return absl::InvalidArgumentError("--lane-shift-time-us: only with --lane-shift");
   }
   ASSIGN_OR_RETURN(ReconOptions options, ReconOptionsFromFlags(cl));
-  options.progress = [](const std::string& line) {
-    std::fprintf(stderr, "pf eval: %s\n", line.c_str());
+  options.progress = [](const ReconProgress& progress) {
+    std::fprintf(stderr, "pf eval: %s\n", ProgressLine(progress).c_str());
   };
   const std::string out_dir = cl.Get("out");
   RETURN_IF_ERROR(CheckOutputDirPath("--out", out_dir));
@@ -222,9 +223,8 @@ absl::Status EvalCommand(const CommandLine& cl) {
       "%s: %lld gaussians, reconstruct %.2f s, %zu target frames and %zu views rendered in "
       "%.2f s, baselines %.2f s\n"
       "  mean PSNR %s (unclamped %s), SSIM %s, depth RMSE %s, dynamic PSNR %s, filled PSNR %s\n",
-      ReconModelName(options.model), static_cast<long long>(report.gaussians),
-      report.stats.total_seconds, report.frames.size(), report.views.size(), report.render_seconds,
-      report.baseline_seconds,
+      options.model.c_str(), static_cast<long long>(report.gaussians), report.stats.total_seconds,
+      report.frames.size(), report.views.size(), report.render_seconds, report.baseline_seconds,
       beside(report.mean.psnr, report.nearest_mean.psnr, report.warp_mean.psnr, " dB").c_str(),
       Figure(report.mean.psnr_unclamped, " dB").c_str(),
       beside(report.mean.ssim, report.nearest_mean.ssim, report.warp_mean.ssim, "").c_str(),
@@ -250,8 +250,8 @@ absl::Status EvalCommand(const CommandLine& cl) {
 int RunEval(const std::vector<std::string>& args) {
   std::set<std::string> value_flags = ReconValueFlags();
   value_flags.insert({"out", "views", "truth", "lane-shift", "lane-shift-time-us"});
-  std::set<std::string> bool_flags = ReconBoolFlags();
-  bool_flags.insert("help");
+  std::set<std::string> bool_flags = ReconSwitchFlags();
+  bool_flags.insert({"help", "allow-outside-paths"});
   absl::StatusOr<CommandLine> cl = CommandLine::Parse(args, value_flags, bool_flags);
   if (!cl.ok()) return ReportError("eval", cl.status());
   if (cl->Has("help")) {

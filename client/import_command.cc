@@ -21,15 +21,15 @@
 #include "common/command_line.h"
 #include "common/file_util.h"
 #include "common/status_macros.h"
+#include "engine/clip/clip_validator.h"
+#include "engine/image/image_io.h"
+#include "engine/importers/clip_output.h"
+#include "engine/importers/dgp_importer.h"
+#include "engine/importers/pandaset_importer.h"
+#include "engine/importers/waymo_importer.h"
+#include "engine/recon/context_views.h"
+#include "engine/recon/view_depth.h"
 #include "pointforward/v1/clip.pb.h"
-#include "worker/engine/clip/clip_validator.h"
-#include "worker/engine/image/image_io.h"
-#include "worker/engine/importers/clip_output.h"
-#include "worker/engine/importers/dgp_importer.h"
-#include "worker/engine/importers/pandaset_importer.h"
-#include "worker/engine/importers/waymo_importer.h"
-#include "worker/engine/recon/context_views.h"
-#include "worker/engine/recon/view_depth.h"
 
 namespace pf {
 namespace {

@@ -83,7 +83,8 @@ the token in PF_TOKEN):
          [--device D] [TUNING] --cameras VIEWS.json [--out DIR --wait] [--outputs LIST]
         submit a render job (of a clip: reconstructed first unless cached);
         TUNING: [--refine N] [--splat-sigma S] [--low-pass PX2] [--hidden-band PX]
-        [--no-ground-fill] [--no-facades] [--colour gradients|flat], as pf reconstruct's (unset: the worker's
+        [--no-ground-fill] [--no-facades] [--colour gradients|flat] [--completion M]
+        [--working-space srgb|linear], as pf reconstruct's (unset: the worker's
         defaults; a scene made with other values is another scene);
         --wait waits and downloads every output file into DIR
   jobs list [--kind reconstruct|render] | jobs get ID | jobs cancel ID

@@ -5,7 +5,7 @@
 //                [--device cpu|cuda[:N]] [--colour gradients|flat]
 //                [--working-space srgb|linear] [--allow-outside-paths]
 // Checks the clip as pf validate does, then builds a Gaussian scene from the
-// clip's CONTEXT frames (worker/engine/recon/reconstruction.h) and writes it
+// clip's CONTEXT frames (engine/recon/reconstruction.h) and writes it
 // with SaveScene. Progress per stage goes to stderr, a summary to stdout.
 #include <cstdio>
 #include <map>
@@ -18,11 +18,11 @@
 #include "common/command_line.h"
 #include "common/file_util.h"
 #include "common/status_macros.h"
-#include "worker/engine/clip/clip_io.h"
-#include "worker/engine/clip/clip_validator.h"
-#include "worker/engine/recon/recon_flags.h"
-#include "worker/engine/recon/reconstruction.h"
-#include "worker/engine/render/scene_file.h"
+#include "engine/clip/clip_io.h"
+#include "engine/clip/clip_validator.h"
+#include "engine/recon/recon_options.h"
+#include "engine/recon/reconstruction.h"
+#include "engine/render/scene_file.h"
 
 namespace pf {
 namespace {
@@ -38,8 +38,8 @@ absl::Status ReconstructCommand(const CommandLine& cl) {
   if (cl.positional().size() != 1) return absl::InvalidArgumentError(kReconstructUsage);
   RETURN_IF_ERROR(cl.Require({"out"}, kReconstructUsage));
   ASSIGN_OR_RETURN(ReconOptions options, ReconOptionsFromFlags(cl));
-  options.progress = [](const std::string& line) {
-    std::fprintf(stderr, "pf reconstruct: %s\n", line.c_str());
+  options.progress = [](const ReconProgress& progress) {
+    std::fprintf(stderr, "pf reconstruct: %s\n", ProgressLine(progress).c_str());
   };
   const std::string clip_path = cl.positional()[0];
   RETURN_IF_ERROR(CheckOutputFilePath("--out", cl.Get("out")));
@@ -48,15 +48,7 @@ absl::Status ReconstructCommand(const CommandLine& cl) {
   ASSIGN_OR_RETURN(const LoadedClip loaded, LoadValidClip(clip_path, validate));
   ASSIGN_OR_RETURN(const ReconResult result, Reconstruct(loaded, options));
   const ReconStats& s = result.stats;
-  const std::map<std::string, std::string> metadata = {
-      {"model", ReconModelName(options.model)},
-      {"source_clip", clip_path},
-      {"ns", absl::StrCat(s.static_per_view)},
-      {"nd", absl::StrCat(s.dynamic_per_instance)},
-      {"fusion", FusionWeightsName(options.fusion.weights)},
-      {"lifespan", options.fusion.lifespan ? "true" : "false"},
-      {"ground_fill", options.completion.ground_fill ? "true" : "false"},
-      {"facades", options.completion.facades ? "true" : "false"}};
+  const std::map<std::string, std::string> metadata = SceneMetadata(options, s, clip_path);
   RETURN_IF_ERROR(SaveScene(result.scene, cl.Get("out"), metadata));
 
   std::vector<std::string> stages;
@@ -69,7 +61,7 @@ absl::Status ReconstructCommand(const CommandLine& cl) {
       "%lld pixels of them from the ground plane and %lld from facades, %d without depth), "
       "N_s %lld, N_d %lld\n"
       "  time: %s; total %.2f s\n",
-      clip_path.c_str(), ReconModelName(options.model), cl.Get("out").c_str(), result.scene.size(),
+      clip_path.c_str(), options.model.c_str(), cl.Get("out").c_str(), result.scene.size(),
       static_cast<long long>(s.static_gaussians), static_cast<long long>(s.far_gaussians),
       static_cast<long long>(s.dynamic_gaussians), s.instances, s.views, s.lidar_views,
       s.sparse_map_views, static_cast<long long>(s.ground_pixels),

@@ -15,11 +15,10 @@
 #include "common/compute_device.h"
 #include "common/file_util.h"
 #include "common/status_macros.h"
-#include "worker/engine/render/device_renderer.h"
-#include "worker/engine/render/rasterizer.h"
-#include "worker/engine/render/render_outputs.h"
-#include "worker/engine/render/scene_source.h"
-#include "worker/engine/render/views.h"
+#include "engine/render/device_renderer.h"
+#include "engine/render/render_outputs.h"
+#include "engine/render/scene_source.h"
+#include "engine/render/views.h"
 
 namespace pf {
 namespace {
@@ -53,39 +52,18 @@ absl::Status RenderCommand(const CommandLine& cl) {
           : absl::StrCat(device.ToString(), ", ", CudaDeviceDescription(device.index)).c_str());
 
   const SceneLabel label{opened.scene_id, opened.model, opened.scene.colour_encoding};
-  RenderOptions options;
-  options.features = channels.features;
-  options.depth = channels.depth;
-  options.instance = channels.instance;
   std::vector<ManifestEntry> entries;
   double render_ms_total = 0;
   for (size_t i = 0; i < request.views.size(); ++i) {
     const RenderView& view = request.views[i];
-    const auto render_start = std::chrono::steady_clock::now();
-    absl::StatusOr<RenderBuffers> buffers =
-        renderer->Render(view.camera, view.timestamp_us, request.edits, options);
-    if (!buffers.ok()) return StatusWithContext(buffers.status(), absl::StrCat("views[", i, "]"));
-    const double render_ms =
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - render_start)
-            .count();
-    render_ms_total += render_ms;
-
-    ManifestEntry entry;
-    entry.exr = view.name + ".exr";
-    entry.png = view.name + ".png";
-    entry.view = &view;
-    entry.channels = ExrChannelNames(channels, opened.scene.num_channels);
-    entry.width = buffers->width;
-    entry.height = buffers->height;
-    entry.render_ms = render_ms;
-    RETURN_IF_ERROR(
-        WriteRenderExr(absl::StrCat(out_dir, "/", entry.exr), *buffers, channels, view, label));
-    RETURN_IF_ERROR(
-        WritePreviewPng(absl::StrCat(out_dir, "/", entry.png), *buffers, label.colour_encoding));
+    absl::StatusOr<ManifestEntry> entry =
+        RenderViewToFiles(*renderer, view, request.edits, channels, label, out_dir);
+    if (!entry.ok()) return StatusWithContext(entry.status(), absl::StrCat("views[", i, "]"));
+    render_ms_total += entry->render_ms;
     std::fprintf(stderr, "[%zu/%zu] %s: %dx%d at %lld us, %.1f ms -> %s\n", i + 1,
-                 request.views.size(), view.name.c_str(), buffers->width, buffers->height,
-                 static_cast<long long>(view.timestamp_us), render_ms, entry.exr.c_str());
-    entries.push_back(std::move(entry));
+                 request.views.size(), view.name.c_str(), entry->width, entry->height,
+                 static_cast<long long>(view.timestamp_us), entry->render_ms, entry->exr.c_str());
+    entries.push_back(*std::move(entry));
   }
   RETURN_IF_ERROR(WriteManifest(absl::StrCat(out_dir, "/manifest.json"), label, entries));
   const double total_ms =

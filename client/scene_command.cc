@@ -16,9 +16,9 @@
 #include "common/command_line.h"
 #include "common/geometry.h"
 #include "common/status_macros.h"
-#include "worker/engine/render/instance_pose.h"
-#include "worker/engine/render/ply_io.h"
-#include "worker/engine/render/scene_source.h"
+#include "engine/render/instance_pose.h"
+#include "engine/render/ply_io.h"
+#include "engine/render/scene_source.h"
 
 namespace pf {
 namespace {

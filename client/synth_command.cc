@@ -1,6 +1,6 @@
 // pf synth: writes a procedural driving clip with exact ground truth, and
 // `pf synth render` ray-casts the true images and depths of such a clip at
-// any requested views. The work is in worker/engine/synth/.
+// any requested views. The work is in engine/synth/.
 #include <chrono>
 #include <cstdio>
 #include <string>
@@ -11,8 +11,8 @@
 #include "common/command_line.h"
 #include "common/file_util.h"
 #include "common/status_macros.h"
-#include "worker/engine/synth/synth_clip_writer.h"
-#include "worker/engine/synth/synth_view_renderer.h"
+#include "engine/synth/synth_clip_writer.h"
+#include "engine/synth/synth_view_renderer.h"
 
 namespace pf {
 namespace {

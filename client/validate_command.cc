@@ -8,7 +8,7 @@
 
 #include "client/commands.h"
 #include "common/command_line.h"
-#include "worker/engine/clip/clip_validator.h"
+#include "engine/clip/clip_validator.h"
 
 namespace pf {
 

@@ -6,9 +6,7 @@
 // glibc's malloc serves each block over 32 MB from its own fresh mapping
 // and gives it back to the kernel when freed, so the next such block is
 // fresh memory again, and every page of it is faulted in and zeroed on
-// first touch. On the development machine (a virtual machine) that costs
-// 3.3 s per GB touched, against 0.05 s to write the same GB again once it
-// is mapped (docs/PERFORMANCE.md, "Fresh memory").
+// first touch (docs/PERFORMANCE.md, "Fresh memory", has what that costs).
 #ifndef POINTFORWARD_COMMON_MEMORY_REUSE_H_
 #define POINTFORWARD_COMMON_MEMORY_REUSE_H_
 

@@ -6,8 +6,8 @@
 #include <string>
 #include <vector>
 
-#include "worker/engine/clip/clip_io.h"
-#include "worker/engine/clip/clip_validator.h"
+#include "engine/clip/clip_io.h"
+#include "engine/clip/clip_validator.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const std::string json(reinterpret_cast<const char*>(data), size);

@@ -14,8 +14,8 @@
 #include <vector>
 
 #include "common/hash.h"
+#include "engine/render/scene_file.h"
 #include "fuzz/fuzz_temp_file.h"
-#include "worker/engine/render/scene_file.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   static const pf::FuzzTempFile file("pfscene");

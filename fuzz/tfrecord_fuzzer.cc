@@ -7,8 +7,8 @@
 #include <memory>
 #include <string>
 
+#include "engine/importers/tfrecord_reader.h"
 #include "fuzz/fuzz_temp_file.h"
-#include "worker/engine/importers/tfrecord_reader.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   static const pf::FuzzTempFile file("tfrecord");

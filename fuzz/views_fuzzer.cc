@@ -5,7 +5,7 @@
 #include <cstdint>
 #include <string>
 
-#include "worker/engine/render/views.h"
+#include "engine/render/views.h"
 
 namespace {
 

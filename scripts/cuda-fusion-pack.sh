@@ -20,9 +20,9 @@ BUILD=${1:-build}
 PACK=${2:-.cuda-pack}
 rm -rf "$PACK"
 mkdir -p "$PACK"/lib "$PACK"/obj "$PACK"/so "$PACK"/include
-for a in worker/engine/recon/libpf_recon.a worker/engine/synth/libpf_synth.a \
-         worker/engine/render/libpf_render.a worker/engine/clip/libpf_clip.a \
-         worker/engine/image/libpf_image.a worker/engine/camera/libpf_camera.a \
+for a in engine/recon/libpf_recon.a engine/synth/libpf_synth.a \
+         engine/render/libpf_render.a engine/clip/libpf_clip.a \
+         engine/image/libpf_image.a engine/camera/libpf_camera.a \
          proto/libpf_proto.a common/libpf_common.a; do
   cp "$BUILD/$a" "$PACK/lib/"
 done
@@ -33,9 +33,9 @@ cp /usr/lib/x86_64-linux-gnu/libgtest.a /usr/lib/x86_64-linux-gnu/libgtest_main.
 cudart=$(dirname "$(command -v nvcc 2>/dev/null || echo /usr/local/cuda/bin/nvcc)")/../lib64/libcudart_static.a
 if [ -f "$cudart" ]; then cp "$cudart" "$PACK/lib/"; fi
 strip --strip-debug "$PACK"/lib/*.a
-objects="$BUILD/worker/engine/recon/CMakeFiles"
+objects="$BUILD/engine/recon/CMakeFiles"
 cp "$objects/recon_test.dir/tensor_fusion_test.cc.o" "$objects/recon_test.dir/compute_device_test.cc.o" \
-   "$objects/pf_fusion_bench.dir/fusion_bench.cc.o" \
+   "$BUILD/bench/CMakeFiles/pf_fusion_bench.dir/fusion_bench.cc.o" \
    "$objects/pf_recon_device_check.dir/recon_device_check.cc.o" "$PACK/obj/"
 strip --strip-debug "$PACK"/obj/*.o
 cp -r /usr/include/absl /usr/include/google /usr/include/spdlog /usr/include/fmt "$PACK/include/"

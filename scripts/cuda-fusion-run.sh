@@ -39,8 +39,8 @@ flags="-O3 -std=c++20 -D_GLIBCXX_USE_CXX11_ABI=1 -DPF_HAVE_TORCH=1 -DFMT_SHARED 
 for dir in $TORCH_INCLUDES; do flags="$flags -isystem $dir"; done
 export LD_LIBRARY_PATH=$PACK/so:$TORCH_LIBDIR${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}
 start=$(date +%s)
-g++ $flags -c worker/engine/recon/tensor_fusion.cc -o "$WORK/tensor_fusion.o" & compile1=$!
-g++ $flags -c worker/engine/recon/compute_device.cc -o "$WORK/compute_device.o" & compile2=$!
+g++ $flags -c engine/recon/tensor_fusion.cc -o "$WORK/tensor_fusion.o" & compile1=$!
+g++ $flags -c engine/recon/compute_device.cc -o "$WORK/compute_device.o" & compile2=$!
 wait $compile1 && wait $compile2 || { echo "compiling failed"; exit 1; }
 echo "compiled in $(($(date +%s) - start)) s"
 libs="$WORK/tensor_fusion.o $WORK/compute_device.o"

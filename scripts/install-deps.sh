@@ -24,14 +24,14 @@ PACKAGES=(
   # server itself, which the tests run as a throwaway instance (initdb in a
   # temporary directory, as the `postgres` user).
   libpq-dev postgresql
-  # LibTorch (CPU) for fusion's tensor work (worker/engine/recon/
+  # LibTorch (CPU) for fusion's tensor work (engine/recon/
   # tensor_fusion.h), and the threaded OpenBLAS it should load instead of
   # the reference BLAS.
   libtorch-dev libopenblas0-pthread
   # Python: the demo's views file, the example client (grpc, protobuf
   # and OpenImageIO bindings), and pandas for `pf import pandaset`, whose
   # LiDAR and cuboid files are pickled DataFrames
-  # (worker/engine/importers/pandaset_pickles.py).
+  # (engine/importers/pandaset_pickles.py).
   python3 python3-grpcio python3-protobuf python3-openimageio python3-pandas
   # Checks of the deployment files (tests/deploy_files_test.py): yamllint,
   # and PyYAML to read the Kubernetes manifests.

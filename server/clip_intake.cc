@@ -10,16 +10,15 @@
 
 #include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
-#include "absl/strings/str_format.h"
 #include "absl/strings/str_join.h"
 #include "common/bounded_json.h"
 #include "common/file_util.h"
 #include "common/hash.h"
 #include "common/status_macros.h"
 #include "common/version.h"
-#include "worker/engine/clip/clip_io.h"
-#include "worker/engine/clip/clip_validator.h"
-#include "worker/engine/recon/tuning_limits.h"
+#include "engine/clip/clip_io.h"
+#include "engine/clip/clip_validator.h"
+#include "engine/recon/recon_option_table.h"
 
 namespace pf {
 namespace {
@@ -251,31 +250,8 @@ absl::StatusOr<AcceptedClip> AcceptClip(const v1::ClipSource& source, BlobStore&
 
 absl::StatusOr<v1::ReconstructionOptions> NormalizeOptions(
     const v1::ReconstructionOptions& options) {
-  v1::ReconstructionOptions out = options;
-  if (out.model().empty()) out.set_model("analytic");
-  if (out.model() != "analytic" && out.model() != "pixel-aligned") {
-    return absl::InvalidArgumentError(absl::StrCat("options.model: unknown model '", out.model(),
-                                                   "'; expected analytic or pixel-aligned"));
-  }
-  if (out.fusion().empty()) out.set_fusion("softmax");
-  if (out.fusion() != "softmax" && out.fusion() != "average" && out.fusion() != "no-depth") {
-    return absl::InvalidArgumentError(absl::StrCat("options.fusion: unknown fusion '", out.fusion(),
-                                                   "'; expected softmax, average or no-depth"));
-  }
-  if (out.lifespan() && out.no_lifespan()) {
-    return absl::InvalidArgumentError(
-        "options.lifespan: set together with options.no_lifespan; set one (lifespans are off "
-        "unless options.lifespan is set)");
-  }
-  out.clear_no_lifespan();  // The default; one key for both ways of asking.
-  if (out.ns() < 0) {
-    return absl::InvalidArgumentError(absl::StrCat("options.ns: must be >= 0, got ", out.ns()));
-  }
-  if (out.nd() < 0) {
-    return absl::InvalidArgumentError(absl::StrCat("options.nd: must be >= 0, got ", out.nd()));
-  }
-  RETURN_IF_ERROR(CheckTuningFields(out));
-  if (out.device().empty()) out.set_device("cpu");
+  ASSIGN_OR_RETURN(v1::ReconstructionOptions out,
+                   NormalizeReconProto(options, BuiltInReconModelNames()));
   if (out.device() != "cpu") {
     return absl::FailedPreconditionError(absl::StrCat(
         "options.device: '", out.device(), "' is not available; this build runs on cpu only"));
@@ -293,24 +269,7 @@ std::string SceneCacheKey(const v1::UploadedClip& clip, const v1::Reconstruction
   std::map<std::string, std::string> files;  // Sorted by path.
   for (const auto& [path, digest] : clip.files()) files[path] = digest.sha256();
   for (const auto& [path, sha] : files) field(absl::StrCat("file ", path), sha);
-  field("model", options.model());
-  field("ns", absl::StrCat(options.ns()));
-  field("nd", absl::StrCat(options.nd()));
-  field("fusion", options.fusion());
-  field("lifespan", options.lifespan() ? "on" : "off");
-  // The tuning values enter the key only when set, so the keys of scenes
-  // made with the defaults stay as they were.
-  if (options.has_refine()) field("refine", absl::StrCat(options.refine()));
-  // Values exactly (hexadecimal) as the worker uses them: the splat size a
-  // double, the low-pass a float (GaussianScene::low_pass).
-  if (options.has_splat_sigma()) field("splat_sigma", absl::StrFormat("%a", options.splat_sigma()));
-  if (options.has_low_pass()) {
-    field("low_pass", absl::StrFormat("%a", double(static_cast<float>(options.low_pass()))));
-  }
-  if (options.has_hidden_band()) field("hidden_band", absl::StrCat(options.hidden_band()));
-  if (options.no_ground_fill()) field("ground_fill", "off");
-  if (options.no_facades()) field("facades", "off");
-  if (!options.colour().empty()) field("colour", options.colour());
+  for (const auto& [name, value] : SceneCacheKeyFields(options)) field(name, value);
   return hash.FinishHex();
 }
 

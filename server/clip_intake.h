@@ -56,9 +56,9 @@ absl::StatusOr<AcceptedClip> AcceptClip(const pointforward::v1::ClipSource& sour
                                         const std::string& staging_dir,
                                         const ClipLimits& limits = {});
 
-// Fills empty options with the engine defaults ("analytic", "softmax") and
-// checks them: INVALID_ARGUMENT naming options.model, options.fusion,
-// options.ns, options.nd or options.device.
+// NormalizeReconProto (recon_option_table.h) against the built-in models:
+// every field checked, naming it (INVALID_ARGUMENT), defaults filled;
+// FAILED_PRECONDITION for a device other than cpu.
 absl::StatusOr<pointforward::v1::ReconstructionOptions> NormalizeOptions(
     const pointforward::v1::ReconstructionOptions& options);
 

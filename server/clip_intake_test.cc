@@ -7,6 +7,9 @@
 #include <set>
 #include <string>
 
+#include "absl/strings/str_cat.h"
+#include "common/hash.h"
+#include "common/version.h"
 #include "pointforward/v1/resources.pb.h"
 
 namespace pf {
@@ -94,6 +97,36 @@ TEST(SceneCacheKey, TuningValuesThatAreSetMakeAnotherScene) {
                                       SceneCacheKey(clip, flat),
                                       SceneCacheKey(clip, gradients)};
   EXPECT_EQ(keys.size(), 8u);
+}
+
+// The key is SHA-256 over "name=<length>:<value>\n" lines in a fixed order:
+// scenes cached by an earlier server keep their keys.
+TEST(SceneCacheKey, IsTheHashOfItsFieldsInTheirOrder) {
+  v1::UploadedClip clip;
+  clip.mutable_manifest()->set_sha256("abc");
+  v1::Digest image;
+  image.set_sha256("def");
+  (*clip.mutable_files())["images/b.png"] = image;
+  image.set_sha256("0123");
+  (*clip.mutable_files())["images/a.png"] = image;
+  v1::ReconstructionOptions options;
+  options.set_refine(4);
+  options.set_no_facades(true);
+  options.set_device("cpu");
+  const std::string version = SoftwareVersion();
+  Sha256 hash;
+  hash.Update(absl::StrCat("engine=", version.size(), ":", version, "\n",
+                           "manifest=3:abc\n"
+                           "file images/a.png=4:0123\n"
+                           "file images/b.png=3:def\n"
+                           "model=8:analytic\n"
+                           "ns=1:0\n"
+                           "nd=1:0\n"
+                           "fusion=7:softmax\n"
+                           "lifespan=3:off\n"
+                           "refine=1:4\n"
+                           "facades=3:off\n"));
+  EXPECT_EQ(SceneCacheKey(clip, *NormalizeOptions(options)), hash.FinishHex());
 }
 
 // Lifespans are off unless asked for; an earlier client's no_lifespan asks

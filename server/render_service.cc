@@ -1,19 +1,20 @@
 // RenderService: CreateRenderJob (optionally creating its scene first),
 // GetRenderJob, ListRenderJobs.
 #include <algorithm>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "absl/strings/str_cat.h"
 #include "common/status_macros.h"
+#include "engine/render/render_outputs.h"
+#include "engine/render/views.h"
 #include "google/longrunning/operations.pb.h"
 #include "pointforward/v1/service.pb.h"
 #include "rpc/grpc_status.h"
 #include "server/ownership.h"
 #include "server/services.h"
 #include "spdlog/spdlog.h"
-#include "worker/engine/render/render_outputs.h"
-#include "worker/engine/render/views.h"
 
 namespace pf {
 namespace {
@@ -46,15 +47,11 @@ absl::Status CheckViews(const v1::RenderViews& views, const OutputChannels& chan
   const int num_features =
       scene.state() == v1::Scene::READY ? scene.num_channels() : kMinSceneChannels;
   RETURN_IF_ERROR(CheckViewLimits(views, channels, num_features, max_views, limits));
-  GaussianScene known;
+  std::optional<std::vector<std::string>> instances;
   if (scene.state() == v1::Scene::READY) {
-    for (const std::string& id : scene.instances()) known.instances.push_back({id, "", {}});
-  } else {
-    for (const v1::ActorEdit& edit : views.edits()) {
-      known.instances.push_back({edit.instance(), "", {}});
-    }
+    instances.emplace(scene.instances().begin(), scene.instances().end());
   }
-  absl::StatusOr<RenderRequest> parsed = ParseRenderViews(ToJson(views), known);
+  absl::StatusOr<RenderRequest> parsed = RenderRequestFromProto(views, instances);
   if (!parsed.ok()) {
     return absl::InvalidArgumentError(absl::StrCat("views.", parsed.status().message()));
   }

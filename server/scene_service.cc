@@ -4,13 +4,13 @@
 
 #include "absl/strings/str_cat.h"
 #include "common/hash.h"
+#include "engine/render/ply_io.h"
+#include "engine/render/scene_file.h"
 #include "google/longrunning/operations.pb.h"
 #include "pointforward/v1/service.pb.h"
 #include "rpc/grpc_status.h"
 #include "server/ownership.h"
 #include "server/services.h"
-#include "worker/engine/render/ply_io.h"
-#include "worker/engine/render/scene_file.h"
 
 namespace pf {
 namespace {

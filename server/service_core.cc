@@ -18,11 +18,11 @@
 #include "common/file_util.h"
 #include "common/status_macros.h"
 #include "common/version.h"
+#include "engine/render/render_outputs.h"
 #include "server/clip_intake.h"
 #include "server/server_metrics.h"
 #include "server/task_results.h"
 #include "spdlog/spdlog.h"
-#include "worker/engine/render/render_outputs.h"
 
 namespace pf {
 namespace {
@@ -387,7 +387,9 @@ absl::StatusOr<v1::Task> ServiceCore::TaskFor(const TaskLease& lease) {
   if (task.has_render()) {
     v1::CreateRenderJobRequest request;
     RETURN_IF_ERROR(FromJson(lease.job.request, &request, "stored render request"));
-    *task.mutable_render()->mutable_views() = request.views();
+    ASSIGN_OR_RETURN(
+        *task.mutable_render()->mutable_views(),
+        RenderChunkViews(request.views(), lease.task.first_view, lease.task.view_count));
     task.mutable_render()->mutable_outputs()->CopyFrom(request.outputs());
     ASSIGN_OR_RETURN(const SceneRecord scene, store_->GetScene(lease.task.scene_id));
     v1::Scene scene_proto;

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "absl/status/statusor.h"
+#include "engine/render/render_outputs.h"
 #include "google/longrunning/operations.pb.h"
 #include "pointforward/v1/resources.pb.h"
 #include "pointforward/v1/service.pb.h"
@@ -21,7 +22,6 @@
 #include "server/clip_intake.h"
 #include "server/long_polls.h"
 #include "server/store/job_store.h"
-#include "worker/engine/render/render_outputs.h"
 
 namespace pf {
 

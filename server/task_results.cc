@@ -8,7 +8,7 @@
 #include "absl/strings/str_cat.h"
 #include "common/bounded_json.h"
 #include "common/status_macros.h"
-#include "worker/engine/render/views.h"
+#include "engine/render/views.h"
 
 namespace pf {
 namespace {
@@ -39,16 +39,32 @@ std::string StringMember(const Json& entry, const char* key) {
   return it != entry.end() && it->is_string() ? it->get<std::string>() : "";
 }
 
-}  // namespace
-
-absl::StatusOr<std::vector<std::string>> RenderChunkViewNames(const v1::RenderViews& views,
-                                                              int first_view, int view_count) {
+// INVALID_ARGUMENT unless views [first_view, first_view + view_count) are in `views`.
+absl::Status CheckChunkRange(const v1::RenderViews& views, int first_view, int view_count) {
   if (first_view < 0 || view_count < 1 ||
       int64_t{first_view} + view_count > int64_t{views.views_size()}) {
     return absl::InvalidArgumentError(
         absl::StrCat("views [", first_view, ", ", int64_t{first_view} + view_count,
                      ") are not views of the job (it has ", views.views_size(), ")"));
   }
+  return absl::OkStatus();
+}
+
+}  // namespace
+
+absl::StatusOr<v1::RenderViews> RenderChunkViews(const v1::RenderViews& views, int first_view,
+                                                 int view_count) {
+  RETURN_IF_ERROR(CheckChunkRange(views, first_view, view_count));
+  v1::RenderViews chunk;
+  *chunk.mutable_cameras() = views.cameras();
+  *chunk.mutable_edits() = views.edits();
+  for (int i = first_view; i < first_view + view_count; ++i) *chunk.add_views() = views.views(i);
+  return chunk;
+}
+
+absl::StatusOr<std::vector<std::string>> RenderChunkViewNames(const v1::RenderViews& views,
+                                                              int first_view, int view_count) {
+  RETURN_IF_ERROR(CheckChunkRange(views, first_view, view_count));
   std::vector<std::string> names;
   names.reserve(view_count);
   for (int i = first_view; i < first_view + view_count; ++i) {

@@ -33,6 +33,12 @@ inline constexpr int64_t kMaxManifestBytesPerView = 64 << 10;
 absl::StatusOr<std::vector<std::string>> RenderChunkViewNames(
     const pointforward::v1::RenderViews& views, int first_view, int view_count);
 
+// What a render chunk carries of its job's `views`: views [first_view,
+// first_view + view_count), every camera and every edit. INVALID_ARGUMENT
+// when the range is not inside `views`.
+absl::StatusOr<pointforward::v1::RenderViews> RenderChunkViews(
+    const pointforward::v1::RenderViews& views, int first_view, int view_count);
+
 // Parses a chunk's manifest_views_json (bounded: nesting, and
 // kMaxManifestBytesPerView per view): a JSON array of `view_count` objects.
 // INVALID_ARGUMENT saying what is wrong otherwise.

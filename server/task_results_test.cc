@@ -8,6 +8,8 @@
 #include <string>
 #include <vector>
 
+#include "absl/strings/str_cat.h"
+
 namespace pf {
 namespace {
 
@@ -47,6 +49,25 @@ TEST(RenderChunkViewNames, NamesViewsAsTheWorkerDoes) {
   EXPECT_EQ(RenderChunkViewNames(views, 1, 2).status().code(), absl::StatusCode::kInvalidArgument);
   EXPECT_FALSE(RenderChunkViewNames(views, -1, 1).ok());
   EXPECT_FALSE(RenderChunkViewNames(views, 0, 0).ok());
+}
+
+TEST(RenderChunkViews, CarriesTheChunksViewsWithEveryCameraAndEdit) {
+  v1::RenderViews views;
+  for (const char* id : {"front", "side"}) views.add_cameras()->set_id(id);
+  for (int i = 0; i < 5; ++i) views.add_views()->set_name(absl::StrCat("v", i));
+  views.add_edits()->set_instance("car1");
+  absl::StatusOr<v1::RenderViews> chunk = RenderChunkViews(views, 2, 2);
+  ASSERT_TRUE(chunk.ok()) << chunk.status();
+  ASSERT_EQ(chunk->views_size(), 2);
+  EXPECT_EQ(chunk->views(0).name(), "v2");
+  EXPECT_EQ(chunk->views(1).name(), "v3");
+  ASSERT_EQ(chunk->cameras_size(), 2);
+  EXPECT_EQ(chunk->cameras(1).id(), "side");
+  ASSERT_EQ(chunk->edits_size(), 1);
+  EXPECT_EQ(chunk->edits(0).instance(), "car1");
+  EXPECT_EQ(RenderChunkViews(views, 4, 2).status().message(),
+            "views [4, 6) are not views of the job (it has 5)");
+  EXPECT_FALSE(RenderChunkViews(views, -1, 1).ok());
 }
 
 TEST(CheckRenderResult, AcceptsExactlyTheChunksFiles) {

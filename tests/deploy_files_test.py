@@ -606,9 +606,9 @@ class DockerfileTest(unittest.TestCase):
                       "/usr/local/bin/", body)
         self.assertIn("COPY --from=build /src/build/bin/pandaset_pickles.py /usr/local/bin/", body)
         self.assertIn('configure_file(pandaset_pickles.py "${CMAKE_BINARY_DIR}/bin/pandaset_pickles.py" COPYONLY)',
-                      read("worker", "engine", "importers", "CMakeLists.txt"))
+                      read("engine", "importers", "CMakeLists.txt"))
         self.assertIn('kPandasetPicklesModule[] = "pandaset_pickles.py"',
-                      read("worker", "engine", "importers", "pandaset_importer.h"))
+                      read("engine", "importers", "pandaset_importer.h"))
         self.assertIn("python3-pandas", read("scripts", "install-deps.sh"))
         self.assertEqual(stages["server"][0], "runtime")
         self.assertEqual(stages["worker"][0], "runtime")

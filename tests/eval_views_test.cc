@@ -13,11 +13,11 @@
 #include <vector>
 
 #include "common/geometry.h"
+#include "engine/image/image_io.h"
+#include "engine/recon/evaluation.h"
 #include "gtest/gtest.h"
 #include "pointforward/v1/clip.pb.h"
 #include "tests/test_util.h"
-#include "worker/engine/image/image_io.h"
-#include "worker/engine/recon/evaluation.h"
 
 namespace pf {
 namespace {

@@ -11,11 +11,11 @@
 #include <string>
 #include <vector>
 
+#include "engine/image/image_io.h"
+#include "engine/recon/gaussian_decoder.h"
+#include "engine/render/scene_file.h"
 #include "gtest/gtest.h"
 #include "tests/test_util.h"
-#include "worker/engine/image/image_io.h"
-#include "worker/engine/recon/gaussian_decoder.h"
-#include "worker/engine/render/scene_file.h"
 
 namespace pf {
 namespace {

@@ -25,11 +25,11 @@
 #include <vector>
 
 #include "common/hash.h"
+#include "engine/image/image_io.h"
 #include "gtest/gtest.h"
 #include "tests/service_checks.h"
 #include "tests/service_harness.h"
 #include "tests/test_util.h"
-#include "worker/engine/image/image_io.h"
 
 namespace pf {
 namespace {

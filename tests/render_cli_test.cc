@@ -12,9 +12,9 @@
 #include "absl/strings/str_cat.h"
 #include "common/colour_space.h"
 #include "common/file_util.h"
+#include "engine/render/cuda_rasterizer.h"
+#include "engine/render/scene_file.h"
 #include "tests/test_util.h"
-#include "worker/engine/render/cuda_rasterizer.h"
-#include "worker/engine/render/scene_file.h"
 
 namespace pf {
 namespace {

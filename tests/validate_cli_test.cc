@@ -7,10 +7,10 @@
 
 #include "absl/strings/str_split.h"
 #include "common/file_util.h"
+#include "engine/clip/clip_test_util.h"
 #include "gtest/gtest.h"
 #include "pointforward/v1/clip.pb.h"
 #include "tests/test_util.h"
-#include "worker/engine/clip/clip_test_util.h"
 
 namespace pf {
 namespace {

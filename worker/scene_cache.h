@@ -20,8 +20,8 @@
 #include <string>
 #include <vector>
 
-#include "worker/engine/render/gaussian_scene.h"
-#include "worker/engine/render/scene_source.h"
+#include "engine/render/gaussian_scene.h"
+#include "engine/render/scene_source.h"
 
 namespace pf {
 

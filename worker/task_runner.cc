@@ -2,8 +2,6 @@
 // it, rendering a chunk of views the way `pf render` does.
 #include "worker/task_runner.h"
 
-#include <google/protobuf/util/json_util.h>
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -13,18 +11,14 @@
 #include <utility>
 
 #include "absl/strings/str_cat.h"
-#include "common/bounded_json.h"
 #include "common/file_util.h"
 #include "common/status_macros.h"
-#include "nlohmann/json.hpp"
-#include "worker/engine/clip/clip_io.h"
-#include "worker/engine/recon/recon_flags.h"
-#include "worker/engine/recon/tuning_limits.h"
-#include "worker/engine/render/device_renderer.h"
-#include "worker/engine/render/rasterizer.h"
-#include "worker/engine/render/render_outputs.h"
-#include "worker/engine/render/scene_file.h"
-#include "worker/engine/render/views.h"
+#include "engine/clip/clip_io.h"
+#include "engine/recon/recon_options.h"
+#include "engine/render/device_renderer.h"
+#include "engine/render/render_outputs.h"
+#include "engine/render/scene_file.h"
+#include "engine/render/views.h"
 
 namespace pf {
 namespace {
@@ -36,16 +30,16 @@ double SecondsSince(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
-// The stages of a reconstruction task in order, with their share of the
-// work (roughly their share of the time on the default synth clip, where
-// the colour fit takes over half; docs/QUALITY.md); Begin() reports the
-// stage starting and the fraction done before it.
-class ReconProgress {
+// The stages of a reconstruction task in order: the download, the engine's
+// stages (recon_stages.h; refine only with the colour fit on), the save;
+// Begin() reports the stage starting and the share of the work before it.
+class ReconProgressReporter {
  public:
-  ReconProgress(const StageProgressFn& report, bool refine) : report_(report) {
-    stages_ = {{"download", 0.05},    {"load", 0.05},   {"depth", 0.03}, {"lift", 0.05},
-               {"scene_graph", 0.07}, {"sample", 0.07}, {"fuse", 0.05},  {"decode", 0.03}};
-    if (refine) stages_.push_back({"refine", 0.55});
+  ReconProgressReporter(const StageProgressFn& report, bool refine) : report_(report) {
+    stages_.push_back({"download", 0.05});
+    for (const ReconStageInfo& info : ReconStages()) {
+      if (info.stage != ReconStage::kRefine || refine) stages_.push_back({info.name, info.weight});
+    }
     stages_.push_back({"save", 0.05});
     for (const auto& stage : stages_) total_ += stage.second;
   }
@@ -65,12 +59,10 @@ class ReconProgress {
     if (report_) report_("download", stages_[0].second * fraction / total_);
   }
 
-  // Takes a progress line of the engine: "<stage> done in ..." begins the
-  // stage after it.
-  void EngineLine(const std::string& line) {
-    const size_t done = line.find(" done in ");
-    if (done == std::string::npos) return;
-    const std::string finished = line.substr(0, done);
+  // Takes the engine's report: a stage done begins the one after it.
+  void Engine(const ReconProgress& progress) {
+    if (progress.kind != ReconProgress::Kind::kStageDone || !progress.stage.has_value()) return;
+    const std::string finished = ReconStageName(*progress.stage);
     for (size_t i = 0; i + 1 < stages_.size(); ++i) {
       if (stages_[i].first == finished) {
         Begin(stages_[i + 1].first);
@@ -110,7 +102,8 @@ absl::Status CheckDigest(const pb::Digest& digest, const std::string& field) {
 // the manifest's path.
 absl::StatusOr<std::string> MaterialiseClip(const pb::UploadedClip& clip,
                                             const std::string& clip_dir, const FetchBlobFn& fetch,
-                                            ReconProgress& progress, const CancelledFn& cancelled) {
+                                            ReconProgressReporter& progress,
+                                            const CancelledFn& cancelled) {
   RETURN_IF_ERROR(CheckDigest(clip.manifest(), "clip.manifest"));
   // Resolve every path before fetching anything.
   std::map<std::string, std::string> targets;  // Path in the manifest -> local path.
@@ -152,58 +145,6 @@ absl::Status CheckAllFilesUploaded(const pb::Clip& manifest, const pb::UploadedC
 }
 
 }  // namespace
-
-absl::StatusOr<ReconOptions> ReconOptionsFromProto(const pb::ReconstructionOptions& proto) {
-  ReconOptions options;
-  if (!proto.model().empty()) {
-    if (!ParseReconModel(proto.model()).ok()) {
-      return absl::InvalidArgumentError(absl::StrCat("options.model: unknown model '",
-                                                     proto.model(),
-                                                     "' (expected analytic or pixel-aligned)"));
-    }
-    options.model = *ParseReconModel(proto.model());
-  }
-  if (proto.ns() < 0) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        "options.ns: must be a positive number of queries per view, got ", proto.ns()));
-  }
-  if (proto.nd() < 0) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        "options.nd: must be a positive number of queries per instance, got ", proto.nd()));
-  }
-  options.static_per_view = proto.ns();
-  options.dynamic_per_instance = proto.nd();
-  const std::string& fusion = proto.fusion();
-  if (fusion.empty() || fusion == "softmax") {
-    options.fusion.weights = FusionWeights::kDepthSoftmax;
-  } else if (fusion == "average") {
-    options.fusion.weights = FusionWeights::kPlainAverage;
-  } else if (fusion == "no-depth") {
-    options.fusion.weights = FusionWeights::kNoDepth;
-  } else {
-    return absl::InvalidArgumentError(absl::StrCat("options.fusion: unknown weighting '", fusion,
-                                                   "' (expected softmax, average or no-depth)"));
-  }
-  if (proto.lifespan() && proto.no_lifespan()) {
-    return absl::InvalidArgumentError(
-        "options.lifespan: set together with options.no_lifespan; set one");
-  }
-  options.fusion.lifespan = proto.lifespan();
-  options.completion.ground_fill = !proto.no_ground_fill();
-  options.completion.facades = !proto.no_facades();
-  RETURN_IF_ERROR(CheckTuningFields(proto));
-  if (proto.has_refine()) options.refinement.iterations = proto.refine();
-  if (proto.has_splat_sigma()) options.decoder.tangent_sigma = proto.splat_sigma();
-  if (proto.has_low_pass()) options.decoder.low_pass = static_cast<float>(proto.low_pass());
-  if (proto.has_hidden_band()) options.hidden_band_px = proto.hidden_band();
-  if (!proto.colour().empty()) options.colour_gradients = proto.colour() == "gradients";
-  if (!proto.device().empty() && proto.device() != "cpu") {
-    return absl::InvalidArgumentError(
-        absl::StrCat("options.device: '", proto.device(),
-                     "' is not available: this build runs the analytic models on the CPU only"));
-  }
-  return options;
-}
 
 pb::Scene SceneStatistics(const GaussianScene& scene, const ReconStats& stats,
                           const std::vector<ContextView>& views, const pb::Clip& clip) {
@@ -263,10 +204,15 @@ absl::StatusOr<ReconstructOutput> RunReconstruction(
     const pb::ReconstructWork& work, const FetchBlobFn& fetch, const std::string& work_dir,
     const StageProgressFn& progress, const CancelledFn& cancelled, const ComputeDevice& device) {
   const auto start = std::chrono::steady_clock::now();
+  if (!work.options().device().empty() && work.options().device() != "cpu") {
+    return absl::InvalidArgumentError(
+        absl::StrCat("options.device: '", work.options().device(),
+                     "' is not available: a worker runs on the device it was started with"));
+  }
   ASSIGN_OR_RETURN(ReconOptions options, ReconOptionsFromProto(work.options()));
   options.device = device;
-  ReconProgress stages(progress, options.refinement.iterations > 0);
-  options.progress = [&stages](const std::string& line) { stages.EngineLine(line); };
+  ReconProgressReporter stages(progress, options.refinement.iterations > 0);
+  options.progress = [&stages](const ReconProgress& p) { stages.Engine(p); };
 
   stages.Begin("download");
   const std::string clip_dir = work_dir + "/clip";
@@ -295,16 +241,11 @@ absl::StatusOr<ReconstructOutput> RunReconstruction(
   out.scene_path = work_dir + "/scene.pfs";
   const ReconStats& s = result.stats;
   // As `pf reconstruct` writes it; the clip is named by its manifest's digest.
-  const std::map<std::string, std::string> metadata = {
-      {"model", ReconModelName(options.model)},
-      {"source_clip", absl::StrCat("sha256:", work.clip().manifest().sha256())},
-      {"ns", absl::StrCat(s.static_per_view)},
-      {"nd", absl::StrCat(s.dynamic_per_instance)},
-      {"fusion", FusionWeightsName(options.fusion.weights)},
-      {"lifespan", options.fusion.lifespan ? "true" : "false"}};
+  const std::map<std::string, std::string> metadata =
+      SceneMetadata(options, s, absl::StrCat("sha256:", work.clip().manifest().sha256()));
   RETURN_IF_ERROR(SaveScene(result.scene, out.scene_path, metadata));
   out.scene = SceneStatistics(result.scene, s, inputs.views, loaded->clip);
-  out.scene.set_model(ReconModelName(options.model));
+  out.scene.set_model(options.model);
   *out.scene.mutable_options() = work.options();
   stages.Finish();
   out.seconds = SecondsSince(start);
@@ -326,69 +267,51 @@ absl::StatusOr<RenderChunkOutput> RenderChunk(const pb::RenderWork& work, const 
                                     {work.max_pixels_per_view(), work.max_render_bytes()},
                                     "views.cameras"));
 
-  std::string json;
-  const auto to_json = google::protobuf::util::MessageToJsonString(work.views(), &json);
-  if (!to_json.ok()) {
+  // The chunk's own views, numbered from first_view in the job (older
+  // servers sent all of the job's views).
+  const pb::RenderViews& views = work.views();
+  const int chunk_views = views.views_size();
+  const bool whole_job = chunk_views != work.view_count();
+  if (work.first_view() < 0) {
     return absl::InvalidArgumentError(
-        absl::StrCat("views: cannot convert to JSON: ", std::string(to_json.message())));
+        absl::StrCat("first_view: must be >= 0, got ", work.first_view()));
   }
-  absl::StatusOr<RenderRequest> parsed = ParseRenderViews(json, opened.scene);
+  if (work.view_count() < 1) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("view_count: must be >= 1, got ", work.view_count()));
+  }
+  if (whole_job && int64_t{work.first_view()} + work.view_count() > chunk_views) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "views.views: the task carries ", chunk_views, " views, neither the chunk's ",
+        work.view_count(), " nor the job's up to view ", work.first_view() + work.view_count()));
+  }
+  absl::StatusOr<RenderRequest> parsed = RenderRequestFromProto(views, InstanceIds(opened.scene));
   if (!parsed.ok()) return StatusWithContext(parsed.status(), "views");
   const RenderRequest& request = *parsed;
-  const int64_t num_views = static_cast<int64_t>(request.views.size());
-  if (work.first_view() < 0 || work.first_view() >= num_views) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        "first_view: ", work.first_view(), " is not a view of the job (it has ", num_views, ")"));
-  }
-  if (work.view_count() < 1 || work.first_view() + int64_t{work.view_count()} > num_views) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("view_count: ", work.view_count(), " views from ", work.first_view(),
-                     " do not fit in the job's ", num_views, " views"));
-  }
+  const int offset = whole_job ? 0 : work.first_view();  // Job index of request.views[0].
   RETURN_IF_ERROR(MakeDirs(out_dir));
 
-  // From here on, the same steps as client/render_command.cc.
+  std::unique_ptr<DeviceRenderer> cpu;
+  if (renderer == nullptr) {
+    ASSIGN_OR_RETURN(cpu, DeviceRenderer::Create(&opened.scene, ComputeDevice{}, "device"));
+    renderer = cpu.get();
+  }
   const SceneLabel label{opened.scene_id, opened.model, opened.scene.colour_encoding};
-  RenderOptions options;
-  options.features = channels.features;
-  options.depth = channels.depth;
-  options.instance = channels.instance;
   RenderChunkOutput out;
   std::vector<ManifestEntry> entries;
   const int end = work.first_view() + work.view_count();
   for (int i = work.first_view(); i < end; ++i) {
     RETURN_IF_ERROR(CheckCancelled(cancelled, absl::StrCat("before view ", i)));
-    const RenderView& view = request.views[i];
-    const auto render_start = std::chrono::steady_clock::now();
-    absl::StatusOr<RenderBuffers> buffers =
-        renderer != nullptr
-            ? renderer->Render(view.camera, view.timestamp_us, request.edits, options)
-            : Render(opened.scene, view.camera, view.timestamp_us, request.edits, options);
-    if (!buffers.ok()) return StatusWithContext(buffers.status(), absl::StrCat("views[", i, "]"));
-    ManifestEntry entry;
-    entry.exr = view.name + ".exr";
-    entry.png = view.name + ".png";
-    entry.view = &view;
-    entry.channels = ExrChannelNames(channels, opened.scene.num_channels);
-    entry.width = buffers->width;
-    entry.height = buffers->height;
-    entry.render_ms = SecondsSince(render_start) * 1000.0;
-    const std::string exr_path = absl::StrCat(out_dir, "/", entry.exr);
-    const std::string png_path = absl::StrCat(out_dir, "/", entry.png);
-    RETURN_IF_ERROR(WriteRenderExr(exr_path, *buffers, channels, view, label));
-    RETURN_IF_ERROR(WritePreviewPng(png_path, *buffers, label.colour_encoding));
-    out.files.push_back({entry.exr, exr_path, view.name});
-    out.files.push_back({entry.png, png_path, view.name});
-    entries.push_back(std::move(entry));
+    const RenderView& view = request.views[i - offset];
+    absl::StatusOr<ManifestEntry> entry =
+        RenderViewToFiles(*renderer, view, request.edits, channels, label, out_dir);
+    if (!entry.ok()) return StatusWithContext(entry.status(), absl::StrCat("views[", i, "]"));
+    out.files.push_back({entry->exr, absl::StrCat(out_dir, "/", entry->exr), view.name});
+    out.files.push_back({entry->png, absl::StrCat(out_dir, "/", entry->png), view.name});
+    entries.push_back(*std::move(entry));
     if (progress) progress(i - work.first_view() + 1);
   }
-
-  const absl::StatusOr<nlohmann::ordered_json> manifest =
-      ParseBoundedJson(ManifestJson(label, entries));
-  if (!manifest.ok() || !manifest->contains("views")) {
-    return absl::InternalError("the render manifest is not the JSON object ManifestJson promises");
-  }
-  out.manifest_views_json = (*manifest)["views"].dump();
+  out.manifest_views_json = ManifestViewsJson(entries);
   out.seconds = SecondsSince(start);
   return out;
 }

@@ -21,10 +21,11 @@
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
+#include "engine/recon/recon_options.h"
+#include "engine/recon/reconstruction.h"
+#include "engine/render/scene_source.h"
 #include "pointforward/v1/resources.pb.h"
 #include "pointforward/v1/worker.pb.h"
-#include "worker/engine/recon/reconstruction.h"
-#include "worker/engine/render/scene_source.h"
 
 namespace pf {
 
@@ -45,12 +46,6 @@ struct ReconstructOutput {
   pointforward::v1::Scene scene;  // Statistics; scene_file is left to the caller.
   double seconds = 0;             // Wall time of the whole task.
 };
-
-// Returns the ReconOptions `options` asks for (empty fields: the engine's
-// defaults). INVALID_ARGUMENT naming `options.<field>` for an unknown model
-// or fusion, a negative budget, or a device other than "cpu".
-absl::StatusOr<ReconOptions> ReconOptionsFromProto(
-    const pointforward::v1::ReconstructionOptions& options);
 
 // Fetches the clip of `work` into work_dir/clip (manifest as clip.json, each
 // entry of clip.files at its path, which must stay under work_dir/clip),

@@ -18,11 +18,11 @@
 #include "absl/strings/str_cat.h"
 #include "common/file_util.h"
 #include "common/hash.h"
+#include "engine/clip/clip_io.h"
+#include "engine/render/scene_file.h"
 #include "gtest/gtest.h"
 #include "nlohmann/json.hpp"
 #include "tests/test_util.h"
-#include "worker/engine/clip/clip_io.h"
-#include "worker/engine/render/scene_file.h"
 
 namespace pf {
 namespace {
@@ -123,10 +123,18 @@ class TaskRunner : public ::testing::Test {
     return views;
   }
 
-  static pb::RenderWork ChunkOf(int first, int count) {
+  // Views [first, first + count) of FourViews() as the server sends them
+  // (the chunk's views only), or with all four as older servers did.
+  static pb::RenderWork ChunkOf(int first, int count, bool whole_job = false) {
     pb::RenderWork work;
     work.set_scene("scenes/test");
     *work.mutable_views() = FourViews();
+    if (!whole_job) {
+      work.mutable_views()->clear_views();
+      for (int i = std::max(first, 0); i < std::min(first + count, 4); ++i) {
+        *work.mutable_views()->add_views() = FourViews().views(i);
+      }
+    }
     work.set_first_view(first);
     work.set_view_count(count);
     return work;
@@ -168,6 +176,11 @@ TEST_F(TaskRunner, ReconstructionWritesTheSceneAndItsStatistics) {
   EXPECT_EQ(file->metadata.at("ns"), "1500");
   EXPECT_EQ(file->metadata.at("source_clip"),
             absl::StrCat("sha256:", work_->clip().manifest().sha256()));
+  // The metadata `pf reconstruct` writes, key for key (SceneMetadata).
+  EXPECT_EQ(file->metadata.at("ground_fill"), "true");
+  EXPECT_EQ(file->metadata.at("facades"), "true");
+  EXPECT_EQ(file->metadata.at("lifespan"), "false");
+  EXPECT_EQ(file->metadata.at("fusion"), "softmax");
   EXPECT_EQ(scene.num_channels(), file->scene.num_channels);
   EXPECT_EQ(scene.options().ns(), 1500);
 
@@ -329,6 +342,17 @@ TEST(ReconOptionsFromProto, TuningFieldsMapOntoTheOptions) {
             "options.colour: unknown colour model 'stripes' (expected gradients or flat)");
   proto.set_colour("");
 
+  EXPECT_EQ(options->colour_encoding, ColourEncoding::kSrgb);
+  EXPECT_EQ(options->completion.method, CompletionOptions::Method::kNearest);
+  proto.set_working_space("linear");
+  proto.set_completion("ip-basic");
+  options = ReconOptionsFromProto(proto);
+  ASSERT_TRUE(options.ok()) << options.status();
+  EXPECT_EQ(options->colour_encoding, ColourEncoding::kLinear);
+  EXPECT_EQ(options->completion.method, CompletionOptions::Method::kIpBasic);
+  proto.clear_working_space();
+  proto.clear_completion();
+
   proto.set_refine(0);  // Set to 0 is not unset: no fit.
   proto.set_splat_sigma(0.5);
   proto.set_low_pass(0.3);
@@ -387,6 +411,13 @@ TEST_F(TaskRunner, RenderChunkMatchesPfRenderByteForByte) {
       ChunkOf(1, 2), *opened, out, [&](int done) { frames.push_back(done); }, [] { return false; });
   ASSERT_TRUE(chunk.ok()) << chunk.status();
   EXPECT_EQ(frames, (std::vector<int>{1, 2}));
+  ASSERT_EQ(ChunkOf(1, 2).views().views_size(), 2);
+  // The same chunk carrying all of the job's views (older servers).
+  const std::string whole = *dir_ + "/whole_job_chunk";
+  absl::StatusOr<RenderChunkOutput> from_whole =
+      RenderChunk(ChunkOf(1, 2, true), *opened, whole, nullptr, nullptr);
+  ASSERT_TRUE(from_whole.ok()) << from_whole.status();
+  EXPECT_EQ(FilesIn(whole), FilesIn(out));
 
   EXPECT_EQ(FilesIn(out), (std::set<std::string>{"v1.exr", "v1.png", "v2.exr", "v2.png"}));
   ASSERT_EQ(chunk->files.size(), 4u);
@@ -405,6 +436,10 @@ TEST_F(TaskRunner, RenderChunkMatchesPfRenderByteForByte) {
     }
     EXPECT_TRUE(WithoutDateTime(*ours) == WithoutDateTime(*theirs))
         << file.name << " differs from pf render's";
+    absl::StatusOr<std::string> older = ReadFileToString(whole + "/" + file.name);
+    ASSERT_TRUE(older.ok()) << file.name;
+    EXPECT_TRUE(WithoutDateTime(*ours) == WithoutDateTime(*older))
+        << file.name << " differs between the chunk's views and the whole job's";
   }
 
   // The chunk's manifest entries equal pf render's for those views, but for
@@ -443,11 +478,23 @@ TEST_F(TaskRunner, RenderChunkRefusesBadInput) {
   const auto run = [&](const pb::RenderWork& work) {
     return RenderChunk(work, *opened, *dir_ + "/bad_chunk", nullptr, nullptr).status();
   };
-  absl::Status status = run(ChunkOf(3, 2));
+  absl::Status status = run(ChunkOf(3, 2, true));
   EXPECT_EQ(status.code(), absl::StatusCode::kInvalidArgument);
-  EXPECT_NE(status.message().find("view_count: 2 views from 3"), absl::string_view::npos) << status;
-  status = run(ChunkOf(4, 1));
-  EXPECT_NE(status.message().find("first_view: 4"), absl::string_view::npos) << status;
+  EXPECT_NE(status.message().find("views.views: the task carries 4 views, neither the chunk's 2 "
+                                  "nor the job's up to view 5"),
+            absl::string_view::npos)
+      << status;
+  // One view carried for a chunk of two.
+  status = run(ChunkOf(3, 2));
+  EXPECT_NE(status.message().find("views.views: the task carries 1 views, neither the chunk's 2"),
+            absl::string_view::npos)
+      << status;
+  status = run(ChunkOf(-1, 1));
+  EXPECT_NE(status.message().find("first_view: must be >= 0, got -1"), absl::string_view::npos)
+      << status;
+  status = run(ChunkOf(0, 0));
+  EXPECT_NE(status.message().find("view_count: must be >= 1, got 0"), absl::string_view::npos)
+      << status;
 
   pb::RenderWork work = ChunkOf(0, 1);
   work.add_outputs("normals");

@@ -22,15 +22,15 @@
 
 #include "absl/strings/str_cat.h"
 #include "common/file_util.h"
+#include "engine/clip/clip_io.h"
+#include "engine/render/scene_file.h"
+#include "engine/render/scene_source.h"
 #include "gtest/gtest.h"
 #include "nlohmann/json.hpp"
 #include "pointforward/v1/worker.grpc.pb.h"
 #include "server/blobs/blob_service.h"
 #include "server/blobs/blob_store.h"
 #include "tests/test_util.h"
-#include "worker/engine/clip/clip_io.h"
-#include "worker/engine/render/scene_file.h"
-#include "worker/engine/render/scene_source.h"
 #include "worker/task_runner.h"
 
 namespace pf {

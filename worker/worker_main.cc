@@ -20,8 +20,8 @@
 #include "common/memory_reuse.h"
 #include "common/metrics_http.h"
 #include "common/status_macros.h"
-#include "worker/engine/recon/compute_device.h"
-#include "worker/engine/render/cuda_rasterizer.h"
+#include "engine/recon/compute_device.h"
+#include "engine/render/cuda_rasterizer.h"
 #include "worker/worker_loop.h"
 
 namespace {

@@ -8,7 +8,7 @@
 #include "absl/strings/str_cat.h"
 #include "common/file_util.h"
 #include "common/status_macros.h"
-#include "worker/engine/clip/clip_io.h"
+#include "engine/clip/clip_io.h"
 
 namespace pf {
 

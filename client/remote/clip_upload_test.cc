@@ -7,8 +7,8 @@
 #include <filesystem>
 #include <map>
 
+#include "engine/clip/clip_test_util.h"
 #include "tests/test_util.h"
-#include "worker/engine/clip/clip_test_util.h"
 
 namespace pf {
 namespace {

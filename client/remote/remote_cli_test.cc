@@ -8,8 +8,8 @@
 #include <fstream>
 #include <string>
 
+#include "engine/clip/clip_test_util.h"
 #include "tests/test_util.h"
-#include "worker/engine/clip/clip_test_util.h"
 
 namespace pf {
 namespace {

@@ -35,13 +35,6 @@ inline bool WantsHelp(const std::vector<std::string>& args) {
   return false;
 }
 
-// The reconstruction flags of `scene create` and `render --clip`.
-inline const std::set<std::string> kReconValueFlags = {
-    "model",  "ns",          "nd",       "fusion",      "device",
-    "refine", "splat-sigma", "low-pass", "hidden-band", "colour"};
-inline const std::set<std::string> kReconBoolFlags = {"lifespan", "no-lifespan", "no-ground-fill",
-                                                      "no-facades"};
-
 // Returns the ReconstructionOptions the flags of `cl` ask for
 // (remote_scene.cc); INVALID_ARGUMENT naming a bad flag.
 absl::StatusOr<pointforward::v1::ReconstructionOptions> ReconstructionOptionsFromFlags(

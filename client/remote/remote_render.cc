@@ -20,6 +20,7 @@
 #include "common/command_line.h"
 #include "common/file_util.h"
 #include "common/status_macros.h"
+#include "engine/recon/recon_option_table.h"
 #include "google/longrunning/operations.pb.h"
 #include "pointforward/v1/service.grpc.pb.h"
 #include "pointforward/v1/views.pb.h"
@@ -37,7 +38,8 @@ constexpr char kRemoteRenderUsage[] =
     "[--outputs rgb,alpha,depth,features,instance,filled] [--chunk-frames N] [--request-id ID]\n"
     "       pf --server ADDR render --clip CLIP.json [--model M] [--ns N] [--nd N] [--fusion F] "
     "[--lifespan] [--device D] [--refine N] [--splat-sigma S] [--low-pass PX2] "
-    "[--hidden-band PX] [--no-ground-fill] [--no-facades] [--colour gradients|flat] --cameras "
+    "[--hidden-band PX] [--no-ground-fill] [--no-facades] [--colour gradients|flat] "
+    "[--completion nearest|ip-basic] [--working-space srgb|linear] --cameras "
     "VIEWS.json [--out DIR --wait] "
     "...";
 
@@ -102,9 +104,9 @@ absl::StatusOr<int> RunRemoteRender(RemoteContext& ctx, const std::vector<std::s
     std::fprintf(ctx.out(), "%s\n", kRemoteRenderUsage);
     return kExitOk;
   }
-  std::set<std::string> value_flags = kReconValueFlags;
+  std::set<std::string> value_flags = ReconValueFlags();
   value_flags.insert({"cameras", "out", "outputs", "chunk-frames", "request-id", "clip"});
-  std::set<std::string> bool_flags = kReconBoolFlags;
+  std::set<std::string> bool_flags = ReconSwitchFlags();
   bool_flags.insert("wait");
   ASSIGN_OR_RETURN(const CommandLine cl, CommandLine::Parse(args, value_flags, bool_flags));
   RETURN_IF_ERROR(cl.Require({"cameras"}, kRemoteRenderUsage));
@@ -115,8 +117,8 @@ absl::StatusOr<int> RunRemoteRender(RemoteContext& ctx, const std::vector<std::s
   ASSIGN_OR_RETURN(const RenderTarget target, TargetFromFlags(cl));
   if (!target.scene.empty()) {
     // A scene exists already: how it was reconstructed is settled.
-    for (const std::set<std::string>* flags : {&kReconValueFlags, &kReconBoolFlags}) {
-      for (const std::string& flag : *flags) {
+    for (const std::set<std::string>& flags : {ReconValueFlags(), ReconSwitchFlags()}) {
+      for (const std::string& flag : flags) {
         if (cl.Has(flag)) {
           return absl::InvalidArgumentError(absl::StrCat(
               "--", flag, ": a reconstruction flag, only for render --clip; ", target.scene,

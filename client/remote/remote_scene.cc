@@ -23,11 +23,11 @@
 #include "common/file_util.h"
 #include "common/hash.h"
 #include "common/status_macros.h"
+#include "engine/recon/recon_option_table.h"
 #include "google/longrunning/operations.pb.h"
 #include "google/protobuf/empty.pb.h"
 #include "pointforward/v1/service.grpc.pb.h"
 #include "rpc/grpc_status.h"
-#include "worker/engine/recon/tuning_limits.h"
 
 namespace pf {
 
@@ -41,7 +41,8 @@ constexpr char kRemoteSceneUsage[] =
     "[--ns N] [--nd N] [--fusion F] [--lifespan] [--device D] [--request-id ID]\n"
     "         [--refine N] [--splat-sigma S] [--low-pass PX2] [--hidden-band PX] "
     "[--no-ground-fill] "
-    "[--no-facades] [--colour gradients|flat]\n"
+    "[--no-facades] [--colour gradients|flat] [--completion nearest|ip-basic] "
+    "[--working-space srgb|linear]\n"
     "       pf --server ADDR scene get NAME | list [--page-size N [--page-token T]] | delete "
     "NAME\n"
     "       pf --server ADDR scene export NAME --ply OUT.ply [--time-us T]";
@@ -58,9 +59,9 @@ absl::StatusOr<CommandLine> ParseWords(const std::vector<std::string>& words, si
 }
 
 absl::StatusOr<int> Create(RemoteContext& ctx, const std::vector<std::string>& words) {
-  std::set<std::string> value_flags = kReconValueFlags;
+  std::set<std::string> value_flags = ReconValueFlags();
   value_flags.insert("request-id");
-  std::set<std::string> bool_flags = kReconBoolFlags;
+  std::set<std::string> bool_flags = ReconSwitchFlags();
   bool_flags.insert("wait");
   ASSIGN_OR_RETURN(const CommandLine cl, ParseWords(words, 1, value_flags, bool_flags));
   v1::CreateSceneRequest request;
@@ -238,50 +239,9 @@ absl::StatusOr<int> Export(RemoteContext& ctx, const std::vector<std::string>& w
 }  // namespace
 
 absl::StatusOr<v1::ReconstructionOptions> ReconstructionOptionsFromFlags(const CommandLine& cl) {
-  v1::ReconstructionOptions options;
-  options.set_model(cl.Get("model"));
-  options.set_fusion(cl.Get("fusion"));
-  options.set_device(cl.Get("device"));
-  if (cl.Has("lifespan") && cl.Has("no-lifespan")) {
-    return absl::InvalidArgumentError(
-        "--lifespan: given with --no-lifespan; give one (lifespans are off by default)");
-  }
-  options.set_lifespan(cl.Has("lifespan"));
-  ASSIGN_OR_RETURN(const int64_t ns, cl.GetInt("ns", 0));
-  ASSIGN_OR_RETURN(const int64_t nd, cl.GetInt("nd", 0));
-  if (ns < 0) return absl::InvalidArgumentError("--ns: must not be negative");
-  if (nd < 0) return absl::InvalidArgumentError("--nd: must not be negative");
-  options.set_ns(ns);
-  options.set_nd(nd);
-  options.set_no_ground_fill(cl.Has("no-ground-fill"));
-  options.set_no_facades(cl.Has("no-facades"));
-  if (cl.Has("colour")) {
-    RETURN_IF_ERROR(ParseColourModel(cl.Get("colour"), "--colour").status());
-    options.set_colour(cl.Get("colour"));
-  }
   // Checked here as the local flags are, naming the flag; the server checks
   // them again, naming the field.
-  if (cl.Has("refine")) {
-    ASSIGN_OR_RETURN(const int64_t refine, cl.GetInt("refine", 0));
-    RETURN_IF_ERROR(CheckTuning(kRefineLimit, double(refine)));
-    options.set_refine(static_cast<int32_t>(refine));
-  }
-  if (cl.Has("hidden-band")) {
-    ASSIGN_OR_RETURN(const int64_t band, cl.GetInt("hidden-band", 0));
-    RETURN_IF_ERROR(CheckTuning(kHiddenBandLimit, double(band)));
-    options.set_hidden_band(static_cast<int32_t>(band));
-  }
-  if (cl.Has("splat-sigma")) {
-    ASSIGN_OR_RETURN(const double sigma, cl.GetDouble("splat-sigma", 0));
-    RETURN_IF_ERROR(CheckTuning(kSplatSigmaLimit, sigma));
-    options.set_splat_sigma(sigma);
-  }
-  if (cl.Has("low-pass")) {
-    ASSIGN_OR_RETURN(const double low_pass, cl.GetDouble("low-pass", 0));
-    RETURN_IF_ERROR(CheckTuning(kLowPassLimit, low_pass));
-    options.set_low_pass(low_pass);
-  }
-  return options;
+  return ReconProtoFromFlags(cl, BuiltInReconModelNames());
 }
 
 void PrintSceneSummary(std::FILE* out, const v1::Scene& scene) {

@@ -1,0 +1,538 @@
+// Least-squares refinement of Gaussian colours against the context images:
+// preconditioned conjugate gradients over the recorded compositing weights.
+#include "engine/recon/colour_refinement.h"
+
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <cmath>
+#include <limits>
+
+#include "absl/strings/str_cat.h"
+#include "common/status_macros.h"
+#include "common/thread_pool.h"
+#include "engine/recon/gaussian_decoder.h"
+#include "engine/render/compositing_weights.h"
+
+namespace pf {
+namespace {
+
+using Channels = std::array<double, 3>;
+
+// Added to every Gaussian's data weight (its sum of squared compositing
+// weights) before the relative prior is taken, so that a Gaussian no fitted
+// pixel sees still has a positive prior and keeps its fused colour.
+constexpr float kPriorFloor = 1e-3f;
+
+// The transmittance under which alpha_ip = w_ip / T is not trusted.
+constexpr float kMinTransmittance = 1e-4f;
+
+// The data weight a colour's prior is relative to: the geometric mean of
+// the Gaussian's own data weight `seen` (sum of w_ip^2) and the weight it
+// would have with nothing in front of it, `unoccluded` (sum of alpha_ip^2,
+// at least `seen`). Fully visible, that is `seen`; a Gaussian that its
+// context views see only through what lies in front of it (transmittance
+// T) is held 1 / T times harder, relative to its data, so the few dim
+// pixels it reaches do not push its colour out of range: the road beside a
+// car in seed 2 came out as (1.5, 0.8, -0.5) and showed where the car moved
+// on.
+float UnoccludedPrior(float seen, float unoccluded) {
+  return std::sqrt(seen * std::max(seen, unoccluded));
+}
+
+// The prior weight of hidden Gaussians, relative like prior_weight: large
+// enough that the fit leaves their colour as it is.
+constexpr float kHiddenPrior = 1e4f;
+
+// One context view in the fit: its compositing matrix and the image, with
+// pixels under min_alpha zeroed out of both sides (the mask M).
+struct FitView {
+  CompositingWeights a;
+  std::vector<uint8_t> fitted;  // [H * W] 1 where alpha >= min_alpha.
+  const ImageF* image = nullptr;
+};
+
+// Per-view scratch: colours gathered to local order, the view's image-sized
+// buffer and the view's share of A^T (...), local order.
+struct ViewScratch {
+  std::vector<float> local_in;
+  std::vector<float> pixels;
+  std::vector<float> local_out;
+};
+
+// The fit's unknowns per Gaussian: per RGB channel the colour, and with
+// colour gradients also (g_u, g_v): [N, 3, K], K = 1 or 3.
+struct Layout {
+  int k = 1;
+  int per_gaussian() const { return 3 * k; }
+};
+
+// image = A x and out += A^T r for the fit's unknowns: flat colours, or
+// colours with gradients (then the weights carry local coordinates).
+void Apply(const CompositingWeights& a, const float* x, float* image) {
+  if (!a.has_local_coords()) {
+    Composite(a, x, 3, image);
+  } else {
+    CompositeTextured(a, x, image);
+  }
+}
+void ApplyTransposed(const CompositingWeights& a, const float* r, float* out) {
+  if (!a.has_local_coords()) {
+    AccumulateTransposed(a, r, 3, out);
+  } else {
+    AccumulateTransposedTextured(a, r, out);
+  }
+}
+
+// Writes the inverse of the symmetric matrix [[a, b, c], [b, d, e], [c, e,
+// f]] to `out` as (00, 01, 02, 11, 12, 22); the inverse of its diagonal
+// where it is near singular.
+void InvertSymmetric3(double a, double b, double c, double d, double e, double f, float* out) {
+  const double m00 = d * f - e * e, m01 = c * e - b * f, m02 = b * e - c * d;
+  const double det = a * m00 + b * m01 + c * m02;
+  if (!(det > 1e-9 * a * d * f)) {
+    out[0] = static_cast<float>(1 / a);
+    out[1] = out[2] = out[4] = 0.f;
+    out[3] = static_cast<float>(1 / d);
+    out[5] = static_cast<float>(1 / f);
+    return;
+  }
+  out[0] = static_cast<float>(m00 / det);
+  out[1] = static_cast<float>(m01 / det);
+  out[2] = static_cast<float>(m02 / det);
+  out[3] = static_cast<float>((a * f - c * c) / det);
+  out[4] = static_cast<float>((b * c - a * e) / det);
+  out[5] = static_cast<float>((a * d - b * b) / det);
+}
+
+// Sums over one view's fitted pixels, per Gaussian (kSums floats each, the
+// same for the three channels): w^2, (w u)^2, (w v)^2, w^2 u, w^2 v,
+// w^2 u v (its block of A^T M A; u, v the local coordinates, 0 for flat
+// colours) and alpha^2 = (w / T)^2, T the transmittance left by the
+// entries in front (1 - their summed weight; the few under min_weight are
+// not counted): the Gaussian's data weight with nothing in front of it.
+constexpr int kSums = 7;
+void AccumulateSums(const CompositingWeights& a, const std::vector<uint8_t>& fitted, float* out) {
+  const bool textured = a.has_local_coords();
+  for (size_t p = 0; p < fitted.size(); ++p) {
+    if (!fitted[p]) continue;
+    float px, py;
+    a.PixelCentre(p, &px, &py);
+    float in_front = 0.f;
+    for (uint64_t k = a.pixel_begin[p]; k < a.pixel_begin[p] + a.pixel_count[p]; ++k) {
+      const float w = a.weights[k];
+      float u = 0.f, v = 0.f;
+      if (textured) a.LocalCoords(k, px, py, &u, &v);
+      const float alpha = w / std::max(kMinTransmittance, 1.f - in_front);
+      in_front += w;
+      const float ww = w * w;
+      float* d = out + kSums * size_t(a.local[k]);
+      d[0] += ww;
+      d[1] += ww * u * u;
+      d[2] += ww * v * v;
+      d[3] += ww * u;
+      d[4] += ww * v;
+      d[5] += ww * u * v;
+      d[6] += alpha * alpha;
+    }
+  }
+}
+
+// Sum of squares of the masked residual image - A x of one view (x already
+// gathered into scratch->local_in), per channel; leaves the masked residual
+// in scratch->pixels.
+Channels Residual(const FitView& view, ViewScratch* scratch) {
+  const size_t num_pixels = view.fitted.size();
+  scratch->pixels.resize(3 * num_pixels);
+  Apply(view.a, scratch->local_in.data(), scratch->pixels.data());
+  Channels sum{0, 0, 0};
+  for (size_t p = 0; p < num_pixels; ++p) {
+    for (int c = 0; c < 3; ++c) {
+      float& r = scratch->pixels[3 * p + c];
+      r = view.fitted[p] ? view.image->pixels[3 * p + c] - r : 0.f;
+      sum[c] += double(r) * r;
+    }
+  }
+  return sum;
+}
+
+// Copies the entries of `global` ([N, 3], scene order) that `view` sees into
+// scratch->local_in (local order).
+void Gather(const FitView& view, const Layout& layout, const std::vector<float>& global,
+            ViewScratch* scratch) {
+  const size_t m = view.a.gaussians.size();
+  const int per = layout.per_gaussian();
+  scratch->local_in.resize(per * m);
+  for (size_t k = 0; k < m; ++k)
+    for (int c = 0; c < per; ++c)
+      scratch->local_in[per * k + c] = global[per * size_t(view.a.gaussians[k]) + c];
+}
+
+// Adds every view's local_out into `global` (views in order, so the sums do
+// not depend on thread timing).
+void Scatter(const std::vector<FitView>& views, int per, const std::vector<ViewScratch>& scratch,
+             std::vector<float>* global) {
+  for (size_t v = 0; v < views.size(); ++v) {
+    const std::vector<uint32_t>& ids = views[v].a.gaussians;
+    const std::vector<float>& local = scratch[v].local_out;
+    DefaultThreadPool().ParallelFor(0, static_cast<int64_t>(ids.size()), 16384,
+                                    [&](int64_t b, int64_t e) {
+                                      for (int64_t k = b; k < e; ++k)
+                                        for (int c = 0; c < per; ++c)
+                                          (*global)[per * size_t(ids[k]) + c] += local[per * k + c];
+                                    });
+  }
+}
+
+// Recording stops early once the views counted (two at least) put the
+// whole clip on course for this many times the bound.
+constexpr double kProjectedOverBudget = 1.25;
+
+// Every view's weights (one view per task) and fitted pixels, recorded at
+// 1 pixel in `pixel_stride`; recording stops once the views together pass
+// options.max_pairs units (kWeightUnitBytes: a unit per pair, and with
+// colour gradients 3 more per Gaussian in view, its screen frame).
+struct RecordedViews {
+  std::vector<FitView> fit;
+  bool over_budget = false;
+  int64_t units = 0;          // Of the views counted.
+  int64_t frame_units = 0;    // Of which screen frames.
+  int64_t counted_views = 0;  // Views whose units are counted.
+};
+
+absl::StatusOr<RecordedViews> RecordViews(const std::vector<ContextView>& views,
+                                          const GaussianScene& scene,
+                                          const RefinementOptions& options, bool gradients,
+                                          int pixel_stride) {
+  const int64_t num_views = static_cast<int64_t>(views.size());
+  RecordedViews out;
+  out.fit.resize(views.size());
+  std::vector<absl::Status> errors(views.size());
+  std::atomic<int64_t> units{0}, frame_units{0}, counted{0};
+  std::atomic<bool> over_budget{false};
+  DefaultThreadPool().ParallelFor(0, num_views, 1, [&](int64_t b, int64_t e) {
+    for (int64_t v = b; v < e; ++v) {
+      if (over_budget.load()) break;
+      const ContextView& view = views[v];
+      WeightOptions weight_options;
+      weight_options.min_weight = options.min_weight;
+      weight_options.local_coords = gradients;
+      weight_options.pixel_stride = pixel_stride;
+      absl::StatusOr<CompositingWeights> a = ComputeCompositingWeights(
+          scene, {view.camera, view.world_from_camera}, view.timestamp_us, weight_options);
+      if (!a.ok()) {
+        errors[v] = a.status();
+        continue;
+      }
+      const int64_t frames = gradients ? 3 * static_cast<int64_t>(a->gaussians.size()) : 0;
+      const int64_t cost = static_cast<int64_t>(a->entries()) + frames;
+      frame_units += frames;
+      const int64_t views_counted = ++counted;
+      const int64_t total = units.fetch_add(cost) + cost;
+      // Over the bound, or on course for kProjectedOverBudget times it: the
+      // rest need not be recorded to know.
+      if (total > options.max_pairs ||
+          (views_counted >= 2 && double(total) * double(num_views) / double(views_counted) >
+                                     kProjectedOverBudget * double(options.max_pairs))) {
+        over_budget = true;
+        break;
+      }
+      FitView& fit = out.fit[v];
+      fit.a = *std::move(a);
+      fit.image = &view.rgb;
+      fit.fitted.resize(fit.a.alpha.size());
+      for (size_t p = 0; p < fit.fitted.size(); ++p)
+        fit.fitted[p] = fit.a.alpha[p] >= options.min_alpha && !view.is_ego(p) && fit.a.Records(p);
+    }
+  });
+  for (const absl::Status& error : errors) RETURN_IF_ERROR(error);
+  out.over_budget = over_budget.load();
+  out.units = units.load();
+  out.frame_units = frame_units.load();
+  out.counted_views = counted.load();
+  if (out.over_budget) out.fit.clear();
+  return out;
+}
+
+}  // namespace
+
+absl::StatusOr<RefinementStats> RefineColours(const std::vector<ContextView>& views,
+                                              const RefinementOptions& options,
+                                              GaussianScene* scene) {
+  if (scene->num_channels < 3 || scene->sh_degree >= 0) {
+    return absl::InvalidArgumentError(
+        "RefineColours: the scene's colour must be its first three feature channels (no SH)");
+  }
+  if (options.iterations < 0 || !(options.prior_weight > 0) || !(options.min_alpha >= 0) ||
+      options.max_pairs <= 0 || !(options.gradient_prior_weight > 0) ||
+      !(options.max_gradient >= 0)) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "RefineColours: iterations ", options.iterations, " must be >= 0, prior_weight ",
+        options.prior_weight, " > 0, min_alpha ", options.min_alpha, " >= 0, max_pairs ",
+        options.max_pairs, " > 0, gradient_prior_weight ", options.gradient_prior_weight,
+        " > 0 and max_gradient ", options.max_gradient, " >= 0"));
+  }
+  RefinementStats stats;
+  if (options.iterations == 0 || views.empty()) return stats;
+  const size_t n = scene->size();
+  const int stride = scene->num_channels;
+  for (const ContextView& view : views) {
+    if (view.rgb.channels != 3 || view.rgb.width != view.width() ||
+        view.rgb.height != view.height()) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("RefineColours: view ", view.camera_id, " at ", view.timestamp_us, " has a ",
+                       view.rgb.width, "x", view.rgb.height, "x", view.rgb.channels,
+                       " image for a ", view.width(), "x", view.height(), " camera"));
+    }
+  }
+
+  // A_v of every view and the fitted pixels within max_pairs: every pixel
+  // if they fit, else 1 pixel in k, k as small as the views recorded so far
+  // say fits, up to max_pixel_stride; with gradients that do not fit even
+  // then, flat colours the same way; the fit is skipped when those do not
+  // fit either.
+  const int64_t num_views = static_cast<int64_t>(views.size());
+  bool gradients = options.colour_gradients;
+  int pixel_stride = 1;
+  RecordedViews recorded;
+  for (;;) {
+    ASSIGN_OR_RETURN(recorded, RecordViews(views, *scene, options, gradients, pixel_stride));
+    if (!recorded.over_budget) break;
+    // The whole clip's units at stride 1, estimated from the views counted.
+    const double scale = double(num_views) / double(std::max<int64_t>(1, recorded.counted_views));
+    const double entries = double(recorded.units - recorded.frame_units) * pixel_stride * scale;
+    const double frames = double(recorded.frame_units) * scale;
+    // Exact when every view was counted; else 10 % to spare.
+    const double room =
+        (recorded.counted_views == num_views ? 1.0 : 0.9) * double(options.max_pairs);
+    auto stride_for = [&](double fixed) {
+      return room > fixed ? static_cast<int64_t>(std::ceil(entries / (room - fixed)))
+                          : std::numeric_limits<int64_t>::max();
+    };
+    int64_t next = std::max<int64_t>(stride_for(gradients ? frames : 0), pixel_stride + 1);
+    if (next > options.max_pixel_stride && gradients) {
+      gradients = false;
+      next = std::max<int64_t>(1, stride_for(0));
+    }
+    if (next > options.max_pixel_stride) {
+      stats.pairs = recorded.units - recorded.frame_units;
+      stats.skipped_over_budget = true;
+      stats.flat_fallback = options.colour_gradients;
+      scene->colour_gradients.clear();
+      return stats;
+    }
+    pixel_stride = static_cast<int>(next);
+  }
+  std::vector<FitView>& fit = recorded.fit;
+  stats.flat_fallback = options.colour_gradients && !gradients;
+  stats.pixel_stride = pixel_stride;
+  stats.weight_bytes = kWeightUnitBytes * recorded.units;
+  for (const FitView& view : fit) {
+    stats.pairs += static_cast<int64_t>(view.a.entries());
+    for (uint8_t f : view.fitted) stats.pixels += f;
+  }
+  if (stats.pixels == 0) return stats;
+
+  // x: the colours, starting at the fused ones (c0, the prior's centre, so
+  // the prior enters only through Lambda below). for_views runs
+  // `body(view, scratch)` for every view in parallel, then adds the views'
+  // local_out into `out` (zeroed first) unless it is null.
+  // With colour gradients the unknowns are [N, 3, 3] (colour, g_u, g_v per
+  // channel), the gradients starting (and centred) at 0.
+  const Layout layout{gradients ? 3 : 1};
+  const int per = layout.per_gaussian();
+  const int kk = layout.k;
+  std::vector<float> x(per * n, 0.f);
+  for (size_t i = 0; i < n; ++i)
+    for (int c = 0; c < 3; ++c) x[per * i + kk * c] = scene->features[i * stride + c];
+  std::vector<ViewScratch> scratch(views.size());
+  auto for_views = [&](const auto& body, std::vector<float>* out, int width = 0) {
+    if (width == 0) width = per;
+    DefaultThreadPool().ParallelFor(0, num_views, 1, [&](int64_t b, int64_t e) {
+      for (int64_t v = b; v < e; ++v) {
+        scratch[v].local_out.assign(width * fit[v].a.gaussians.size(), 0.f);
+        body(fit[v], &scratch[v]);
+      }
+    });
+    if (out == nullptr) return;
+    out->assign(width * n, 0.f);
+    Scatter(fit, width, scratch, out);
+  };
+  std::vector<Channels> view_sums(views.size());
+
+  // r = A^T M (I - A x), the negative gradient at x = c0 (where the prior
+  // term is 0).
+  std::vector<float> r;
+  for_views(
+      [&](const FitView& view, ViewScratch* s) {
+        Gather(view, layout, x, s);
+        view_sums[&view - fit.data()] = Residual(view, s);
+        ApplyTransposed(view.a, s->pixels.data(), s->local_out.data());
+      },
+      &r);
+  auto total_rmse = [&]() {
+    double sum = 0;
+    for (const Channels& s : view_sums) sum += s[0] + s[1] + s[2];
+    return std::sqrt(sum / (3.0 * double(stats.pixels)));
+  };
+  stats.rmse_before = total_rmse();
+  // Each Gaussian's block of A^T M A and its data weight with nothing in
+  // front (AccumulateSums).
+  std::vector<float> sums;
+  for_views([&](const FitView& view,
+                ViewScratch* s) { AccumulateSums(view.a, view.fitted, s->local_out.data()); },
+            &sums, kSums);
+  // The prior of each Gaussian is relative to its own data weight (plus a
+  // floor for Gaussians no fitted pixel sees), so one prior_weight means the
+  // same for small pixel-aligned discs and large fused ones; with
+  // prior_from_unoccluded, to UnoccludedPrior of it.
+  // Hidden Gaussians (agreement channel 0: no context view observes them)
+  // keep their colour: the little weight they get where the surface in front
+  // is not quite opaque would only let them absorb its residuals.
+  // The gradients' prior pulls them to 0 (flat), relative in the same way.
+  const float lambda = static_cast<float>(options.prior_weight);
+  const float lambda_gradient = static_cast<float>(options.gradient_prior_weight);
+  const bool has_agreement = options.keep_hidden && stride > kAgreementChannel;
+  auto hidden_gaussian = [&](size_t i) {
+    return has_agreement && scene->features[i * stride + kAgreementChannel] <= 0.f;
+  };
+  // The preconditioner: per Gaussian, the inverse of its block of
+  // A^T M A + Lambda (1x1 for flat colours; 3x3, colour and its two
+  // gradients, with gradients), the same for the three channels. The
+  // colour and its gradients of one disc share every pixel, so their block
+  // is far from diagonal, and by the diagonal alone the fit converged
+  // slowly (docs/QUALITY.md, "The method as built").
+  std::vector<float> prior(per * n);
+  std::vector<float> inverse((kk == 3 ? 6 : 1) * n);
+  for (size_t i = 0; i < n; ++i) {
+    const float* sum = &sums[kSums * i];
+    const bool hidden = hidden_gaussian(i);
+    const float data =
+        hidden || !options.prior_from_unoccluded ? sum[0] : UnoccludedPrior(sum[0], sum[6]);
+    const float prior_colour = (hidden ? kHiddenPrior : lambda) * (data + kPriorFloor);
+    for (int c = 0; c < 3; ++c) prior[per * i + kk * c] = prior_colour;
+    if (kk == 1) {
+      inverse[i] = 1.f / (sum[0] + prior_colour);
+      continue;
+    }
+    const float gradient = hidden ? kHiddenPrior : lambda_gradient;
+    const float prior_u = gradient * (sum[1] + kPriorFloor);
+    const float prior_v = gradient * (sum[2] + kPriorFloor);
+    for (int c = 0; c < 3; ++c) {
+      prior[per * i + 3 * c + 1] = prior_u;
+      prior[per * i + 3 * c + 2] = prior_v;
+    }
+    InvertSymmetric3(sum[0] + prior_colour, sum[3], sum[4], sum[1] + prior_u, sum[5],
+                     sum[2] + prior_v, &inverse[6 * i]);
+  }
+  std::vector<float>().swap(sums);
+  // z_i = (block i)^-1 r_i for Gaussian i.
+  auto precondition = [&](size_t i, const float* r, float* z) {
+    if (kk == 1) {
+      for (int c = 0; c < 3; ++c) z[c] = inverse[i] * r[c];
+      return;
+    }
+    const float* m = &inverse[6 * i];
+    for (int c = 0; c < 3; ++c) {
+      const float r0 = r[3 * c], r1 = r[3 * c + 1], r2 = r[3 * c + 2];
+      z[3 * c] = m[0] * r0 + m[1] * r1 + m[2] * r2;
+      z[3 * c + 1] = m[1] * r0 + m[3] * r1 + m[4] * r2;
+      z[3 * c + 2] = m[2] * r0 + m[4] * r1 + m[5] * r2;
+    }
+  };
+  // Runs body(i, &sum) for every Gaussian i on the pool, in blocks of a
+  // fixed size, and returns the per-channel sums it adds up: the blocks'
+  // sums are added in block order, so they do not depend on the thread
+  // count. The vector updates of an iteration are three such passes.
+  constexpr int64_t kBlock = 16384;
+  const int64_t num_blocks = (static_cast<int64_t>(n) + kBlock - 1) / kBlock;
+  std::vector<Channels> block_sums(num_blocks);
+  auto for_gaussians = [&](const auto& body) {
+    DefaultThreadPool().ParallelFor(0, num_blocks, 1, [&](int64_t b, int64_t e) {
+      for (int64_t block = b; block < e; ++block) {
+        Channels sum{0, 0, 0};
+        const size_t end = std::min(n, static_cast<size_t>(block + 1) * kBlock);
+        for (size_t i = static_cast<size_t>(block) * kBlock; i < end; ++i) body(i, &sum);
+        block_sums[block] = sum;
+      }
+    });
+    Channels total{0, 0, 0};
+    for (const Channels& sum : block_sums)
+      for (int c = 0; c < 3; ++c) total[c] += sum[c];
+    return total;
+  };
+
+  // Preconditioned conjugate gradients, the three channels side by side.
+  std::vector<float> z(per * n), p(per * n), q;
+  Channels rz = for_gaussians([&](size_t i, Channels* sum) {
+    const size_t k = per * i;
+    precondition(i, &r[k], &z[k]);
+    for (int j = 0; j < per; ++j) {
+      p[k + j] = z[k + j];
+      (*sum)[j / kk] += double(r[k + j]) * z[k + j];
+    }
+  });
+  for (int iteration = 0; iteration < options.iterations; ++iteration) {
+    // q = (A^T M A + Lambda) p.
+    for_views(
+        [&](const FitView& view, ViewScratch* s) {
+          Gather(view, layout, p, s);
+          AccumulateNormal(view.a, view.fitted, s->local_in.data(), s->local_out.data());
+        },
+        &q);
+    const Channels pq = for_gaussians([&](size_t i, Channels* sum) {
+      for (size_t k = per * i, j = 0; j < size_t(per); ++j, ++k) {
+        q[k] += prior[k] * p[k];
+        (*sum)[j / kk] += double(p[k]) * q[k];
+      }
+    });
+    float step[3];
+    for (int c = 0; c < 3; ++c) step[c] = pq[c] > 0 ? static_cast<float>(rz[c] / pq[c]) : 0.f;
+    // x += step p, r -= step q, z = M^-1 r.
+    const Channels rz_next = for_gaussians([&](size_t i, Channels* sum) {
+      const size_t k = per * i;
+      for (int j = 0; j < per; ++j) {
+        x[k + j] += step[j / kk] * p[k + j];
+        r[k + j] -= step[j / kk] * q[k + j];
+      }
+      precondition(i, &r[k], &z[k]);
+      for (int j = 0; j < per; ++j) (*sum)[j / kk] += double(r[k + j]) * z[k + j];
+    });
+    float beta[3];
+    for (int c = 0; c < 3; ++c) beta[c] = rz[c] > 0 ? static_cast<float>(rz_next[c] / rz[c]) : 0.f;
+    for_gaussians([&](size_t i, Channels*) {
+      for (size_t k = per * i, j = 0; j < size_t(per); ++j, ++k) p[k] = z[k] + beta[j / kk] * p[k];
+    });
+    rz = rz_next;
+  }
+
+  // Gradients are fitted here or not at all (flat colours drop old ones).
+  if (gradients) {
+    scene->colour_gradients.assign(6 * n, 0.f);
+  } else {
+    scene->colour_gradients.clear();
+  }
+  for (size_t i = 0; i < n; ++i) {
+    for (int c = 0; c < 3; ++c) {
+      float* xc = &x[per * i + kk * c];
+      xc[0] = std::clamp(xc[0], options.min_colour, options.max_colour);
+      scene->features[i * stride + c] = xc[0];
+      for (int g = 1; g < kk; ++g) {
+        // Hidden Gaussians stay flat (their prior only nearly pins them).
+        xc[g] = hidden_gaussian(i) ? 0.f
+                                   : std::clamp(xc[g], -options.max_gradient, options.max_gradient);
+        scene->colour_gradients[6 * i + 2 * c + g - 1] = xc[g];
+      }
+    }
+  }
+  for_views(
+      [&](const FitView& view, ViewScratch* s) {
+        Gather(view, layout, x, s);
+        view_sums[&view - fit.data()] = Residual(view, s);
+      },
+      nullptr);
+  stats.rmse_after = total_rmse();
+  return stats;
+}
+
+}  // namespace pf

@@ -1,0 +1,79 @@
+// Fused queries to Gaussians: surface discs sized by their footprint.
+#include "engine/recon/gaussian_decoder.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "common/thread_pool.h"
+
+namespace pf {
+namespace {
+
+// The agreement channel of a visible query is at least this.
+constexpr float kMinAgreement = 1e-6f;
+
+}  // namespace
+
+Quat DiscFrame(const Vec3& normal_in, const Vec3& ray_in, double max_stretch, double* stretch) {
+  const Vec3 n = Normalized(normal_in);
+  const Vec3 ray = Normalized(ray_in);
+  const double cos_theta = std::abs(Dot(n, ray));
+  *stretch = std::min(max_stretch, 1.0 / std::max(cos_theta, 1e-6));
+  Vec3 t1 = ray - Dot(ray, n) * n;
+  if (Norm(t1) < 1e-6) {
+    // Seen head-on: any tangent will do.
+    t1 = std::abs(n.x) < 0.9 ? Cross(n, Vec3{1, 0, 0}) : Cross(n, Vec3{0, 1, 0});
+  }
+  t1 = Normalized(t1);
+  const Vec3 t2 = Cross(n, t1);
+  return FromMatrix(Mat3::FromColumns(t1, t2, n));
+}
+
+GaussianScene DecodeGaussians(const QuerySet& queries, const FusedQueries& fused,
+                              const std::vector<int64_t>& view_times_us, int64_t time_origin_us,
+                              const std::vector<InstanceTrack>& tracks,
+                              const DecoderOptions& options) {
+  GaussianScene scene;
+  scene.num_channels = kReconChannels;
+  scene.sh_degree = -1;
+  scene.time_origin_us = time_origin_us;
+  scene.low_pass = options.low_pass;
+  scene.instances = tracks;
+  const size_t n = queries.size();
+  scene.Resize(n);
+  DefaultThreadPool().ParallelFor(0, static_cast<int64_t>(n), 4096, [&](int64_t b, int64_t e) {
+    for (int64_t i = b; i < e; ++i) {
+      for (int c = 0; c < 3; ++c) scene.means[3 * i + c] = queries.positions[3 * i + c];
+      double stretch = 1;
+      const Quat q = DiscFrame(queries.normal(i), queries.ray(i), options.max_stretch, &stretch);
+      scene.rotations[4 * i] = float(q.w);
+      scene.rotations[4 * i + 1] = float(q.x);
+      scene.rotations[4 * i + 2] = float(q.y);
+      scene.rotations[4 * i + 3] = float(q.z);
+      const double f = std::max(1e-6, double(queries.footprints[i]));
+      scene.log_scales[3 * i] = float(std::log(options.tangent_sigma * f * stretch));
+      scene.log_scales[3 * i + 1] = float(std::log(options.tangent_sigma * f));
+      scene.log_scales[3 * i + 2] = float(std::log(options.normal_sigma * f));
+      const bool hidden = queries.is_hidden(i);
+      const double a = std::clamp(double(fused.agreement[i]), 0.0, 1.0);
+      const double opacity =
+          hidden ? options.max_opacity
+                 : options.min_opacity + (options.max_opacity - options.min_opacity) * a;
+      scene.opacity_logits[i] = float(std::log(opacity / (1 - opacity)));
+      float* feat = &scene.features[static_cast<size_t>(i) * kReconChannels];
+      // A hidden query has no observation of its own (its source view sees
+      // the foreground there): it keeps the background colour it was given.
+      const float* rgb = hidden ? &queries.rgb[3 * i] : &fused.rgb[3 * i];
+      for (int c = 0; c < 3; ++c) feat[c] = std::clamp(rgb[c], 0.f, 1.f);
+      for (int c = 0; c < 3; ++c) feat[3 + c] = queries.normals[3 * i + c];
+      // 0 marks hidden queries only.
+      feat[kAgreementChannel] = hidden ? 0.f : std::max(float(a), kMinAgreement);
+      scene.times[i] = float((view_times_us[queries.views[i]] - time_origin_us) * 1e-6);
+      scene.lifespans[i] = fused.lifespans[i];
+      scene.owners[i] = queries.owners[i];
+    }
+  });
+  return scene;
+}
+
+}  // namespace pf

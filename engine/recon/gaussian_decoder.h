@@ -1,0 +1,69 @@
+// Gaussian decoding (DESIGN.md section 3, step 6), analytic: each fused
+// query becomes one 3D Gaussian of the scene.
+//
+// - Mean: the query's position (world, or the instance's canonical frame).
+// - Features (kReconChannels = 7): [0..2] fused RGB (a hidden query's own
+//   colour: fusion sees the foreground in front of it), [3..5] the unit surface
+//   normal (same frame as the mean), [6] multi-view agreement in (0, 1], 0
+//   for a hidden query (no view observes it; colour_refinement.h keeps its
+//   colour).
+//   The renderer's RGB is the first three channels (identity decoder).
+// - Rotation and scale: a flat disc on the local surface. Its axes are t1
+//   (the source ray projected on the tangent plane), t2 = n x t1 and the
+//   normal n. Across the ray the spacing of neighbouring queries is the
+//   footprint f (depth / focal x sampling stride); along t1 the surface is
+//   seen at a slant, so the spacing there is f / |cos theta| (theta between
+//   ray and normal, the stretch capped at max_stretch). Standard deviations
+//   are tangent_sigma times those spacings, and normal_sigma x f across.
+// - Opacity: min_opacity + (max_opacity - min_opacity) x agreement (a
+//   hidden query takes max_opacity: it stands for an opaque surface).
+// - Time: the source view's time (seconds since time_origin_us); lifespan
+//   from fusion.
+// - The scene's screen-space low-pass (GaussianScene::low_pass) is
+//   options.low_pass, 0.1 px^2: about the one-pixel box the camera images
+//   integrate over, where the 3DGS default 0.3 blurs every render by more
+//   than that (docs/QUALITY.md: +0.4-0.7 dB on synth, chosen with
+//   tangent_sigma 0.65 on CONTEXT self-renders and on seed 7).
+#ifndef POINTFORWARD_ENGINE_RECON_GAUSSIAN_DECODER_H_
+#define POINTFORWARD_ENGINE_RECON_GAUSSIAN_DECODER_H_
+
+#include <cstdint>
+#include <vector>
+
+#include "engine/recon/context_views.h"
+#include "engine/recon/fusion.h"
+#include "engine/recon/query_set.h"
+#include "engine/render/gaussian_scene.h"
+
+namespace pf {
+
+// Feature channels of reconstructed scenes.
+inline constexpr int kReconChannels = 7;
+// The channel of multi-view agreement; 0 marks a hidden Gaussian.
+inline constexpr int kAgreementChannel = 6;
+
+struct DecoderOptions {
+  double tangent_sigma = 0.65;  // Std-dev along the surface per query spacing.
+  double normal_sigma = 0.1;    // Std-dev across the surface per footprint.
+  double max_stretch = 4.0;     // Cap of 1 / |cos theta|.
+  double min_opacity = 0.5;
+  double max_opacity = 0.98;
+  float low_pass = 0.1f;  // The scene's screen-space low-pass, pixels^2.
+};
+
+// Returns the scene of `queries` fused as `fused`. `view_times_us[v]` is the
+// time of view v; `time_origin_us` becomes the scene's time origin; `tracks`
+// become its instances (instance k owns queries with owner k + 1).
+GaussianScene DecodeGaussians(const QuerySet& queries, const FusedQueries& fused,
+                              const std::vector<int64_t>& view_times_us, int64_t time_origin_us,
+                              const std::vector<InstanceTrack>& tracks,
+                              const DecoderOptions& options = {});
+
+// Returns the rotation (as a quaternion) whose columns are the disc axes
+// (t1, t2, n) for a surface of normal `normal` seen along `ray`, and the
+// slant stretch 1 / |cos theta| (capped at `max_stretch`).
+Quat DiscFrame(const Vec3& normal, const Vec3& ray, double max_stretch, double* stretch);
+
+}  // namespace pf
+
+#endif  // POINTFORWARD_ENGINE_RECON_GAUSSIAN_DECODER_H_

@@ -1,0 +1,111 @@
+// Tests of decoding fused queries into Gaussians.
+#include "engine/recon/gaussian_decoder.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+
+namespace pf {
+namespace {
+
+TEST(GaussianDecoder, DiscFrameLiesOnTheSurfaceAndStretchesWithSlant) {
+  double stretch = 0;
+  const Vec3 normal{0, 0, 1};
+  const Vec3 ray = Normalized(Vec3{1, 0, -1});  // 45 degrees to the surface.
+  const Mat3 r = ToMatrix(DiscFrame(normal, ray, 4.0, &stretch));
+  EXPECT_NEAR(stretch, std::sqrt(2.0), 1e-9);
+  EXPECT_NEAR(r.Col(2).z, 1.0, 1e-9);  // Third axis is the normal.
+  EXPECT_NEAR(r.Col(0).x, 1.0, 1e-9);  // First axis along the ray's tangent part.
+  EXPECT_NEAR(Determinant(r), 1.0, 1e-9);
+  // Grazing views are capped.
+  DiscFrame(normal, Normalized(Vec3{1, 0, -0.01}), 4.0, &stretch);
+  EXPECT_DOUBLE_EQ(stretch, 4.0);
+  // Head-on: no stretch, still a valid frame.
+  const Mat3 head_on = ToMatrix(DiscFrame(normal, Vec3{0, 0, -1}, 4.0, &stretch));
+  EXPECT_DOUBLE_EQ(stretch, 1.0);
+  EXPECT_NEAR(head_on.Col(2).z, 1.0, 1e-9);
+}
+
+TEST(GaussianDecoder, DecodesScaleOpacityFeaturesAndTime) {
+  QuerySet q;
+  q.positions = {1, 2, 3, 4, 5, 6};
+  q.rgb = {0, 0, 0, 0, 0, 0};
+  q.normals = {0, 0, -1, 0, 0, -1};
+  q.rays = {0, 0, 1, 0, 0, 1};
+  q.depths = {3, 6};
+  q.footprints = {0.5f, 0.1f};
+  q.views = {0, 1};
+  q.pixels = {0, 0};
+  q.owners = {0, 1};
+  q.far = {0, 0};
+  FusedQueries f;
+  f.rgb = {0.2f, 0.4f, 0.6f, 1.5f, 0.5f, -1.f};
+  f.agreement = {1.f, 0.f};
+  f.lifespans = {std::numeric_limits<float>::infinity(), 0.25f};
+  f.observations = {3, 1};
+  InstanceTrack car;
+  car.id = "car";
+  car.boxes = {{0, {0, 0, 0}, {1, 1, 1}, Quat{}}};
+  DecoderOptions options;
+  const GaussianScene scene = DecodeGaussians(q, f, {1000000, 1500000}, 1000000, {car}, options);
+  ASSERT_EQ(scene.size(), 2u);
+  EXPECT_EQ(scene.num_channels, kReconChannels);
+  EXPECT_EQ(scene.low_pass, 0.1f);  // Not the 3DGS default the renderer assumes otherwise.
+  EXPECT_FLOAT_EQ(scene.means[4], 5.f);
+  EXPECT_NEAR(std::exp(scene.log_scales[0]), 0.65 * 0.5, 1e-6);  // Head-on: no stretch.
+  EXPECT_NEAR(std::exp(scene.log_scales[1]), 0.65 * 0.5, 1e-6);
+  EXPECT_NEAR(std::exp(scene.log_scales[2]), 0.1 * 0.5, 1e-6);
+  EXPECT_NEAR(1 / (1 + std::exp(-scene.opacity_logits[0])), 0.98, 1e-5);
+  EXPECT_NEAR(1 / (1 + std::exp(-scene.opacity_logits[1])), 0.5, 1e-5);
+  EXPECT_FLOAT_EQ(scene.features[1], 0.4f);
+  EXPECT_FLOAT_EQ(scene.features[kReconChannels + 0], 1.f);  // Clamped to [0, 1].
+  EXPECT_FLOAT_EQ(scene.features[kReconChannels + 2], 0.f);
+  EXPECT_FLOAT_EQ(scene.features[5], -1.f);  // Normal z.
+  EXPECT_FLOAT_EQ(scene.features[6], 1.f);   // Agreement.
+  EXPECT_FLOAT_EQ(scene.times[0], 0.f);
+  EXPECT_FLOAT_EQ(scene.times[1], 0.5f);
+  EXPECT_TRUE(std::isinf(scene.lifespans[0]));
+  EXPECT_FLOAT_EQ(scene.lifespans[1], 0.25f);
+  EXPECT_EQ(scene.owners[1], 1u);
+  ASSERT_EQ(scene.instances.size(), 1u);
+  EXPECT_EQ(scene.instances[0].id, "car");
+}
+
+TEST(GaussianDecoder, HiddenQueriesKeepTheirColourAndAreMarked) {
+  // Query 1 is hidden: fusion saw the foreground in front of it (fused
+  // colour green), its own colour is the background's (red). It keeps red,
+  // is opaque like a fully agreeing surface and has agreement 0; query 0 is
+  // decoded as usual (a fused agreement of 0 is not written as 0).
+  QuerySet q;
+  q.positions = {0, 0, 5, 0, 0, 10};
+  q.rgb = {0, 0, 1, 1, 0, 0};
+  q.normals = {0, 0, -1, 0, 0, -1};
+  q.rays = {0, 0, 1, 0, 0, 1};
+  q.depths = {5, 10};
+  q.footprints = {0.1f, 0.2f};
+  q.views = {0, 0};
+  q.pixels = {0, 0};
+  q.owners = {0, 0};
+  q.far = {0, 0};
+  q.hidden = {0, 1};
+  FusedQueries f;
+  f.rgb = {0, 1, 0, 0, 1, 0};
+  f.agreement = {0.f, 0.5f};
+  f.lifespans.assign(2, std::numeric_limits<float>::infinity());
+  f.observations = {1, 1};
+  const GaussianScene scene = DecodeGaussians(q, f, {0}, 0, {}, DecoderOptions{});
+  ASSERT_EQ(scene.size(), 2u);
+  EXPECT_FLOAT_EQ(scene.features[0], 0.f);  // Query 0: fused green.
+  EXPECT_FLOAT_EQ(scene.features[1], 1.f);
+  EXPECT_GT(scene.features[kAgreementChannel], 0.f);
+  EXPECT_NEAR(1 / (1 + std::exp(-scene.opacity_logits[0])), 0.5, 1e-5);
+  const float* hidden = &scene.features[kReconChannels];
+  EXPECT_FLOAT_EQ(hidden[0], 1.f);  // Its own red, not the fused green.
+  EXPECT_FLOAT_EQ(hidden[1], 0.f);
+  EXPECT_FLOAT_EQ(hidden[kAgreementChannel], 0.f);
+  EXPECT_NEAR(1 / (1 + std::exp(-scene.opacity_logits[1])), 0.98, 1e-5);
+}
+
+}  // namespace
+}  // namespace pf

@@ -1,0 +1,208 @@
+// The reconstruction's stages: see pipeline.h.
+#include "engine/recon/pipeline.h"
+
+// The generated protobuf header first (see image_io.h).
+#include <chrono>
+#include <utility>
+
+#include "absl/strings/str_cat.h"
+#include "common/status_macros.h"
+#include "engine/recon/scene_graph.h"
+#include "pointforward/v1/clip.pb.h"
+#if PF_HAVE_TORCH
+#include "engine/recon/tensor_fusion.h"
+#endif
+
+namespace pf {
+namespace {
+
+double Now() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+}  // namespace
+
+Pipeline::Pipeline(const ReconInputs& inputs, const ReconOptions& options, bool colour_gradients)
+    : inputs_(inputs), options_(options), colour_gradients_(colour_gradients) {
+  start_ = last_ = Now();
+  const std::vector<ContextView>& views = inputs.views;
+  ReconStats& stats = result_.stats;
+  stats.views = static_cast<int>(views.size());
+  stats.instances = static_cast<int>(inputs.tracks.size());
+  const int width = views.empty() ? 0 : views[0].width();
+  const int height = views.empty() ? 0 : views[0].height();
+  stats.static_per_view = options.static_per_view > 0
+                              ? options.static_per_view
+                              : ScaledBudget(kDefaultStaticPerView, width, height);
+  stats.dynamic_per_instance = options.dynamic_per_instance > 0
+                                   ? options.dynamic_per_instance
+                                   : ScaledBudget(kDefaultDynamicPerInstance, width, height);
+}
+
+void Pipeline::Done(ReconStage stage, std::string detail) {
+  const double now = Now();
+  result_.stats.stage_seconds.emplace_back(ReconStageName(stage), now - last_);
+  if (options_.progress) {
+    ReconProgress done;
+    done.kind = ReconProgress::Kind::kStageDone;
+    done.stage = stage;
+    done.seconds = now - last_;
+    done.detail = std::move(detail);
+    options_.progress(done);
+  }
+  last_ = now;
+}
+
+absl::Status Pipeline::Depth() {
+  const std::vector<ContextView>& views = inputs_.views;
+  if (views.empty()) return absl::InvalidArgumentError("no context views");
+  ReconStats& stats = result_.stats;
+  const size_t num_views = views.size();
+  depth_stage_ = MeasureViewDepths(views, inputs_.sweeps, inputs_.tracks, options_.completion);
+  stats.lidar_views = depth_stage_.lidar_views;
+  stats.sparse_map_views = depth_stage_.sparse_map_views;
+  stats.ground_pixels = depth_stage_.ground_pixels;
+  stats.facade_pixels = depth_stage_.facade_pixels;
+  depths_ = AddFarLayer(views, &depth_stage_);
+  stats.views_without_depth = depth_stage_.views_without_depth;
+  const std::string sparse_maps =
+      depth_stage_.sparse_map_views > 0
+          ? absl::StrCat(", ", depth_stage_.sparse_map_views, " from sparse depth maps, completed")
+          : "";
+  Done(ReconStage::kDepth,
+       absl::StrCat(" (", stats.lidar_views, " of ", num_views, " views from LiDAR", sparse_maps,
+                    ", ", stats.ground_pixels, " pixels from the ground plane, ",
+                    stats.facade_pixels, " from facades, far layer radius ",
+                    depth_stage_.far.radius, " m)"));
+  if (stats.views_without_depth > 0) {
+    ReportNote(options_.progress, ReconStage::kDepth,
+               absl::StrCat("warning: ", stats.views_without_depth, " of ", num_views,
+                            " views have no depth map and no LiDAR point; all their pixels "
+                            "are on the far layer"));
+  }
+  return absl::OkStatus();
+}
+
+void Pipeline::Lift() {
+  const size_t num_views = inputs_.views.size();
+  lifted_.resize(num_views);
+  for (size_t v = 0; v < num_views; ++v) lifted_[v] = LiftView(inputs_.views[v], depths_[v]);
+  Done(ReconStage::kLift);
+}
+
+void Pipeline::SceneGraph() {
+  const std::vector<ContextView>& views = inputs_.views;
+  const size_t num_views = views.size();
+  owners_.resize(num_views);
+  masks_.resize(num_views);
+  for (size_t v = 0; v < num_views; ++v) {
+    owners_[v] = PixelOwners(lifted_[v], depths_[v], inputs_.tracks, views[v].timestamp_us);
+    masks_[v] = DynamicMask(views[v].camera, views[v].world_from_camera, inputs_.tracks,
+                            views[v].timestamp_us, kMembershipMargin.grow);
+  }
+  Done(ReconStage::kSceneGraph);
+}
+
+void Pipeline::Sample(bool dense) {
+  const size_t num_views = inputs_.views.size();
+  SamplingOptions sampling;
+  sampling.static_per_view = result_.stats.static_per_view;
+  sampling.dynamic_per_instance = result_.stats.dynamic_per_instance;
+  sampling.far_stride = options_.far_stride;
+  sampling.skip_covered = options_.skip_covered;
+  sampling.fill_static_budget = options_.fill_static_budget;
+  sampling.behind_band_px = options_.hidden_band_px;
+  sampling.dense = dense;
+  std::vector<SamplingView> sampling_views(num_views);
+  for (size_t v = 0; v < num_views; ++v) {
+    sampling_views[v] = {&inputs_.views[v], &depths_[v], &lifted_[v], &owners_[v]};
+  }
+  queries_ = SampleQueries(sampling_views, inputs_.tracks, sampling);
+  lifted_.clear();
+  Done(ReconStage::kSample, absl::StrCat(" (", queries_.size(), " queries)"));
+}
+
+absl::Status Pipeline::Fuse() {
+  const size_t num_views = inputs_.views.size();
+  std::vector<FusionView> fusion_views(num_views);
+  for (size_t v = 0; v < num_views; ++v) {
+    fusion_views[v] = {&inputs_.views[v], &depths_[v], &masks_[v]};
+  }
+#if PF_HAVE_TORCH
+  ASSIGN_OR_RETURN(fused_, FuseQueriesOnDevice(queries_, fusion_views, inputs_.tracks,
+                                               options_.fusion, options_.device));
+  Done(ReconStage::kFuse, absl::StrCat(" (LibTorch on ", options_.device.ToString(), ")"));
+#else
+  fused_ = FuseQueries(queries_, fusion_views, inputs_.tracks, options_.fusion);
+  Done(ReconStage::kFuse, " (C++ on cpu)");
+#endif
+  return absl::OkStatus();
+}
+
+void Pipeline::KeepQueriesUnfused() {
+  fused_ = UnfusedQueries(queries_);
+  Done(ReconStage::kFuse, " (none: one Gaussian per pixel)");
+}
+
+void Pipeline::Decode() {
+  const size_t num_views = inputs_.views.size();
+  std::vector<int64_t> times(num_views);
+  for (size_t v = 0; v < num_views; ++v) times[v] = inputs_.views[v].timestamp_us;
+  result_.scene = DecodeGaussians(queries_, fused_, times, inputs_.time_origin_us, inputs_.tracks,
+                                  options_.decoder);
+  result_.scene.colour_encoding = inputs_.colour_encoding;
+  ReconStats& stats = result_.stats;
+  for (size_t i = 0; i < queries_.size(); ++i) {
+    if (queries_.owners[i] == 0) {
+      ++stats.static_gaussians;
+      stats.far_gaussians += queries_.far[i];
+    } else {
+      ++stats.dynamic_gaussians;
+    }
+  }
+  Done(ReconStage::kDecode);
+}
+
+absl::Status Pipeline::FitColours() {
+  if (options_.refinement.iterations <= 0) return absl::OkStatus();
+  RefinementOptions refinement = options_.refinement;
+  refinement.colour_gradients = colour_gradients_;
+  ASSIGN_OR_RETURN(const RefinementStats refined,
+                   RefineColours(inputs_.views, refinement, &result_.scene));
+  const int max_stride = options_.refinement.max_pixel_stride;
+  std::string detail = refined.flat_fallback
+                           ? absl::StrCat(
+                                 "; flat colours: with gradients the weights pass the memory bound "
+                                 "even on 1 pixel in ",
+                                 max_stride)
+                           : "";
+  if (refined.pixel_stride > 1) {
+    absl::StrAppend(&detail, "; fitted on 1 pixel in ", refined.pixel_stride,
+                    " of each view to stay within the memory bound");
+  }
+  if (!refined.skipped_over_budget && refined.pixels > 0) {
+    result_.stats.colour_fit_pixel_stride = refined.pixel_stride;
+  }
+  if (refined.skipped_over_budget) {
+    Done(ReconStage::kRefine,
+         absl::StrCat(" (skipped: the context views' weights pass the fit's memory bound, ",
+                      absl::SixDigits(1e-9 * double(kWeightUnitBytes) *
+                                      double(options_.refinement.max_pairs)),
+                      " GB, even on 1 pixel in ", max_stride,
+                      " of each view; colours kept as decoded)"));
+  } else {
+    Done(ReconStage::kRefine, absl::StrCat(" (", refined.pairs, " pixel-Gaussian pairs, ",
+                                           absl::SixDigits(double(refined.weight_bytes) / 1e9),
+                                           " GB of weights, context RMSE ", refined.rmse_before,
+                                           " -> ", refined.rmse_after, detail, ")"));
+  }
+  return absl::OkStatus();
+}
+
+ReconResult Pipeline::Finish() {
+  result_.stats.colour_gradients = result_.scene.has_colour_gradients();
+  result_.stats.total_seconds = Now() - start_;
+  return std::move(result_);
+}
+
+}  // namespace pf

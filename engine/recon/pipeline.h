@@ -1,0 +1,76 @@
+// The stages a reconstruction model is built from, as the paper names them
+// (recon_stages.h lists them): depth, lifting, scene graph, sampling,
+// fusion, decoding, the colour fit. A model (models/) runs them in turn on
+// one Pipeline; each stage records its time in the result's stats and
+// reports itself through ReconOptions::progress. A learned model replaces
+// Fuse (phi, phi_c, phi_v) and Decode and keeps the rest.
+//
+//   Pipeline p(inputs, options, /*colour_gradients=*/true);
+//   RETURN_IF_ERROR(p.Depth());
+//   p.Lift();  p.SceneGraph();  p.Sample(/*dense=*/false);
+//   RETURN_IF_ERROR(p.Fuse());
+//   p.Decode();
+//   RETURN_IF_ERROR(p.FitColours());
+//   return p.Finish();
+#ifndef POINTFORWARD_ENGINE_RECON_PIPELINE_H_
+#define POINTFORWARD_ENGINE_RECON_PIPELINE_H_
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "absl/status/status.h"
+#include "engine/recon/depth_stage.h"
+#include "engine/recon/query_lifting.h"
+#include "engine/recon/query_set.h"
+#include "engine/recon/recon_stages.h"
+#include "engine/recon/reconstruction.h"
+
+namespace pf {
+
+class Pipeline {
+ public:
+  // `inputs` and `options` must outlive the pipeline; `colour_gradients`
+  // is what FitColours fits (ReconOptions::colour_gradients, else the
+  // model's default).
+  Pipeline(const ReconInputs& inputs, const ReconOptions& options, bool colour_gradients);
+
+  // 1. Each view's depth: measured (map or LiDAR, completed), facades, the far layer.
+  absl::Status Depth();
+  // 2. Every pixel lifted to the world.
+  void Lift();
+  // 3. Box membership of the lifted points, and the dynamic masks.
+  void SceneGraph();
+  // 4. Queries: N_s per view and N_d per instance, or every valid pixel (`dense`).
+  void Sample(bool dense);
+  // 5. Fusion of every query across the context views (fusion.h), on options.device.
+  absl::Status Fuse();
+  // 5'. No fusion: each query keeps its own pixel's colour (one Gaussian per pixel).
+  void KeepQueriesUnfused();
+  // 6. Queries to Gaussians.
+  void Decode();
+  // 7. The colour fit against the context images (when iterations > 0).
+  absl::Status FitColours();
+  // The scene and its statistics.
+  ReconResult Finish();
+
+ private:
+  void Done(ReconStage stage, std::string detail = "");
+
+  const ReconInputs& inputs_;
+  const ReconOptions& options_;
+  const bool colour_gradients_;
+  ReconResult result_;
+  double start_ = 0, last_ = 0;
+  DepthStage depth_stage_;
+  std::vector<ViewDepth> depths_;
+  std::vector<LiftedView> lifted_;
+  std::vector<std::vector<uint32_t>> owners_;
+  std::vector<std::vector<uint8_t>> masks_;
+  QuerySet queries_;
+  FusedQueries fused_;
+};
+
+}  // namespace pf
+
+#endif  // POINTFORWARD_ENGINE_RECON_PIPELINE_H_

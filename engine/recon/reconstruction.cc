@@ -1,0 +1,69 @@
+// Loading a reconstruction's inputs and running the model the options name.
+#include "engine/recon/reconstruction.h"
+
+#include <algorithm>
+#include <chrono>
+
+#include "absl/strings/str_cat.h"
+#include "common/status_macros.h"
+#include "engine/recon/recon_model.h"
+
+namespace pf {
+
+absl::Status SetTracksFromClip(const pointforward::v1::Clip& clip, ReconInputs* inputs) {
+  ASSIGN_OR_RETURN(std::vector<InstanceTrack> tracks, TracksFromClip(clip));
+  inputs->tracks.clear();
+  for (InstanceTrack& track : tracks)
+    if (!track.boxes.empty()) inputs->tracks.push_back(std::move(track));
+  inputs->time_origin_us = ClipTimeOrigin(clip);
+  return absl::OkStatus();
+}
+
+absl::StatusOr<ReconInputs> LoadReconInputs(const LoadedClip& loaded, const ReconOptions& options) {
+  ReconInputs inputs;
+  LoadViewsOptions view_options;
+  view_options.allow_outside_paths = options.allow_outside_paths;
+  view_options.colour_encoding = options.colour_encoding;
+  inputs.colour_encoding = options.colour_encoding;
+  ASSIGN_OR_RETURN(inputs.views, LoadContextViews(loaded, view_options));
+  if (inputs.views.empty()) {
+    return absl::InvalidArgumentError("frames: the clip has no CONTEXT frame to reconstruct from");
+  }
+  RETURN_IF_ERROR(SetTracksFromClip(loaded.clip, &inputs));
+  // LiDAR only matters for views without a depth map.
+  const bool need_lidar = std::any_of(inputs.views.begin(), inputs.views.end(),
+                                      [](const ContextView& v) { return v.depth.width == 0; });
+  if (need_lidar) {
+    ASSIGN_OR_RETURN(inputs.sweeps, LoadLidarSweeps(loaded, options.allow_outside_paths));
+  }
+  return inputs;
+}
+
+absl::StatusOr<ReconResult> ReconstructInputs(const ReconInputs& inputs,
+                                              const ReconOptions& options) {
+  if (inputs.views.empty()) return absl::InvalidArgumentError("no context views");
+  const ReconModel* model = FindReconModel(options.model);
+  if (model == nullptr) return CheckReconModel(options.model, "model");
+  RETURN_IF_ERROR(CheckComputeDevice(options.device, "device"));
+  return model->Reconstruct(inputs, options);
+}
+
+bool ColourGradientsFor(const ReconOptions& options) {
+  const ReconModel* model = FindReconModel(options.model);
+  return options.colour_gradients.value_or(model == nullptr || model->DefaultColourGradients());
+}
+
+absl::StatusOr<ReconResult> Reconstruct(const LoadedClip& loaded, const ReconOptions& options) {
+  const auto start = std::chrono::steady_clock::now();
+  ReportNote(options.progress, ReconStage::kLoad, "loading context frames");
+  ASSIGN_OR_RETURN(ReconInputs inputs, LoadReconInputs(loaded, options));
+  const double load_seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  ASSIGN_OR_RETURN(ReconResult result, ReconstructInputs(inputs, options));
+  result.stats.stage_seconds.insert(result.stats.stage_seconds.begin(),
+                                    {ReconStageName(ReconStage::kLoad), load_seconds});
+  result.stats.total_seconds += load_seconds;
+  return result;
+}
+
+}  // namespace pf

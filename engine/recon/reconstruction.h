@@ -1,0 +1,128 @@
+// Reconstruction: a clip's CONTEXT frames to a GaussianScene, by the model
+// the options name (recon_model.h: the analytic and pixel-aligned models,
+// each a folder under models/) from the stages of pipeline.h (depth,
+// lifting, scene graph, sparse sampling, fusion, decoding, the colour fit),
+// with the time of each stage.
+//
+//   ASSIGN_OR_RETURN(LoadedClip loaded, LoadClip(path));
+//   ASSIGN_OR_RETURN(ReconResult result, Reconstruct(loaded, {}));
+#ifndef POINTFORWARD_ENGINE_RECON_RECONSTRUCTION_H_
+#define POINTFORWARD_ENGINE_RECON_RECONSTRUCTION_H_
+
+#include <cstdint>
+#include <functional>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "engine/clip/clip_io.h"
+#include "engine/recon/colour_refinement.h"
+#include "engine/recon/compute_device.h"
+#include "engine/recon/context_views.h"
+#include "engine/recon/fusion.h"
+#include "engine/recon/gaussian_decoder.h"
+#include "engine/recon/recon_stages.h"
+#include "engine/recon/sparse_sampling.h"
+#include "engine/recon/view_depth.h"
+#include "engine/render/gaussian_scene.h"
+
+namespace pf {
+
+struct ReconOptions {
+  std::string model = "analytic";  // A name of recon_model.h's registry.
+  // N_s and N_d; <= 0 means the paper's 100K / 10K scaled to the first
+  // context image's size relative to 768 x 576.
+  int64_t static_per_view = 0;
+  int64_t dynamic_per_instance = 0;
+  FusionOptions fusion;
+  DecoderOptions decoder;
+  RefinementOptions refinement;  // iterations = 0: no refinement.
+  // Whether the colour fit gives each Gaussian a colour gradient
+  // (GaussianScene::colour_gradients); unset: the model's default, on for
+  // analytic, off for pixel-aligned (one Gaussian per pixel has no room
+  // for a gradient inside its pixel).
+  // refinement.colour_gradients is overwritten with the result.
+  std::optional<bool> colour_gradients;
+  CompletionOptions completion;
+  int far_stride = 3;
+  bool skip_covered = true;
+  bool fill_static_budget = true;  // SamplingOptions::fill_static_budget.
+  int hidden_band_px = 256;        // SamplingOptions::behind_band_px (0: none).
+  bool allow_outside_paths = false;
+  // The working colour encoding: the context images are decoded to it, and
+  // the scene's colours are in it (GaussianScene::colour_encoding). Renders
+  // convert to linear for EXR and to sRGB for PNG either way.
+  ColourEncoding colour_encoding = ColourEncoding::kSrgb;
+  // Where fusion's tensor work runs (compute_device.h); without LibTorch in
+  // the build only the CPU, with the C++ kernel.
+  ComputeDevice device;
+  // Called after each stage and with notes (recon_stages.h); may be null.
+  ReconProgressFn progress;
+};
+
+struct ReconStats {
+  int views = 0;
+  int instances = 0;
+  int64_t static_per_view = 0;       // N_s used.
+  int64_t dynamic_per_instance = 0;  // N_d used.
+  int64_t static_gaussians = 0;      // Owner 0, far layer included.
+  int64_t far_gaussians = 0;
+  int64_t dynamic_gaussians = 0;
+  int lidar_views = 0;          // Views whose depth came from LiDAR.
+  int sparse_map_views = 0;     // Views whose sparse depth map was completed (view_depth.h).
+  int64_t ground_pixels = 0;    // Completed views' pixels set by the ground fill (view_depth.h).
+  int64_t facade_pixels = 0;    // Completed views' pixels set by facades (facade_depth.h).
+  int views_without_depth = 0;  // No depth map, no LiDAR point: all far layer.
+  // The scene's colours carry gradients (the fit ran with them; a fit over
+  // the memory bound with them falls back to flat colours).
+  bool colour_gradients = false;
+  // The colour fit's pixels: 1 in colour_fit_pixel_stride of each view (1:
+  // every pixel; 0: no fit ran).
+  int colour_fit_pixel_stride = 0;
+  std::vector<std::pair<std::string, double>> stage_seconds;  // In order.
+  double total_seconds = 0;
+};
+
+struct ReconResult {
+  GaussianScene scene;
+  ReconStats stats;
+};
+
+// Everything a reconstruction reads, decoded.
+struct ReconInputs {
+  std::vector<ContextView> views;
+  std::vector<LidarSweepData> sweeps;
+  std::vector<InstanceTrack> tracks;  // Only tracks with boxes.
+  int64_t time_origin_us = 0;
+  ColourEncoding colour_encoding = ColourEncoding::kSrgb;  // Of the views' rgb.
+};
+
+// Sets inputs->tracks to the tracks of `clip` that have boxes and
+// inputs->time_origin_us to its time origin (TracksFromClip,
+// ClipTimeOrigin): what a reconstruction takes of a clip beside its frames.
+absl::Status SetTracksFromClip(const pointforward::v1::Clip& clip, ReconInputs* inputs);
+
+// Loads the CONTEXT frames (in options.colour_encoding), LiDAR sweeps and
+// tracks of `loaded` (options.allow_outside_paths says which paths may be
+// read). INVALID_ARGUMENT when the clip has no CONTEXT frame; errors of the
+// loaders otherwise.
+absl::StatusOr<ReconInputs> LoadReconInputs(const LoadedClip& loaded, const ReconOptions& options);
+
+// Reconstructs decoded inputs with the model options.model names.
+// INVALID_ARGUMENT for no views or an unknown model; FAILED_PRECONDITION for
+// a device this process cannot use.
+absl::StatusOr<ReconResult> ReconstructInputs(const ReconInputs& inputs,
+                                              const ReconOptions& options);
+
+// Returns whether the colour fit of `options` gives the Gaussians colour
+// gradients (ReconOptions::colour_gradients, else the model's default).
+bool ColourGradientsFor(const ReconOptions& options);
+
+// LoadReconInputs then ReconstructInputs; the load is the first stage.
+absl::StatusOr<ReconResult> Reconstruct(const LoadedClip& loaded, const ReconOptions& options);
+
+}  // namespace pf
+
+#endif  // POINTFORWARD_ENGINE_RECON_RECONSTRUCTION_H_

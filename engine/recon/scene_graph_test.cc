@@ -1,0 +1,110 @@
+// Tests of box membership, canonicalisation and dynamic masks against
+// hand-computed points.
+#include "engine/recon/scene_graph.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+namespace pf {
+namespace {
+
+// A yaw rotation about world z by `degrees`.
+Quat Yaw(double degrees) {
+  const double half = 0.5 * degrees * M_PI / 180.0;
+  return {std::cos(half), 0, 0, std::sin(half)};
+}
+
+TEST(SceneGraph, PointInRotatedBox) {
+  TrackBox box;
+  box.center = {10, 0, 1};
+  box.size = {4, 2, 2};                         // Length 4 along the box x axis.
+  box.rotation = Yaw(90);                       // Box x axis is world +y.
+  EXPECT_TRUE(PointInBox({10, 1.9, 1}, box));   // 1.9 m along the box's length.
+  EXPECT_FALSE(PointInBox({11.9, 0, 1}, box));  // 1.9 m across: outside (half width 1).
+  EXPECT_TRUE(PointInBox({10.9, 0, 1}, box));
+  EXPECT_FALSE(PointInBox({10, 0, 2.1}, box));
+  EXPECT_TRUE(PointInBox({10, 0, 2.1}, box, {0.2, 0.0}));  // Grown by a margin.
+  EXPECT_TRUE(PointInBox({10, 0, 0.05}, box));
+  EXPECT_FALSE(PointInBox({10, 0, 0.05}, box, {0.2, 0.1}));  // The floor is raised.
+  EXPECT_TRUE(PointInBox({10, 2.15, 1}, box, kMembershipMargin));
+}
+
+TEST(SceneGraph, CanonicalisationMatchesHandComputedPoint) {
+  InstanceTrack track;
+  TrackBox first;
+  first.timestamp_us = 0;
+  first.center = {0, 0, 0};
+  first.size = {4, 2, 2};
+  first.rotation = Quat{};
+  TrackBox later = first;
+  later.timestamp_us = 1000000;
+  later.center = {10, 5, 0};
+  later.rotation = Yaw(90);
+  track.boxes = {first, later};
+  // At t = 1 s the box's +x points along world +y; a point 1 m ahead of the
+  // box centre is (10, 6, 0.5). In the canonical (first) box it is 1 m along
+  // +x: (1, 0, 0.5).
+  const Vec3 p = CanonicalFromWorld(track, 1000000) * Vec3{10, 6, 0.5};
+  EXPECT_NEAR(p.x, 1.0, 1e-9);
+  EXPECT_NEAR(p.y, 0.0, 1e-9);
+  EXPECT_NEAR(p.z, 0.5, 1e-9);
+  // Halfway in time: centre (5, 2.5, 0), yaw 45 degrees. The point 1 m ahead
+  // is (5 + cos45, 2.5 + sin45, 0).
+  const double s = std::sqrt(0.5);
+  const Vec3 q = CanonicalFromWorld(track, 500000) * Vec3{5 + s, 2.5 + s, 0};
+  EXPECT_NEAR(q.x, 1.0, 1e-9);
+  EXPECT_NEAR(q.y, 0.0, 1e-9);
+  // The formula p~ = R_1 R_t^T (p - c_t) + c_1 with a non-trivial first box.
+  track.boxes[0].center = {1, 2, 3};
+  track.boxes[0].rotation = Yaw(-90);
+  const Vec3 r = CanonicalFromWorld(track, 1000000) * Vec3{10, 6, 0.5};
+  // R_t^T (p - c_t) = (1, 0, 0.5); R_1 (yaw -90) maps x to -y: (0, -1, 0.5).
+  EXPECT_NEAR(r.x, 1.0, 1e-9);
+  EXPECT_NEAR(r.y, 1.0, 1e-9);
+  EXPECT_NEAR(r.z, 3.5, 1e-9);
+}
+
+TEST(SceneGraph, OwnerIsOneBasedAndTimeDependent) {
+  InstanceTrack a;
+  a.boxes = {{0, {0, 0, 0}, {2, 2, 2}, Quat{}}, {1000000, {10, 0, 0}, {2, 2, 2}, Quat{}}};
+  InstanceTrack b;
+  b.boxes = {{0, {0, 5, 0}, {2, 2, 2}, Quat{}}};
+  const std::vector<InstanceTrack> tracks = {a, b};
+  EXPECT_EQ(OwnerAt({0, 0, 0}, tracks, 0), 1u);
+  EXPECT_EQ(OwnerAt({0, 0, 0}, tracks, 1000000), 0u);  // The car moved on.
+  EXPECT_EQ(OwnerAt({5, 0, 0}, tracks, 500000), 1u);
+  EXPECT_EQ(OwnerAt({0, 5.5, 0}, tracks, 700000), 2u);  // b holds its only box.
+  EXPECT_EQ(OwnerAt({0, 3, 0}, tracks, 0), 0u);
+}
+
+TEST(SceneGraph, DynamicMaskCoversTheProjectedBox) {
+  // Camera at the origin looking along world +z (identity pose), 100 x 100,
+  // f = 100: a 2 x 2 x 2 box at z = 10 spans x, y in [-1, 1] -> pixels
+  // [40, 60).
+  const CameraModel camera(100, 100, 100, 100, 50, 50);
+  InstanceTrack track;
+  track.boxes = {{0, {0, 0, 10}, {2, 2, 2}, Quat{}}};
+  const std::vector<uint8_t> mask = DynamicMask(camera, Rigid{}, {track}, 0);
+  ASSERT_EQ(mask.size(), 10000u);
+  EXPECT_EQ(mask[50 * 100 + 50], 1);
+  EXPECT_EQ(mask[41 * 100 + 41], 1);
+  EXPECT_EQ(mask[58 * 100 + 58], 1);
+  EXPECT_EQ(mask[50 * 100 + 35], 0);
+  EXPECT_EQ(mask[30 * 100 + 50], 0);
+  int covered = 0;
+  for (uint8_t m : mask) covered += m != 0;
+  // The front face (z = 9) spans 2 / 9 * 100 = 22.2 px: ~22^2 pixels.
+  EXPECT_NEAR(covered, 22 * 22, 60);
+}
+
+TEST(SceneGraph, BoxBehindTheCameraIsNotInTheMask) {
+  const CameraModel camera(100, 100, 100, 100, 50, 50);
+  InstanceTrack track;
+  track.boxes = {{0, {0, 0, -10}, {2, 2, 2}, Quat{}}};
+  const std::vector<uint8_t> mask = DynamicMask(camera, Rigid{}, {track}, 0);
+  for (uint8_t m : mask) ASSERT_EQ(m, 0);
+}
+
+}  // namespace
+}  // namespace pf

@@ -1,0 +1,811 @@
+// Stratified, coverage-aware choice of static and dynamic queries.
+#include "engine/recon/sparse_sampling.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <optional>
+#include <tuple>
+
+#include "absl/container/flat_hash_map.h"
+#include "absl/container/flat_hash_set.h"
+#include "common/thread_pool.h"
+#include "engine/camera/image_pixel.h"
+#include "engine/recon/scene_graph.h"
+
+namespace pf {
+namespace {
+
+// A candidate query before it is written to the set.
+struct Candidate {
+  int view;
+  int pixel;
+  Vec3 position;  // World or canonical.
+  float footprint;
+  // A hidden query (behind the surface `pixel` sees): the pixel whose
+  // normal and layer it takes, and its z depth in the view; -1 for ordinary
+  // ones. Its colour is set later (HiddenColour).
+  int source_pixel = -1;
+  float depth = -1.f;
+};
+
+// The colour of hidden query `query`: SeenSurfaces::Colour of its position,
+// else BackgroundColour(view, pixel, source, reach); found once the static
+// queries are final (the first pass is sampled again when the budget is
+// refined) and for all of them at once.
+struct HiddenColour {
+  size_t query;
+  int view;
+  size_t pixel, source;
+  int reach;
+};
+
+// Returns a hash of three integers mapped to [0, 1).
+double Hash01(uint64_t a, uint64_t b, uint64_t c) {
+  uint64_t h = a * 0x9E3779B97F4A7C15ull ^ (b + 0x632BE59BD9B4E5ull) * 0xBF58476D1CE4E5B9ull ^
+               (c + 1) * 0x94D049BB133111EBull;
+  h ^= h >> 31;
+  h *= 0xD6E8FEB86659FD93ull;
+  h ^= h >> 32;
+  return double(h >> 11) * (1.0 / 9007199254740992.0);
+}
+
+// Returns a key of the voxel of side `side` that holds `p`, tagged with
+// `level` so grids of different sides do not collide.
+uint64_t VoxelKey(const Vec3& p, double side, uint32_t level) {
+  auto q = [&](double v) {
+    const int64_t i = static_cast<int64_t>(std::floor(v / side)) + (int64_t(1) << 18);
+    return static_cast<uint64_t>(std::clamp<int64_t>(i, 0, (int64_t(1) << 19) - 1));
+  };
+  return (uint64_t(level & 63) << 57) | (q(p.x) << 38) | (q(p.y) << 19) | q(p.z);
+}
+
+// Returns the power-of-two level of a footprint (1 cm at level 20): the
+// smallest voxel side >= the footprint, so a voxel of a covered surface
+// nearly always holds a sample.
+uint32_t FootprintLevel(double footprint) {
+  const int level = static_cast<int>(std::ceil(std::log2(std::max(footprint, 1e-6) / 0.01))) + 20;
+  return static_cast<uint32_t>(std::clamp(level, 0, 63));
+}
+
+double LevelSide(uint32_t level) { return 0.01 * std::pow(2.0, int(level) - 20); }
+
+double FocalLength(const CameraModel& camera) { return 0.5 * (camera.fx() + camera.fy()); }
+
+// Returns true if pixel `i` of `depth` is on the near side of an occluding
+// edge: a pixel of its 3x3 neighbourhood holds a surface more than `min_jump`
+// (relative) deeper. The far layer does not count.
+bool AtNearSideOfEdge(const ViewDepth& depth, size_t i, double min_jump) {
+  if (depth.is_far(i)) return false;
+  const int x = static_cast<int>(i % depth.width), y = static_cast<int>(i / depth.width);
+  const double deeper = (1 + min_jump) * depth.depth[i];
+  for (int dy = -1; dy <= 1; ++dy) {
+    for (int dx = -1; dx <= 1; ++dx) {
+      const int qx = x + dx, qy = y + dy;
+      if (qx < 0 || qy < 0 || qx >= depth.width || qy >= depth.height) continue;
+      const size_t j = static_cast<size_t>(qy) * depth.width + qx;
+      if (!depth.is_far(j) && depth.depth[j] > deeper) return true;
+    }
+  }
+  return false;
+}
+
+// Writes `c` to `out` with the frame change `to_frame` (identity for static).
+// A visible query on the near side of an occluding edge gets its footprint
+// scaled by options.edge_footprint_scale.
+void Emit(const Candidate& c, const SamplingView& sv, uint32_t owner, const Rigid& to_frame,
+          const SamplingOptions& options, QuerySet* out) {
+  const ContextView& view = *sv.view;
+  const size_t i = static_cast<size_t>(c.pixel);
+  const bool hidden = c.source_pixel >= 0;
+  // Colour, normal and layer come from the pixel the query shows (a hidden
+  // query's colour is replaced in SampleQueries).
+  const size_t shown = hidden ? static_cast<size_t>(c.source_pixel) : i;
+  const int x = static_cast<int>(shown % view.width()), y = static_cast<int>(shown / view.width());
+  const Vec3 world{sv.lifted->points[3 * i], sv.lifted->points[3 * i + 1],
+                   sv.lifted->points[3 * i + 2]};
+  const Vec3 origin = view.world_from_camera.translation;
+  const Vec3 ray_world = Normalized(world - origin);
+  const Vec3 normal_world{sv.lifted->normals[3 * shown], sv.lifted->normals[3 * shown + 1],
+                          sv.lifted->normals[3 * shown + 2]};
+  const Vec3 normal = to_frame.rotation * normal_world;
+  const Vec3 ray = to_frame.rotation * ray_world;
+  const std::array<float, 6> plucker = PluckerRay(origin, ray_world);
+  out->positions.insert(out->positions.end(),
+                        {float(c.position.x), float(c.position.y), float(c.position.z)});
+  out->rgb.insert(out->rgb.end(),
+                  {view.rgb.at(x, y, 0), view.rgb.at(x, y, 1), view.rgb.at(x, y, 2)});
+  out->plucker.insert(out->plucker.end(), plucker.begin(), plucker.end());
+  out->normals.insert(out->normals.end(), {float(normal.x), float(normal.y), float(normal.z)});
+  out->rays.insert(out->rays.end(), {float(ray.x), float(ray.y), float(ray.z)});
+  out->depths.push_back(hidden ? c.depth : sv.depth->depth[i]);
+  const bool edge = !hidden && options.edge_footprint_scale != 1.0 &&
+                    AtNearSideOfEdge(*sv.depth, i, options.behind_min_jump);
+  out->footprints.push_back(edge ? float(c.footprint * options.edge_footprint_scale) : c.footprint);
+  out->views.push_back(c.view);
+  out->pixels.push_back(c.pixel);
+  out->owners.push_back(owner);
+  out->far.push_back(sv.depth->is_far(shown) ? 1 : 0);
+  out->hidden.push_back(hidden ? 1 : 0);
+}
+
+// Keeps, per voxel of side `side`, the candidate nearest the voxel centre;
+// returns their indices in candidate order.
+std::vector<size_t> ThinByVoxel(const std::vector<Candidate>& candidates, double side) {
+  absl::flat_hash_map<uint64_t, size_t> best;
+  best.reserve(candidates.size());
+  auto off_centre = [&](const Vec3& p) {
+    const Vec3 c{(std::floor(p.x / side) + 0.5) * side, (std::floor(p.y / side) + 0.5) * side,
+                 (std::floor(p.z / side) + 0.5) * side};
+    const Vec3 d = p - c;
+    return Dot(d, d);
+  };
+  for (size_t i = 0; i < candidates.size(); ++i) {
+    auto [it, inserted] = best.try_emplace(VoxelKey(candidates[i].position, side, 0), i);
+    if (!inserted &&
+        off_centre(candidates[i].position) < off_centre(candidates[it->second].position))
+      it->second = i;
+  }
+  std::vector<size_t> kept;
+  kept.reserve(best.size());
+  for (const auto& [key, index] : best) kept.push_back(index);
+  std::sort(kept.begin(), kept.end());
+  return kept;
+}
+
+size_t CountVoxels(const std::vector<Candidate>& candidates, double side) {
+  absl::flat_hash_set<uint64_t> keys;
+  keys.reserve(candidates.size());
+  for (const Candidate& c : candidates) keys.insert(VoxelKey(c.position, side, 0));
+  return keys.size();
+}
+
+}  // namespace
+
+int64_t ScaledBudget(int64_t at_768x576, int width, int height) {
+  const double scale = double(width) * height / (768.0 * 576.0);
+  return std::max<int64_t>(1, static_cast<int64_t>(std::llround(double(at_768x576) * scale)));
+}
+
+std::vector<uint32_t> PixelOwners(const LiftedView& lifted, const ViewDepth& depth,
+                                  const std::vector<InstanceTrack>& tracks, int64_t timestamp_us) {
+  const size_t n = static_cast<size_t>(lifted.width) * lifted.height;
+  std::vector<uint32_t> owners(n, 0);
+  if (tracks.empty()) return owners;
+  const BoxesAt boxes(tracks, timestamp_us);
+  DefaultThreadPool().ParallelFor(0, static_cast<int64_t>(n), 8192, [&](int64_t b, int64_t e) {
+    for (int64_t i = b; i < e; ++i) {
+      if (!lifted.valid[i] || depth.is_far(i)) continue;
+      owners[i] =
+          boxes.Owner({lifted.points[3 * i], lifted.points[3 * i + 1], lifted.points[3 * i + 2]},
+                      kMembershipMargin);
+    }
+  });
+  return owners;
+}
+
+namespace {
+
+// Per-view facts for finding the view that sees a point in most detail.
+struct ViewResolution {
+  Rigid camera_from_world;
+  double focal = 1;
+  double stride = 1;
+};
+
+// Sets `pixel` to the index of the pixel of `sv` that camera point `pc`
+// projects into; false when it projects nowhere or outside the image.
+bool PixelOf(const SamplingView& sv, const Vec3& pc, size_t* pixel) {
+  double x, y;
+  if (!sv.view->camera.Project(pc, &x, &y)) return false;
+  int px, py;
+  if (!PixelInImage(x, y, sv.depth->width, sv.depth->height, &px, &py)) return false;
+  *pixel = static_cast<size_t>(py) * sv.depth->width + px;
+  return true;
+}
+
+// Returns true if a view other than `self` sees world point `p`
+// (depth-consistent, in the image) with a footprint smaller than
+// `footprint` / `ratio`.
+bool FinerViewSees(const Vec3& p, double footprint, size_t self, double ratio,
+                   const std::vector<SamplingView>& views,
+                   const std::vector<ViewResolution>& resolution) {
+  for (size_t u = 0; u < views.size(); ++u) {
+    if (u == self) continue;
+    const Vec3 pc = resolution[u].camera_from_world * p;
+    if (pc.z <= 0 || pc.z / resolution[u].focal * resolution[u].stride * ratio >= footprint) {
+      continue;
+    }
+    size_t j;
+    if (!PixelOf(views[u], pc, &j)) continue;
+    // An ego-body pixel shows the body, not the point.
+    if (views[u].view->is_ego(j)) continue;
+    if (views[u].depth->is_far(j) || (*views[u].owners)[j] != 0) continue;
+    if (std::abs(views[u].depth->depth[j] - pc.z) <= 0.03 * pc.z) return true;
+  }
+  return false;
+}
+
+// Returns true if a view other than `self` sees world point `p` (on the far
+// layer when `far`) or sees past it: the pixel it projects to is static and
+// shows the far layer, or a surface within 3 % of the point's depth (the view
+// samples that surface itself), or (for a point not on the far layer) one
+// deeper than that (the point is in free space).
+bool OtherViewSeesOrPasses(const Vec3& p, bool far, size_t self,
+                           const std::vector<SamplingView>& views,
+                           const std::vector<ViewResolution>& resolution) {
+  for (size_t u = 0; u < views.size(); ++u) {
+    if (u == self) continue;
+    const Vec3 pc = resolution[u].camera_from_world * p;
+    size_t j;
+    if (pc.z <= 0 || !PixelOf(views[u], pc, &j)) continue;
+    if ((*views[u].owners)[j] != 0 || views[u].view->is_ego(j)) continue;
+    if (views[u].depth->is_far(j) || (!far && views[u].depth->depth[j] >= 0.97 * pc.z)) {
+      return true;
+    }
+  }
+  return false;
+}
+
+// |cos| between a pixel's ray and its surface normal under which the
+// surface is grazing and hides nothing (HiddenCandidate).
+constexpr double kMinHiddenFacing = 0.3;
+
+// Which way is up, and how low the scene goes: hidden queries (on surfaces
+// nobody saw) are kept above the floor, the 1st percentile of the height of
+// every measured point (not far layer) of the views, less 0.5 m; up is the
+// mean normal of the surfaces facing about the way the cameras' up axes
+// (-y) point, vehicle cameras being mounted about level.
+struct HiddenFloor {
+  Vec3 up{0, 0, 1};
+  double height = -std::numeric_limits<double>::infinity();
+};
+
+// Normals within this cosine of the cameras' up count as facing up (30 deg).
+constexpr double kGroundCos = 0.866;
+
+HiddenFloor FindHiddenFloor(const std::vector<SamplingView>& views) {
+  HiddenFloor floor;
+  Vec3 up;
+  for (const SamplingView& sv : views)
+    up = up + sv.view->world_from_camera.rotation * Vec3{0, -1, 0};
+  if (Norm(up) < 1e-9) return floor;
+  floor.up = Normalized(up);
+  // The cameras' pitch leaves that a few degrees off, tens of metres of
+  // height at the far end of the scene: the mean normal of the surfaces
+  // that face up (the ground, roofs) is the better estimate.
+  Vec3 ground;
+  int facing_up = 0;
+  for (const SamplingView& sv : views) {
+    const size_t pixels = sv.lifted->valid.size();
+    for (size_t i = 0; i < pixels; i += 7) {
+      if (!sv.lifted->valid[i] || sv.depth->is_far(i)) continue;
+      const Vec3 n{sv.lifted->normals[3 * i], sv.lifted->normals[3 * i + 1],
+                   sv.lifted->normals[3 * i + 2]};
+      if (Dot(n, floor.up) < kGroundCos) continue;
+      ground = ground + n;
+      ++facing_up;
+    }
+  }
+  if (facing_up >= 100) floor.up = Normalized(ground);
+  std::vector<double> heights;
+  for (const SamplingView& sv : views) {
+    const size_t pixels = sv.lifted->valid.size();
+    for (size_t i = 0; i < pixels; i += 7) {  // A sample is plenty for a percentile.
+      if (!sv.lifted->valid[i] || sv.depth->is_far(i)) continue;
+      heights.push_back(Dot(Vec3{sv.lifted->points[3 * i], sv.lifted->points[3 * i + 1],
+                                 sv.lifted->points[3 * i + 2]},
+                            floor.up));
+    }
+  }
+  if (heights.empty()) return floor;
+  const size_t k = heights.size() / 100;
+  std::nth_element(heights.begin(), heights.begin() + k, heights.end());
+  floor.height = heights[k] - 0.5;
+  return floor;
+}
+
+// Returns the hidden query behind pixel `i` of view `v` with background
+// pixel `source` (FindBehindSources, -1: none): on the ray through `i`,
+// where the plane of the background pixel's surface (its point and normal)
+// meets it, or at the background's range when that plane does not give a
+// point behind `i`; at the far layer's range for a far background. False
+// when there is none: a pixel `i` on the far layer, no background, a
+// background that is not static, one whose plane continues through `i`
+// itself (a slanted surface, not an occlusion), a pixel `i` whose own
+// surface the ray meets at a grazing angle, sky behind a ray that points
+// below the horizontal plane, and a point below the floor (HiddenFloor).
+// Any depth edge deeper than `min_jump` counts as an occlusion: a surface
+// that only recedes (the road up to a wall) is not told from an occluder,
+// and the query behind it lies under that surface, above the floor, hidden
+// wherever the surface was seen and filling a hole where it was not
+// (docs/QUALITY.md, "What was tried and dropped": the occluder rule).
+bool HiddenCandidate(const SamplingView& sv, int v, size_t i, int32_t source, double min_jump,
+                     double focal, double stride, const HiddenFloor& floor, Candidate* out) {
+  if (source < 0 || !sv.lifted->valid[i] || sv.depth->is_far(i)) return false;
+  const size_t j = static_cast<size_t>(source);
+  if (!sv.lifted->valid[j] || (*sv.owners)[j] != 0) return false;
+  const Vec3 origin = sv.view->world_from_camera.translation;
+  const Vec3 p_i{sv.lifted->points[3 * i], sv.lifted->points[3 * i + 1],
+                 sv.lifted->points[3 * i + 2]};
+  const Vec3 p_j{sv.lifted->points[3 * j], sv.lifted->points[3 * j + 1],
+                 sv.lifted->points[3 * j + 2]};
+  const double range_i = Norm(p_i - origin), range_j = Norm(p_j - origin);
+  if (!(range_i > 0)) return false;
+  const Vec3 ray = (p_i - origin) / range_i;
+  const Vec3 n_i{sv.lifted->normals[3 * i], sv.lifted->normals[3 * i + 1],
+                 sv.lifted->normals[3 * i + 2]};
+  if (std::abs(Dot(ray, n_i)) < kMinHiddenFacing) return false;
+  double range = range_j;
+  if (sv.depth->is_far(j)) {
+    // The sky lies above the horizontal plane: below it, what a near
+    // surface hides is ground, and a query on the far layer would sit deep
+    // underground.
+    if (Dot(ray, floor.up) <= 0) return false;
+  } else {
+    const Vec3 n{sv.lifted->normals[3 * j], sv.lifted->normals[3 * j + 1],
+                 sv.lifted->normals[3 * j + 2]};
+    const double along = Dot(ray, n);
+    if (std::abs(along) > 1e-3) {
+      const double s = Dot(p_j - origin, n) / along;
+      if (s > 0 && s <= 2 * range_j) range = s;
+    }
+    if (range <= (1 + min_jump) * range_i) return false;
+    if (Dot(origin + range * ray, floor.up) < floor.height) return false;
+  }
+  const float z = static_cast<float>(sv.depth->depth[i] * range / range_i);
+  *out = {
+      v, static_cast<int>(i), origin + range * ray, float(z / focal * stride), static_cast<int>(j),
+      z};
+  return true;
+}
+
+// The colour of the hidden query behind pixel `i` with background pixel
+// `source`: that of the background nearest `i` in the image, so what
+// borders the occluder (a shop window's band, the kerb, the sky) goes on
+// into the strip it hides. The deepest pixel of a window (`source`) lies in
+// one of its corners, often a storey away: its colour drew streaks of wall
+// across shop fronts (docs/QUALITY.md, "The method as built"). Found by
+// stepping from `i` in 8 directions up to
+// `reach` steps; background is a static pixel on `source`'s layer (far or
+// not) deeper than `i` by more than `min_jump`. The first background pixel
+// beside an edge mixes in the occluder (antialiasing), so the next one is
+// taken instead where it is background too. `source`'s colour when no
+// direction meets the background.
+std::array<float, 3> BackgroundColour(const SamplingView& sv, size_t i, size_t source, int reach,
+                                      double min_jump) {
+  const ContextView& view = *sv.view;
+  const int w = view.width(), h = view.height();
+  const int x0 = static_cast<int>(i % w), y0 = static_cast<int>(i / w);
+  const bool far = sv.depth->is_far(source);
+  const double deeper = (1 + min_jump) * sv.depth->depth[i];
+  auto background = [&](int x, int y) {
+    if (x < 0 || y < 0 || x >= w || y >= h) return false;
+    const size_t q = static_cast<size_t>(y) * w + x;
+    return sv.lifted->valid[q] && (*sv.owners)[q] == 0 && !view.is_ego(q) &&
+           sv.depth->is_far(q) == far && (far || sv.depth->depth[q] > deeper);
+  };
+  constexpr int kDirections[8][2] = {{1, 0}, {-1, 0}, {0, 1},  {0, -1},
+                                     {1, 1}, {-1, 1}, {1, -1}, {-1, -1}};
+  // Each direction's first background pixel (past its antialiased edge),
+  // weighted by 1 / distance^2. The directions are stepped together, and
+  // stop at kBlendReach times the nearest one's distance: what lies further
+  // would weigh under 1/9 of it.
+  constexpr double kBlendReach = 3.0;
+  std::array<double, 3> sum{};
+  double weight = 0, limit = reach;
+  std::array<bool, 8> done{};
+  for (int k = 1; k <= reach; ++k) {
+    for (int d = 0; d < 8; ++d) {
+      const int dx = kDirections[d][0], dy = kDirections[d][1];
+      const double distance = (dx != 0 && dy != 0) ? k * std::sqrt(2.0) : double(k);
+      if (done[d] || distance > limit) continue;
+      int x = x0 + k * dx, y = y0 + k * dy;
+      if (!background(x, y)) continue;
+      done[d] = true;
+      limit = std::min(limit, kBlendReach * distance);
+      if (background(x + dx, y + dy)) x += dx, y += dy;
+      const double wd = 1.0 / (distance * distance);
+      for (int c = 0; c < 3; ++c) sum[c] += wd * view.rgb.at(x, y, c);
+      weight += wd;
+    }
+    if (k > limit) break;
+  }
+  if (weight == 0) {
+    const int x = static_cast<int>(source % w), y = static_cast<int>(source / w);
+    return {view.rgb.at(x, y, 0), view.rgb.at(x, y, 1), view.rgb.at(x, y, 2)};
+  }
+  return {float(sum[0] / weight), float(sum[1] / weight), float(sum[2] / weight)};
+}
+
+// The direction the context cameras travel in: their velocity, the
+// least-squares slope of their positions over time, as a unit vector; zero
+// when at that velocity they travel less than kMinTravel over the views' time
+// span (a parked car's pose jitter, a rig's cameras firing a few ms apart).
+Vec3 RoadDirection(const std::vector<SamplingView>& views) {
+  constexpr double kMinTravel = 1.0;  // Metres.
+  Vec3 mean_position;
+  double mean_time = 0, first = std::numeric_limits<double>::infinity(), last = -first;
+  for (const SamplingView& sv : views) {
+    const double t = 1e-6 * double(sv.view->timestamp_us);
+    mean_position = mean_position + sv.view->world_from_camera.translation;
+    mean_time += t;
+    first = std::min(first, t);
+    last = std::max(last, t);
+  }
+  mean_position = mean_position / double(views.size());
+  mean_time /= double(views.size());
+  Vec3 moment;
+  double spread = 0;
+  for (const SamplingView& sv : views) {
+    const double dt = 1e-6 * double(sv.view->timestamp_us) - mean_time;
+    moment = moment + (sv.view->world_from_camera.translation - mean_position) * dt;
+    spread += dt * dt;
+  }
+  if (!(spread > 0)) return Vec3{};
+  const Vec3 velocity = moment / spread;
+  return Norm(velocity) * (last - first) >= kMinTravel ? Normalized(velocity) : Vec3{};
+}
+
+// What the views saw, for the colours of hidden queries (Colour): the
+// visible static queries off the far layer, averaged per voxel of side
+// kSurfelSide and per normal direction (rounded to a 5x5x5 lattice, so a
+// voxel where a wall meets the road keeps both), searched in a frame where
+// distances along the road are scaled by `road_scale`. A query whose pixel
+// borders a nearer surface is left out: its colour mixes in the occluder
+// (antialiasing), which would run into every strip that occluder hides.
+class SeenSurfaces {
+ public:
+  SeenSurfaces(const QuerySet& queries, const std::vector<SamplingView>& views, double min_jump,
+               const Vec3& road, double road_scale) {
+    if (Norm(road) > 0.5) {
+      scale_ = std::clamp(road_scale, kMinRoadScale, 1.0);
+      e1_ = road;
+      e2_ = Normalized(std::abs(road.z) < 0.9 ? Cross(road, Vec3{0, 0, 1})
+                                              : Cross(road, Vec3{1, 0, 0}));
+      e3_ = Cross(e1_, e2_);
+    }
+    struct Sum {
+      Vec3 position, normal;
+      std::array<double, 3> rgb{};
+      double count = 0;
+    };
+    absl::flat_hash_map<uint64_t, Sum> sums;
+    for (size_t i = 0; i < queries.size(); ++i) {
+      if (queries.is_hidden(i) || queries.far[i] || queries.owners[i] != 0) continue;
+      if (BordersNearer(views[queries.views[i]], queries.pixels[i], min_jump)) continue;
+      const Vec3 p = queries.position(i), n = queries.normal(i);
+      auto lattice = [](double v) { return static_cast<uint64_t>(std::lround(2 * v) + 2); };
+      const uint64_t direction = lattice(n.x) * 25 + lattice(n.y) * 5 + lattice(n.z);
+      Sum& sum = sums[VoxelKey(p, kSurfelSide, 0) ^ (direction << 57)];
+      sum.position = sum.position + p;
+      sum.normal = sum.normal + n;
+      for (int c = 0; c < 3; ++c) sum.rgb[c] += queries.rgb[3 * i + c];
+      sum.count += 1;
+    }
+    // (search cell, surfel key, surfel), sorted: by cell, and within a cell
+    // in an order that does not depend on the hash map's (the blend's sums
+    // should not either).
+    std::vector<std::tuple<uint64_t, uint64_t, Surfel>> keyed;
+    keyed.reserve(sums.size());
+    for (const auto& [key, sum] : sums) {
+      if (Norm(sum.normal) < 1e-9) continue;
+      const Surfel surfel{sum.position / sum.count,
+                          Normalized(sum.normal),
+                          {float(sum.rgb[0] / sum.count), float(sum.rgb[1] / sum.count),
+                           float(sum.rgb[2] / sum.count)}};
+      keyed.emplace_back(VoxelKey(Scaled(surfel.position), kCell, 0), key, surfel);
+    }
+    std::sort(keyed.begin(), keyed.end(), [](const auto& a, const auto& b) {
+      return std::tie(std::get<0>(a), std::get<1>(a)) < std::tie(std::get<0>(b), std::get<1>(b));
+    });
+    surfels_.reserve(keyed.size());
+    for (size_t k = 0; k < keyed.size(); ++k) {
+      surfels_.push_back(std::get<2>(keyed[k]));
+      auto [it, inserted] = cells_.try_emplace(std::get<0>(keyed[k]), uint32_t(k), uint32_t(k));
+      it->second.second = static_cast<uint32_t>(k + 1);
+    }
+  }
+
+  // The colour around `p` on the plane through it of normal `n`: a blend,
+  // weighted 1 / (d^2 + kSurfelSide^2), of the kNeighbours nearest surfels
+  // (d in the scaled frame) that face within kMinCos of `n` and lie within
+  // kPlaneTolerance of the plane, looked for within kRings x kCell of `p`
+  // in the scaled frame. False when there is none.
+  bool Colour(const Vec3& p, const Vec3& n, std::array<float, 3>* rgb) const {
+    std::array<std::pair<double, uint32_t>, kNeighbours> nearest;
+    int found = 0;
+    const Vec3 ps = Scaled(p);
+    const int64_t cx = static_cast<int64_t>(std::floor(ps.x / kCell));
+    const int64_t cy = static_cast<int64_t>(std::floor(ps.y / kCell));
+    const int64_t cz = static_cast<int64_t>(std::floor(ps.z / kCell));
+    // How far a cell's points can lie from its centre along `n`.
+    const double reach =
+        0.5 * kCell *
+        (std::abs(Dot(n, e1_)) / scale_ + std::abs(Dot(n, e2_)) + std::abs(Dot(n, e3_)));
+    for (int r = 0; r <= kRings; ++r) {
+      // The cells at Chebyshev distance r: whole rows on the faces of the
+      // cube, the two ends of each row inside it.
+      for (int dz = -r; dz <= r; ++dz) {
+        for (int dy = -r; dy <= r; ++dy) {
+          const bool face = r == 0 || std::abs(dz) == r || std::abs(dy) == r;
+          for (int dx = -r; dx <= r; dx += face ? 1 : 2 * r) {
+            const Vec3 centre{(cx + dx + 0.5) * kCell, (cy + dy + 0.5) * kCell,
+                              (cz + dz + 0.5) * kCell};
+            if (std::abs(Dot(Unscaled(centre) - p, n)) > reach + kPlaneTolerance) continue;
+            const auto it = cells_.find(VoxelKey(centre, kCell, 0));
+            if (it == cells_.end()) continue;
+            for (uint32_t k = it->second.first; k < it->second.second; ++k) {
+              const Surfel& s = surfels_[k];
+              const Vec3 d = s.position - p;
+              if (Dot(s.normal, n) < kMinCos || std::abs(Dot(d, n)) > kPlaneTolerance) continue;
+              const Vec3 ds = Scaled(s.position) - ps;
+              const double d2 = Dot(ds, ds);
+              // A ball, not the cube of cells: the next ring, not searched,
+              // may hold nearer surfels than a corner of the last one.
+              if (d2 > kReach * kReach) continue;
+              if (found < kNeighbours) {
+                nearest[found++] = {d2, k};
+                std::push_heap(nearest.begin(), nearest.begin() + found);
+              } else if (d2 < nearest[0].first) {
+                std::pop_heap(nearest.begin(), nearest.end());
+                nearest.back() = {d2, k};
+                std::push_heap(nearest.begin(), nearest.end());
+              }
+            }
+          }
+        }
+      }
+      // Whatever the next ring holds is at least r cells away.
+      if (found == kNeighbours && nearest[0].first < (r * kCell) * (r * kCell)) break;
+    }
+    if (found == 0) return false;
+    std::array<double, 3> sum{};
+    double weight = 0;
+    for (int k = 0; k < found; ++k) {
+      const double w = 1.0 / (nearest[k].first + kSurfelSide * kSurfelSide);
+      for (int c = 0; c < 3; ++c) sum[c] += w * surfels_[nearest[k].second].rgb[c];
+      weight += w;
+    }
+    for (int c = 0; c < 3; ++c) (*rgb)[c] = float(sum[c] / weight);
+    return true;
+  }
+
+ private:
+  struct Surfel {
+    Vec3 position;  // World.
+    Vec3 normal;
+    std::array<float, 3> rgb;
+  };
+  static constexpr double kSurfelSide = 0.1;      // Metres.
+  static constexpr double kCell = 0.8;            // Search cells, metres of the scaled frame.
+  static constexpr int kRings = 6;                // Cells searched around a query's.
+  static constexpr int kNeighbours = 16;          // Surfels blended.
+  static constexpr double kPlaneTolerance = 0.2;  // Metres off the query's plane.
+  static constexpr double kMinCos = 0.8;          // Between the normals.
+  static constexpr double kReach = kRings * kCell;
+  static constexpr double kMinRoadScale = 0.01;
+
+  // True if pixel `i` of `sv` has a neighbour (3x3) nearer by more than
+  // `min_jump` (relative).
+  static bool BordersNearer(const SamplingView& sv, int i, double min_jump) {
+    const int w = sv.depth->width, h = sv.depth->height;
+    const int x = i % w, y = i / w;
+    const float nearer = static_cast<float>(sv.depth->depth[i] / (1 + min_jump));
+    for (int v = std::max(0, y - 1); v <= std::min(h - 1, y + 1); ++v)
+      for (int u = std::max(0, x - 1); u <= std::min(w - 1, x + 1); ++u)
+        if (const float d = sv.depth->depth[static_cast<size_t>(v) * w + u]; d > 0 && d < nearer) {
+          return true;
+        }
+    return false;
+  }
+  Vec3 Scaled(const Vec3& p) const { return {scale_ * Dot(p, e1_), Dot(p, e2_), Dot(p, e3_)}; }
+  Vec3 Unscaled(const Vec3& q) const { return e1_ * (q.x / scale_) + e2_ * q.y + e3_ * q.z; }
+
+  double scale_ = 1;
+  Vec3 e1_{1, 0, 0}, e2_{0, 1, 0}, e3_{0, 0, 1};
+  std::vector<Surfel> surfels_;
+  absl::flat_hash_map<uint64_t, std::pair<uint32_t, uint32_t>> cells_;
+};
+
+double StaticStride(const SamplingView& sv, const SamplingOptions& options) {
+  if (options.dense) return 1.0;
+  const double pixels = double(sv.view->width()) * sv.view->height();
+  return std::max(1.0, std::sqrt(pixels / double(std::max<int64_t>(1, options.static_per_view))));
+}
+
+// Appends the static queries of `views` to `out`, with every view's grid
+// cell side multiplied by `refine`, hidden ones kept above `floor` and their
+// colours to find to `colours`; returns how many visible (not hidden)
+// queries were added.
+size_t SampleStatic(const std::vector<SamplingView>& views, const SamplingOptions& options,
+                    double refine, const HiddenFloor& floor, QuerySet* out,
+                    std::vector<HiddenColour>* colours) {
+  size_t visible = 0;
+  const Rigid identity;
+  std::vector<ViewResolution> resolution(views.size());
+  for (size_t v = 0; v < views.size(); ++v) {
+    const double stride = StaticStride(views[v], options);
+    resolution[v] = {views[v].view->world_from_camera.Inverse(), FocalLength(views[v].view->camera),
+                     options.dense ? stride : std::max(1.0, stride * refine)};
+  }
+  const bool prefer_finer = !options.dense && options.finer_view_ratio > 0;
+  absl::flat_hash_set<uint64_t> covered;
+  for (size_t v = 0; v < views.size(); ++v) {
+    const SamplingView& sv = views[v];
+    const int w = sv.view->width(), h = sv.view->height();
+    const double stride = resolution[v].stride;
+    const int cells_x = static_cast<int>(std::ceil(w / stride));
+    const int cells_y = static_cast<int>(std::ceil(h / stride));
+    const double focal = FocalLength(sv.view->camera);
+    const int far_stride = options.dense ? 1 : std::max(1, options.far_stride);
+    std::vector<uint64_t> new_keys;
+    const BehindSources behind =
+        FindBehindSources(*sv.depth, options.behind_band_px, options.behind_min_jump);
+    // Hidden queries are taken on a grid of behind_stride cells, and behind
+    // far-layer backgrounds on the far layer's (a multiple of it).
+    const int behind_stride = std::max(1, options.behind_stride);
+    const int far_hidden_stride =
+        behind_stride * std::max(1, (far_stride + behind_stride - 1) / behind_stride);
+    for (int cy = 0; cy < cells_y; ++cy) {
+      for (int cx = 0; cx < cells_x; ++cx) {
+        int x = cx, y = cy;
+        if (!options.dense) {
+          x = std::min(w - 1, static_cast<int>((cx + Hash01(cx, cy, 2 * v)) * stride));
+          y = std::min(h - 1, static_cast<int>((cy + Hash01(cx, cy, 2 * v + 1)) * stride));
+        }
+        const size_t i = static_cast<size_t>(y) * w + x;
+        // The nearest background hidden behind this pixel, if no view sees it.
+        Candidate hidden;
+        bool has_hidden = false;
+        int hidden_radius = 0;
+        const bool on_hidden_grid = cx % behind_stride == 0 && cy % behind_stride == 0;
+        for (size_t k = 0; on_hidden_grid && k < behind.sources.size(); ++k) {
+          has_hidden = HiddenCandidate(sv, static_cast<int>(v), i, behind.sources[k][i],
+                                       options.behind_min_jump, focal, stride, floor, &hidden);
+          hidden_radius = behind.radii[k];
+          if (has_hidden) break;
+        }
+        if (has_hidden) {
+          // Coarser than visible surfaces: a hidden query copies one
+          // background colour, there is no detail to sample.
+          const bool far = sv.depth->is_far(static_cast<size_t>(hidden.source_pixel));
+          const int hidden_stride = far ? far_hidden_stride : behind_stride;
+          bool keep = cx % hidden_stride == 0 && cy % hidden_stride == 0;
+          hidden.footprint *= hidden_stride;
+          keep = keep && !OtherViewSeesOrPasses(hidden.position, far, v, views, resolution);
+          if (keep && options.skip_covered && !options.dense) {
+            const uint32_t level = FootprintLevel(hidden.footprint);
+            const uint64_t key = VoxelKey(hidden.position, LevelSide(level), level);
+            keep = !covered.contains(key);
+            if (keep) new_keys.push_back(key);
+          }
+          if (keep) {
+            // The source lies within hidden_radius (Chebyshev): the nearest
+            // background within twice that.
+            colours->push_back({out->size(), static_cast<int>(v), i,
+                                static_cast<size_t>(hidden.source_pixel), 2 * hidden_radius + 1});
+            Emit(hidden, sv, 0, identity, options, out);
+          }
+        }
+        if (!sv.lifted->valid[i] || (*sv.owners)[i] != 0) continue;
+        double footprint = sv.depth->depth[i] / focal * stride;
+        if (sv.depth->is_far(i)) {
+          if (cx % far_stride != 0 || cy % far_stride != 0) continue;
+          footprint *= far_stride;
+        }
+        const Vec3 p{sv.lifted->points[3 * i], sv.lifted->points[3 * i + 1],
+                     sv.lifted->points[3 * i + 2]};
+        if (prefer_finer && !sv.depth->is_far(i) &&
+            FinerViewSees(p, footprint, v, options.finer_view_ratio, views, resolution)) {
+          continue;
+        }
+        if (options.skip_covered && !options.dense) {
+          const uint32_t level = FootprintLevel(footprint);
+          const uint64_t key = VoxelKey(p, LevelSide(level), level);
+          if (covered.contains(key)) continue;
+          new_keys.push_back(key);
+        }
+        Emit({static_cast<int>(v), static_cast<int>(i), p, float(footprint)}, sv, 0, identity,
+             options, out);
+        ++visible;
+      }
+    }
+    covered.insert(new_keys.begin(), new_keys.end());
+  }
+  return visible;
+}
+
+}  // namespace
+
+QuerySet SampleQueries(const std::vector<SamplingView>& views,
+                       const std::vector<InstanceTrack>& tracks, const SamplingOptions& options) {
+  QuerySet out;
+  // Static queries, view by view; then, if redundancy removal left fewer
+  // than V x N_s, once more on grids refined to make up the difference.
+  // The floor depends on the views alone: found once for both passes.
+  const HiddenFloor floor = options.behind_band_px > 0 ? FindHiddenFloor(views) : HiddenFloor{};
+  std::vector<HiddenColour> colours;
+  const size_t kept = SampleStatic(views, options, 1.0, floor, &out, &colours);
+  const double budget =
+      double(views.size()) * double(std::max<int64_t>(1, options.static_per_view));
+  if (options.fill_static_budget && !options.dense && kept > 0 && kept < 0.95 * budget) {
+    const double refine = std::max(options.min_refine, std::sqrt(double(kept) / budget));
+    out = QuerySet();
+    colours.clear();
+    SampleStatic(views, options, refine, floor, &out, &colours);
+  }
+  std::optional<SeenSurfaces> seen;
+  if (options.hidden_colour_from_surfaces && !colours.empty()) {
+    seen.emplace(out, views, options.behind_min_jump, RoadDirection(views),
+                 options.hidden_road_scale);
+  }
+  DefaultThreadPool().ParallelFor(
+      0, static_cast<int64_t>(colours.size()), 256, [&](int64_t begin, int64_t end) {
+        for (int64_t k = begin; k < end; ++k) {
+          const HiddenColour& h = colours[static_cast<size_t>(k)];
+          std::array<float, 3> rgb;
+          if (!seen || out.far[h.query] ||
+              !seen->Colour(out.position(h.query), out.normal(h.query), &rgb)) {
+            rgb = BackgroundColour(views[h.view], h.pixel, h.source, h.reach,
+                                   options.behind_min_jump);
+          }
+          std::copy(rgb.begin(), rgb.end(), out.rgb.begin() + 3 * h.query);
+        }
+      });
+
+  // Dynamic queries, instance by instance, in canonical frames.
+  for (size_t k = 0; k < tracks.size(); ++k) {
+    if (tracks[k].boxes.empty()) continue;
+    const uint32_t owner = static_cast<uint32_t>(k + 1);
+    std::vector<Candidate> candidates;
+    std::vector<Rigid> to_canonical(views.size());
+    for (size_t v = 0; v < views.size(); ++v) {
+      const SamplingView& sv = views[v];
+      to_canonical[v] = CanonicalFromWorld(tracks[k], sv.view->timestamp_us);
+      const double focal = FocalLength(sv.view->camera);
+      const size_t n = sv.owners->size();
+      for (size_t i = 0; i < n; ++i) {
+        if ((*sv.owners)[i] != owner) continue;
+        const Vec3 p{sv.lifted->points[3 * i], sv.lifted->points[3 * i + 1],
+                     sv.lifted->points[3 * i + 2]};
+        candidates.push_back({static_cast<int>(v), static_cast<int>(i), to_canonical[v] * p,
+                              float(sv.depth->depth[i] / focal)});
+      }
+    }
+    if (candidates.empty()) continue;
+    std::vector<size_t> kept;
+    double side = 0;
+    if (options.dense) {
+      kept.resize(candidates.size());
+      for (size_t i = 0; i < kept.size(); ++i) kept[i] = i;
+    } else {
+      // Smallest voxel side (bisection) that leaves at most N_d voxels.
+      std::vector<float> fps;
+      for (const Candidate& c : candidates) fps.push_back(c.footprint);
+      std::nth_element(fps.begin(), fps.begin() + fps.size() / 2, fps.end());
+      double lo = 0.5 * fps[fps.size() / 2], hi = lo;
+      const size_t budget = static_cast<size_t>(std::max<int64_t>(1, options.dynamic_per_instance));
+      if (CountVoxels(candidates, lo) <= budget) {
+        side = lo;
+      } else {
+        while (CountVoxels(candidates, hi) > budget) hi *= 2;
+        for (int iter = 0; iter < 12; ++iter) {
+          const double mid = 0.5 * (lo + hi);
+          (CountVoxels(candidates, mid) > budget ? lo : hi) = mid;
+        }
+        side = hi;
+      }
+      kept = ThinByVoxel(candidates, side);
+    }
+    for (size_t index : kept) {
+      Candidate c = candidates[index];
+      c.footprint = std::max(c.footprint, float(side));
+      Emit(c, views[c.view], owner, to_canonical[c.view], options, &out);
+    }
+  }
+  return out;
+}
+
+}  // namespace pf

@@ -1,0 +1,367 @@
+// Recording the compositing weights of one render (the colour-linear map).
+//
+// The projection is the rasterizer's own (splat_projection.h: the same
+// centres, conics and extents); the compositing repeats
+// raster_tile_kernel.h's per-row spans and tests in scalar form.
+#include "engine/render/compositing_weights.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+
+#include "absl/strings/str_cat.h"
+#include "engine/render/instance_pose.h"
+#include "engine/render/splat_projection.h"
+
+namespace pf {
+namespace {
+
+using raster::kMaxAlpha;
+using raster::kMinAlpha;
+using raster::kMinTransmittance;
+using raster::kTile;
+
+using Splat = raster::SplatGeometry;
+
+// The camera as the projection reads it, and per owner (0 background, k
+// instance k) the camera-from-owner transform: row-major r, then t.
+struct ViewFrame : raster::ProjectionCamera {
+  std::vector<float> camera_from_owner;  // [K+1, 12]
+};
+
+bool ProjectSplat(const GaussianScene& scene, const ViewFrame& frame, size_t i, Splat* out) {
+  const float* r = &frame.camera_from_owner[12 * scene.owners[i]];
+  return raster::ProjectSplatGeometry(scene, i, frame, r, r + 9, out);
+}
+
+}  // namespace
+
+absl::StatusOr<CompositingWeights> ComputeCompositingWeights(const GaussianScene& scene,
+                                                             const RenderCamera& camera,
+                                                             int64_t timestamp_us,
+                                                             const WeightOptions& options) {
+  const CameraModel& model = camera.model;
+  if (model.width() <= 0 || model.height() <= 0) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("camera: image size ", model.width(), "x", model.height(), " has no pixels"));
+  }
+  if (absl::Status status = CheckRenderable(scene); !status.ok()) return status;
+  if (options.pixel_stride < 1) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("pixel_stride: must be at least 1, got ", options.pixel_stride));
+  }
+
+  ViewFrame frame;
+  raster::SetUpProjectionCamera(
+      model, options.near_plane,
+      static_cast<float>(static_cast<double>(timestamp_us - scene.time_origin_us) * 1e-6), &frame);
+  const size_t num_owners = scene.instances.size() + 1;
+  const Rigid camera_from_world = camera.world_from_camera.Inverse();
+  frame.camera_from_owner.resize(12 * num_owners);
+  for (size_t k = 0; k < num_owners; ++k) {
+    const Rigid world_from_owner =
+        k == 0 ? Rigid{} : InstancePoseAt(scene.instances[k - 1].boxes, timestamp_us);
+    const Rigid x = camera_from_world * world_from_owner;
+    float* f = &frame.camera_from_owner[12 * k];
+    for (int a = 0; a < 3; ++a) {
+      for (int b = 0; b < 3; ++b) f[3 * a + b] = static_cast<float>(x.rotation.m[a][b]);
+      f[9 + a] = static_cast<float>(x.translation[a]);
+    }
+  }
+
+  // Project; order the visible Gaussians by (depth, index) as the
+  // rasterizer's stable sort does, and keep them in that order (rank k).
+  const size_t n = scene.size();
+  std::vector<Splat> visible;
+  std::vector<uint32_t> visible_index;
+  std::vector<uint64_t> keys;
+  visible.reserve(n);
+  visible_index.reserve(n);
+  keys.reserve(n);
+  for (size_t i = 0; i < n; ++i) {
+    Splat splat;
+    if (!ProjectSplat(scene, frame, i, &splat)) continue;
+    uint32_t depth_bits;
+    std::memcpy(&depth_bits, &splat.depth, sizeof(depth_bits));
+    keys.push_back((static_cast<uint64_t>(depth_bits) << 32) | visible.size());
+    visible.push_back(splat);
+    visible_index.push_back(static_cast<uint32_t>(i));
+  }
+  std::sort(keys.begin(), keys.end());
+  std::vector<Splat> splats(keys.size());
+  std::vector<uint32_t> scene_index(keys.size());
+  for (size_t k = 0; k < keys.size(); ++k) {
+    splats[k] = visible[static_cast<uint32_t>(keys[k])];
+    scene_index[k] = visible_index[static_cast<uint32_t>(keys[k])];
+  }
+  visible = std::vector<Splat>();
+
+  // Bin into the tiles the ellipse touches (the rasterizer's test).
+  const int tiles_x = (frame.width + kTile - 1) / kTile;
+  const int tiles_y = (frame.height + kTile - 1) / kTile;
+  const size_t num_tiles = static_cast<size_t>(tiles_x) * tiles_y;
+  std::vector<uint64_t> tile_begin(num_tiles + 1, 0);
+  auto for_each_tile = [&](const Splat& g, auto&& body) {
+    raster::VisitTiles(g.mx, g.my, g.ca, g.cb, g.cc, g.span_d2, g.ext_x, g.ext_y, frame.width,
+                       frame.height, tiles_x, [&](uint32_t t) { body(static_cast<size_t>(t)); });
+  };
+  for (const Splat& splat : splats) for_each_tile(splat, [&](size_t t) { ++tile_begin[t + 1]; });
+  for (size_t t = 0; t < num_tiles; ++t) tile_begin[t + 1] += tile_begin[t];
+  std::vector<uint32_t> tile_lists(tile_begin[num_tiles]);
+  {
+    std::vector<uint64_t> cursor(tile_begin.begin(), tile_begin.end() - 1);
+    for (uint32_t k = 0; k < splats.size(); ++k)
+      for_each_tile(splats[k], [&](size_t t) { tile_lists[cursor[t]++] = k; });
+  }
+
+  // Composite tile by tile; each tile's entries are regrouped by pixel.
+  CompositingWeights out;
+  out.width = frame.width;
+  out.height = frame.height;
+  out.pixel_stride = options.pixel_stride;
+  const size_t pixels = static_cast<size_t>(frame.width) * frame.height;
+  out.pixel_begin.assign(pixels, 0);
+  out.pixel_count.assign(pixels, 0);
+  out.alpha.assign(pixels, 0.f);
+  std::vector<uint32_t> ranked;  // Depth rank per entry, made local below.
+  struct Entry {
+    uint32_t gaussian;  // Depth rank.
+    float weight;
+    uint8_t pixel;
+  };
+  std::vector<Entry> tile_entries;
+  float trans[kTile * kTile];
+  bool recorded[kTile * kTile];  // The tile's pixels on the lattice (pixel_stride).
+  uint32_t counts[kTile * kTile];
+  for (int ty = 0; ty < tiles_y; ++ty) {
+    for (int tx = 0; tx < tiles_x; ++tx) {
+      const size_t t = static_cast<size_t>(ty) * tiles_x + tx;
+      const int x_begin = tx * kTile, y_begin = ty * kTile;
+      const int x_end = std::min(x_begin + kTile, frame.width);
+      const int y_end = std::min(y_begin + kTile, frame.height);
+      std::fill(trans, trans + kTile * kTile, 1.f);
+      for (int row = y_begin; row < y_end; ++row) {
+        for (int col = x_begin; col < x_end; ++col) {
+          recorded[(row - y_begin) * kTile + (col - x_begin)] =
+              OnPixelLattice(col, row, options.pixel_stride);
+        }
+      }
+      tile_entries.clear();
+      int active = (x_end - x_begin) * (y_end - y_begin);  // Pixels not done yet.
+      for (uint64_t k = tile_begin[t]; k < tile_begin[t + 1] && active > 0; ++k) {
+        const uint32_t i = tile_lists[k];
+        const Splat& g = splats[i];
+        const float det = g.ca * g.cc - g.cb * g.cb;
+        const float inv_ca = 1.f / g.ca;
+        const int row0 = std::max(y_begin, static_cast<int>(std::ceil(g.my - g.ext_y - 0.5f)));
+        const int row1 = std::min(y_end - 1, static_cast<int>(std::floor(g.my + g.ext_y - 0.5f)));
+        for (int row = row0; row <= row1; ++row) {
+          const float dy = row + 0.5f - g.my;
+          const float disc = g.ca * g.span_d2 - det * dy * dy;
+          if (!(disc >= 0.f)) continue;
+          const float half = std::sqrt(disc) * inv_ca;
+          const float mid = g.mx - 0.5f - g.cb * dy * inv_ca;
+          const int col0 =
+              std::max(x_begin, static_cast<int>(std::ceil(std::max(mid - half, -1e9f))));
+          const int col1 =
+              std::min(x_end - 1, static_cast<int>(std::floor(std::min(mid + half, 1e9f))));
+          const float row_term = g.cc * dy * dy;
+          const float cross = 2.f * g.cb * dy;
+          for (int col = col0; col <= col1; ++col) {
+            const int p = (row - y_begin) * kTile + (col - x_begin);
+            const float tp = trans[p];
+            if (!(tp >= kMinTransmittance)) continue;
+            const float dx = col + 0.5f - g.mx;
+            const float d2 = g.ca * dx * dx + cross * dx + row_term;
+            const float alpha = std::min(kMaxAlpha, g.opacity * std::exp(-0.5f * d2));
+            if (!(alpha >= kMinAlpha)) continue;
+            const float weight = alpha * tp;
+            if (weight >= options.min_weight && recorded[p]) {
+              tile_entries.push_back({i, weight, static_cast<uint8_t>(p)});
+            }
+            trans[p] = tp * (1.f - alpha);
+            active -= trans[p] < kMinTransmittance;
+          }
+        }
+      }
+      // Regroup by pixel (stable: front to back within a pixel).
+      std::fill(counts, counts + kTile * kTile, 0u);
+      for (const Entry& e : tile_entries) ++counts[e.pixel];
+      uint64_t start = ranked.size();
+      uint64_t cursor[kTile * kTile];
+      for (int p = 0; p < kTile * kTile; ++p) {
+        cursor[p] = start;
+        start += counts[p];
+        const int x = x_begin + p % kTile, y = y_begin + p / kTile;
+        if (x < x_end && y < y_end) {
+          const size_t pixel = static_cast<size_t>(y) * frame.width + x;
+          out.pixel_begin[pixel] = cursor[p];
+          out.pixel_count[pixel] = counts[p];
+          out.alpha[pixel] = 1.f - trans[p];
+        }
+      }
+      ranked.resize(start);
+      out.weights.resize(start);
+      for (const Entry& e : tile_entries) {
+        const uint64_t slot = cursor[e.pixel]++;
+        ranked[slot] = e.gaussian;
+        out.weights[slot] = e.weight;
+      }
+    }
+  }
+
+  // Local indices: the contributing Gaussians in ascending scene order.
+  std::vector<uint32_t> to_local(n, UINT32_MAX);
+  for (uint32_t k : ranked) to_local[scene_index[k]] = 0;
+  for (size_t i = 0; i < n; ++i) {
+    if (to_local[i] == 0) {
+      to_local[i] = static_cast<uint32_t>(out.gaussians.size());
+      out.gaussians.push_back(static_cast<uint32_t>(i));
+    }
+  }
+  out.local.resize(ranked.size());
+  for (size_t e = 0; e < ranked.size(); ++e) out.local[e] = to_local[scene_index[ranked[e]]];
+  if (options.local_coords) {
+    out.local_frames.resize(6 * out.gaussians.size());
+    for (size_t k = 0; k < splats.size(); ++k) {
+      const uint32_t l = to_local[scene_index[k]];
+      if (l == UINT32_MAX) continue;
+      const Splat& g = splats[k];
+      float* f = &out.local_frames[6 * static_cast<size_t>(l)];
+      f[0] = g.mx;
+      f[1] = g.my;
+      f[2] = g.ux;
+      f[3] = g.uy;
+      f[4] = g.vx;
+      f[5] = g.vy;
+    }
+  }
+  return out;
+}
+
+namespace {
+
+// The two products at one pixel p, with the channel count fixed at compile
+// time when it is the common 3 (kChannels = 0: `channels` at run time):
+// dst = (A c)_p, and out += (row p of A)^T r.
+template <int kChannels>
+inline void CompositePixel(const CompositingWeights& a, size_t p, const float* colours,
+                           int channels, float* dst) {
+  if constexpr (kChannels > 0) channels = kChannels;
+  for (int c = 0; c < channels; ++c) dst[c] = 0.f;
+  const uint64_t begin = a.pixel_begin[p], end = begin + a.pixel_count[p];
+  for (uint64_t e = begin; e < end; ++e) {
+    const float w = a.weights[e];
+    const float* src = colours + static_cast<size_t>(a.local[e]) * channels;
+    for (int c = 0; c < channels; ++c) dst[c] += w * src[c];
+  }
+}
+
+template <int kChannels>
+inline void AccumulatePixel(const CompositingWeights& a, size_t p, const float* r, int channels,
+                            float* out) {
+  if constexpr (kChannels > 0) channels = kChannels;
+  const uint64_t begin = a.pixel_begin[p], end = begin + a.pixel_count[p];
+  for (uint64_t e = begin; e < end; ++e) {
+    const float w = a.weights[e];
+    float* dst = out + static_cast<size_t>(a.local[e]) * channels;
+    for (int c = 0; c < channels; ++c) dst[c] += w * r[c];
+  }
+}
+
+// The same for colours with gradients: 9 parameters per Gaussian.
+inline void CompositePixelTextured(const CompositingWeights& a, size_t p, const float* params,
+                                   float* dst) {
+  dst[0] = dst[1] = dst[2] = 0.f;
+  float px, py;
+  a.PixelCentre(p, &px, &py);
+  const uint64_t begin = a.pixel_begin[p], end = begin + a.pixel_count[p];
+  for (uint64_t e = begin; e < end; ++e) {
+    float u, v;
+    a.LocalCoords(e, px, py, &u, &v);
+    const float w = a.weights[e], wu = w * u, wv = w * v;
+    const float* src = params + static_cast<size_t>(a.local[e]) * 9;
+    for (int c = 0; c < 3; ++c)
+      dst[c] += w * src[3 * c] + wu * src[3 * c + 1] + wv * src[3 * c + 2];
+  }
+}
+
+inline void AccumulatePixelTextured(const CompositingWeights& a, size_t p, const float* r,
+                                    float* out) {
+  float px, py;
+  a.PixelCentre(p, &px, &py);
+  const uint64_t begin = a.pixel_begin[p], end = begin + a.pixel_count[p];
+  for (uint64_t e = begin; e < end; ++e) {
+    float u, v;
+    a.LocalCoords(e, px, py, &u, &v);
+    const float w = a.weights[e], wu = w * u, wv = w * v;
+    float* dst = out + static_cast<size_t>(a.local[e]) * 9;
+    for (int c = 0; c < 3; ++c) {
+      dst[3 * c] += w * r[c];
+      dst[3 * c + 1] += wu * r[c];
+      dst[3 * c + 2] += wv * r[c];
+    }
+  }
+}
+
+template <int kChannels>
+void CompositeImpl(const CompositingWeights& a, const float* colours, int channels, float* image) {
+  if constexpr (kChannels > 0) channels = kChannels;
+  for (size_t p = 0; p < a.pixel_begin.size(); ++p)
+    CompositePixel<kChannels>(a, p, colours, channels, image + p * channels);
+}
+
+template <int kChannels>
+void AccumulateTransposedImpl(const CompositingWeights& a, const float* residual, int channels,
+                              float* out) {
+  if constexpr (kChannels > 0) channels = kChannels;
+  for (size_t p = 0; p < a.pixel_begin.size(); ++p)
+    AccumulatePixel<kChannels>(a, p, residual + p * channels, channels, out);
+}
+
+}  // namespace
+
+void CompositeTextured(const CompositingWeights& a, const float* params, float* image) {
+  for (size_t p = 0; p < a.pixel_begin.size(); ++p)
+    CompositePixelTextured(a, p, params, image + p * 3);
+}
+
+void AccumulateTransposedTextured(const CompositingWeights& a, const float* residual, float* out) {
+  for (size_t p = 0; p < a.pixel_begin.size(); ++p)
+    AccumulatePixelTextured(a, p, residual + p * 3, out);
+}
+
+void AccumulateNormal(const CompositingWeights& a, const std::vector<uint8_t>& mask, const float* x,
+                      float* out) {
+  const bool textured = a.has_local_coords();
+  for (size_t p = 0; p < a.pixel_begin.size(); ++p) {
+    if (!mask[p]) continue;
+    float v[3];
+    if (textured) {
+      CompositePixelTextured(a, p, x, v);
+      AccumulatePixelTextured(a, p, v, out);
+    } else {
+      CompositePixel<3>(a, p, x, 3, v);
+      AccumulatePixel<3>(a, p, v, 3, out);
+    }
+  }
+}
+
+void Composite(const CompositingWeights& a, const float* colours, int channels, float* image) {
+  if (channels == 3) {
+    CompositeImpl<3>(a, colours, 3, image);
+  } else {
+    CompositeImpl<0>(a, colours, channels, image);
+  }
+}
+
+void AccumulateTransposed(const CompositingWeights& a, const float* residual, int channels,
+                          float* out) {
+  if (channels == 3) {
+    AccumulateTransposedImpl<3>(a, residual, 3, out);
+  } else {
+    AccumulateTransposedImpl<0>(a, residual, channels, out);
+  }
+}
+
+}  // namespace pf

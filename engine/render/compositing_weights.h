@@ -1,0 +1,142 @@
+// The colour-linear part of Render(), recorded: for one camera and time, the
+// weight with which each Gaussian's colour enters each pixel.
+//
+// Render() composites front to back, so pixel p gets
+//   rgb_p = sum_i w_ip c_i,  w_ip = alpha_ip prod_{j in front of i} (1 - alpha_jp),
+// where alpha_ip is Gaussian i's opacity times its 2D footprint at p. With
+// geometry, opacity and time fixed, the rendered image is linear in the
+// colours: rgb = A c. ComputeCompositingWeights() records the sparse A of one
+// view by the rasterizer's own rules (EWA projection with the scene's
+// low-pass, opacity-aware extent, depth order with ties in index order, the
+// same per-row pixel spans, alpha clamped to 0.99, contributions under 1/255
+// skipped, a pixel done once its transmittance is under 1e-4), so
+// Composite(A, c) reproduces Render()'s premultiplied rgb for feature colours
+// (to float rounding: the rasterizer's exp is a polynomial) on the pixels
+// it records, and AccumulateTransposed() is the colour-only backward pass:
+// the gradient of sum_p |rgb_p - image_p|^2 / 2 with respect to the colours
+// is A^T (A c - image). Least-squares colour fits (recon/colour_refinement.h)
+// apply both without re-rendering. The forward rasterizer is not touched.
+//
+// Single-threaded per view (callers parallelise over views); memory is
+// 8 bytes per contributing (pixel, Gaussian) pair plus 16 per pixel (and,
+// with local coordinates, 24 per contributing Gaussian).
+#ifndef POINTFORWARD_ENGINE_RENDER_COMPOSITING_WEIGHTS_H_
+#define POINTFORWARD_ENGINE_RENDER_COMPOSITING_WEIGHTS_H_
+
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "engine/render/gaussian_scene.h"
+#include "engine/render/rasterizer.h"
+
+namespace pf {
+
+// Whether pixel (x, y) is on the lattice of 1 pixel in `stride`
+// (WeightOptions::pixel_stride): (x + s y) mod stride == 0, s about
+// sqrt(stride), so the recorded pixels spread evenly (stride 2: a
+// checkerboard). Every pixel for stride 1.
+inline bool OnPixelLattice(int x, int y, int stride) {
+  if (stride <= 1) return true;
+  const int shift = stride == 2 ? 1 : static_cast<int>(std::lround(std::sqrt(double(stride))));
+  return (x + shift * y) % stride == 0;
+}
+
+// The sparse compositing matrix A of one view, one row per pixel.
+struct CompositingWeights {
+  int width = 0;
+  int height = 0;
+  // Rows recorded: the pixels OnPixelLattice(x, y, pixel_stride); the others
+  // have no entries (their `alpha` is still the render's).
+  int pixel_stride = 1;
+  // Scene indices of the Gaussians with any weight in this view, ascending.
+  std::vector<uint32_t> gaussians;
+  // Entries of pixel p = y * width + x are [pixel_begin[p], pixel_end[p]),
+  // front to back (pixels are stored tile by tile, so rows interleave).
+  std::vector<uint64_t> pixel_begin;  // [H * W]
+  std::vector<uint32_t> pixel_count;  // [H * W]
+  std::vector<uint32_t> local;        // [E] index into `gaussians`
+  std::vector<float> weights;         // [E] w_ip
+  std::vector<float> alpha;           // [H * W] 1 - transmittance, as Render()'s alpha
+  // [gaussians.size(), 6] each contributing Gaussian's screen frame in this
+  // view: centre (mx, my) and the rows (ux, uy), (vx, vy) that map a pixel
+  // centre's offset from it to the local coordinates (u, v) of the colour
+  // gradients (GaussianScene::colour_gradients); empty unless
+  // WeightOptions::local_coords. An entry's (u, v) is a function of its
+  // pixel and its Gaussian (LocalCoords), so it is not stored per entry.
+  std::vector<float> local_frames;
+
+  size_t entries() const { return weights.size(); }
+  bool has_local_coords() const { return !local_frames.empty(); }
+  // The centre (x + 0.5, y + 0.5) of pixel p = y * width + x.
+  void PixelCentre(size_t pixel, float* px, float* py) const {
+    *px = static_cast<float>(pixel % static_cast<size_t>(width)) + 0.5f;
+    *py = static_cast<float>(pixel / static_cast<size_t>(width)) + 0.5f;
+  }
+  bool Records(size_t pixel) const {
+    return OnPixelLattice(static_cast<int>(pixel % static_cast<size_t>(width)),
+                          static_cast<int>(pixel / static_cast<size_t>(width)), pixel_stride);
+  }
+  // (u, v) of entry `e` at the pixel whose centre is (px, py) (x + 0.5,
+  // y + 0.5): the values Render() gives the Gaussian's colour gradients.
+  void LocalCoords(uint64_t e, float px, float py, float* u, float* v) const {
+    const float* f = &local_frames[6 * static_cast<size_t>(local[e])];
+    const float dx = px - f[0], dy = py - f[1];
+    *u = f[2] * dx + f[3] * dy;
+    *v = f[4] * dx + f[5] * dy;
+  }
+};
+
+struct WeightOptions {
+  float near_plane = 0.01f;  // As RenderOptions::near_plane.
+  // Entries with w_ip < min_weight are not recorded (they still attenuate
+  // the Gaussians behind them, and count in `alpha`). 0 records A exactly.
+  float min_weight = 0.f;
+  // Also record CompositingWeights::local_frames (24 bytes per contributing
+  // Gaussian).
+  bool local_coords = false;
+  // Record the entries of 1 pixel in pixel_stride only (OnPixelLattice):
+  // about 1 / pixel_stride of the memory, for fits too large for every
+  // pixel. Compositing is unchanged: every pixel attenuates as before.
+  int pixel_stride = 1;
+};
+
+// Records A for `scene` seen through `camera` at scene time `timestamp_us`
+// (no actor edits). INVALID_ARGUMENT if the camera has no pixels or the scene
+// has more than 2^32 Gaussians or its arrays disagree in size.
+absl::StatusOr<CompositingWeights> ComputeCompositingWeights(const GaussianScene& scene,
+                                                             const RenderCamera& camera,
+                                                             int64_t timestamp_us,
+                                                             const WeightOptions& options = {});
+
+// Writes image = A c: `colours` is [a.gaussians.size(), channels] in local
+// order, `image` is [H * W, channels].
+void Composite(const CompositingWeights& a, const float* colours, int channels, float* image);
+
+// Adds A^T r to `out`: `residual` is [H * W, channels]; `out` is
+// [a.gaussians.size(), channels] in local order.
+void AccumulateTransposed(const CompositingWeights& a, const float* residual, int channels,
+                          float* out);
+
+// The same two products for colours that vary across each Gaussian (the
+// render is linear in the centre colours and the gradients too): `params` and
+// `out` are [a.gaussians.size(), 3, 3], per RGB channel (colour, g_u, g_v) as
+// GaussianScene::colour_gradients; `image` and `residual` are [H * W, 3].
+// `a` must have local coordinates (WeightOptions::local_coords).
+void CompositeTextured(const CompositingWeights& a, const float* params, float* image);
+void AccumulateTransposedTextured(const CompositingWeights& a, const float* residual, float* out);
+
+// Adds A^T M A x to `out`, M the pixels where `mask` ([H * W]) is non-zero:
+// textured (`x`, `out` as CompositeTextured's params) when `a` has local
+// coordinates, else flat RGB ([a.gaussians.size(), 3]). One pass: each
+// pixel's entries are read from memory once and, still in cache, again for
+// the transposed product, where Composite then AccumulateTransposed read
+// them all twice (the colour fit's iterations are mostly this).
+void AccumulateNormal(const CompositingWeights& a, const std::vector<uint8_t>& mask, const float* x,
+                      float* out);
+
+}  // namespace pf
+
+#endif  // POINTFORWARD_ENGINE_RENDER_COMPOSITING_WEIGHTS_H_

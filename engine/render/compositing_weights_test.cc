@@ -1,0 +1,370 @@
+// Tests of the recorded compositing weights: hand-computed weights of
+// stacked Gaussians, agreement with Render() on random scenes (moving actors,
+// lifespans, distortion), and that the transposed product is the adjoint.
+#include "engine/render/compositing_weights.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+namespace pf {
+namespace {
+
+float Logit(double p) { return static_cast<float>(std::log(p / (1 - p))); }
+
+// A pinhole camera at the world origin looking down +z.
+RenderCamera SimpleCamera(int width, int height, double f) {
+  RenderCamera camera;
+  camera.model = CameraModel(width, height, f, f, width / 2.0, height / 2.0);
+  return camera;
+}
+
+void AddGaussian(GaussianScene* scene, const Vec3& mean, const Vec3& scale, const Quat& rotation,
+                 double opacity, const Vec3& rgb, uint32_t owner = 0) {
+  const size_t i = scene->size();
+  scene->Resize(i + 1);
+  for (int c = 0; c < 3; ++c) {
+    scene->means[3 * i + c] = static_cast<float>(mean[c]);
+    scene->log_scales[3 * i + c] = static_cast<float>(std::log(scale[c]));
+    scene->features[i * scene->num_channels + c] = static_cast<float>(rgb[c]);
+  }
+  scene->rotations[4 * i] = static_cast<float>(rotation.w);
+  scene->rotations[4 * i + 1] = static_cast<float>(rotation.x);
+  scene->rotations[4 * i + 2] = static_cast<float>(rotation.y);
+  scene->rotations[4 * i + 3] = static_cast<float>(rotation.z);
+  scene->opacity_logits[i] = Logit(opacity);
+  scene->owners[i] = owner;
+}
+
+// Colours of `scene` in the local order of `a`.
+std::vector<float> LocalColours(const GaussianScene& scene, const CompositingWeights& a) {
+  std::vector<float> colours;
+  for (uint32_t i : a.gaussians)
+    for (int c = 0; c < 3; ++c) colours.push_back(scene.features[i * scene.num_channels + c]);
+  return colours;
+}
+
+TEST(CompositingWeights, StackedGaussiansAtAPixelCentre) {
+  // Two small Gaussians on the ray through the centre of pixel (5, 7), at 4
+  // and 6 m, opacity 0.6 in front and 0.5 behind: at that pixel d^2 = 0, so
+  // w_front = 0.6 and w_back = 0.5 x (1 - 0.6) = 0.2. A third one elsewhere
+  // (pixel (12, 2)) contributes nowhere near.
+  const RenderCamera camera = SimpleCamera(16, 16, 16);
+  GaussianScene scene;
+  auto at_pixel = [](double px, double py, double z) {
+    return Vec3{(px + 0.5 - 8) / 16 * z, (py + 0.5 - 8) / 16 * z, z};
+  };
+  const Quat identity{1, 0, 0, 0};
+  AddGaussian(&scene, at_pixel(5, 7, 6), {0.01, 0.01, 0.01}, identity, 0.5, {0, 0, 1});
+  AddGaussian(&scene, at_pixel(5, 7, 4), {0.01, 0.01, 0.01}, identity, 0.6, {1, 0, 0});
+  AddGaussian(&scene, at_pixel(12, 2, 5), {0.01, 0.01, 0.01}, identity, 0.9, {0, 1, 0});
+  absl::StatusOr<CompositingWeights> a = ComputeCompositingWeights(scene, camera, 0);
+  ASSERT_TRUE(a.ok()) << a.status();
+  EXPECT_EQ(a->gaussians, (std::vector<uint32_t>{0, 1, 2}));
+  const size_t pixel = 7 * 16 + 5;
+  ASSERT_EQ(a->pixel_count[pixel], 2u);
+  const uint64_t k = a->pixel_begin[pixel];
+  EXPECT_EQ(a->gaussians[a->local[k]], 1u);  // Front first.
+  EXPECT_NEAR(a->weights[k], 0.6f, 1e-6);
+  EXPECT_EQ(a->gaussians[a->local[k + 1]], 0u);
+  EXPECT_NEAR(a->weights[k + 1], 0.2f, 1e-6);
+  EXPECT_NEAR(a->alpha[pixel], 0.8f, 1e-6);
+  // Composite: 0.6 red + 0.2 blue.
+  std::vector<float> image(16 * 16 * 3);
+  const std::vector<float> colours = LocalColours(scene, *a);
+  Composite(*a, colours.data(), 3, image.data());
+  EXPECT_NEAR(image[3 * pixel], 0.6f, 1e-6);
+  EXPECT_NEAR(image[3 * pixel + 1], 0.f, 1e-6);
+  EXPECT_NEAR(image[3 * pixel + 2], 0.2f, 1e-6);
+  // A^T of a residual that is 1 at that pixel only: each Gaussian gets its
+  // weight there.
+  std::vector<float> residual(16 * 16 * 3, 0.f), out(9, 0.f);
+  residual[3 * pixel] = 1.f;
+  AccumulateTransposed(*a, residual.data(), 3, out.data());
+  EXPECT_NEAR(out[0], 0.2f, 1e-6);  // Gaussian 0 (behind).
+  EXPECT_NEAR(out[3], 0.6f, 1e-6);  // Gaussian 1 (in front).
+  EXPECT_NEAR(out[6], 0.f, 1e-9);
+  EXPECT_NEAR(out[1], 0.f, 1e-9);
+}
+
+// A random scene of flat and round Gaussians of sub-pixel to tile size, a
+// moving actor and fading Gaussians.
+GaussianScene RandomScene(unsigned seed, size_t count) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(0, 1);
+  GaussianScene scene;
+  scene.num_channels = 5;
+  InstanceTrack car;
+  car.id = "car";
+  car.boxes.push_back({0, {0, 0, 8}, {4, 2, 1.5}, Quat{1, 0, 0, 0}});
+  car.boxes.push_back(
+      {1000000, {1.5, 0, 9}, {4, 2, 1.5}, Quat{std::cos(0.2), 0, 0, std::sin(0.2)}});
+  scene.instances.push_back(car);
+  for (size_t i = 0; i < count; ++i) {
+    const double z = 3 + 12 * u(rng);
+    const Vec3 mean{(u(rng) - 0.5) * z, (u(rng) - 0.5) * 0.75 * z, z};
+    const double s = 0.005 + 0.15 * u(rng);
+    const Vec3 scale{s, s * (0.2 + u(rng)), s * (u(rng) < 0.5 ? 0.05 : 1.0)};
+    Quat q{u(rng) - 0.5, u(rng) - 0.5, u(rng) - 0.5, u(rng) - 0.5};
+    const uint32_t owner = u(rng) < 0.2 ? 1 : 0;
+    AddGaussian(&scene, owner ? Vec3{mean.x * 0.3, mean.y * 0.3, 8 + u(rng) - 0.5} : mean, scale, q,
+                0.05 + 0.94 * u(rng), {u(rng), u(rng), u(rng)}, owner);
+    scene.times[i] = static_cast<float>(u(rng));
+    if (u(rng) < 0.2) scene.lifespans[i] = static_cast<float>(0.3 * u(rng));
+  }
+  return scene;
+}
+
+void ExpectMatchesRender(const GaussianScene& scene, const RenderCamera& camera,
+                         int64_t timestamp_us) {
+  RenderOptions options;
+  options.features = false;
+  absl::StatusOr<RenderBuffers> render = Render(scene, camera, timestamp_us, {}, options);
+  ASSERT_TRUE(render.ok()) << render.status();
+  absl::StatusOr<CompositingWeights> a = ComputeCompositingWeights(scene, camera, timestamp_us);
+  ASSERT_TRUE(a.ok()) << a.status();
+  ASSERT_EQ(a->alpha.size(), render->alpha.size());
+  std::vector<float> image(render->rgb.size());
+  const std::vector<float> colours = LocalColours(scene, *a);
+  Composite(*a, colours.data(), 3, image.data());
+  double max_error = 0, max_alpha_error = 0, covered = 0;
+  for (size_t p = 0; p < render->alpha.size(); ++p) {
+    max_alpha_error = std::max(max_alpha_error, double(std::abs(a->alpha[p] - render->alpha[p])));
+    covered += render->alpha[p] > 0.5f;
+    for (int c = 0; c < 3; ++c)
+      max_error = std::max(max_error, double(std::abs(image[3 * p + c] - render->rgb[3 * p + c])));
+  }
+  EXPECT_LT(max_error, 2e-4);
+  EXPECT_LT(max_alpha_error, 2e-4);
+  EXPECT_GT(covered, 0.2 * render->alpha.size());  // The scene really covers the image.
+  EXPECT_EQ(a->entries(), static_cast<size_t>(render->stats.pairs_contributing));
+}
+
+TEST(CompositingWeights, ReproducesRenderOnRandomScenes) {
+  const GaussianScene scene = RandomScene(3, 3000);
+  ExpectMatchesRender(scene, SimpleCamera(96, 64, 80), 0);
+  ExpectMatchesRender(scene, SimpleCamera(96, 64, 80), 600000);  // Actor moved, fading.
+  RenderCamera turned = SimpleCamera(80, 72, 70);
+  turned.world_from_camera.rotation = ToMatrix(Quat{std::cos(0.1), 0, std::sin(0.1), 0});
+  turned.world_from_camera.translation = {0.3, -0.2, 0.5};
+  ExpectMatchesRender(scene, turned, 300000);
+  RenderCamera distorted = SimpleCamera(96, 64, 80);
+  distorted.model.SetOpenCv(-0.2, 0.05, 0.001, -0.001, 0);
+  ExpectMatchesRender(scene, distorted, 0);
+  // Under the low-pass our reconstruction writes (the weights follow the
+  // scene's, not a constant).
+  GaussianScene sharp = scene;
+  sharp.low_pass = 0.1f;
+  ExpectMatchesRender(sharp, SimpleCamera(96, 64, 80), 0);
+}
+
+// Checks <A x, r> = <x, A^T r> for random x ([x_size]) and r ([r_size]),
+// `forward(x, out)` writing A x and `transpose(r, out)` adding A^T r.
+template <typename Forward, typename Transpose>
+void ExpectAdjoint(size_t x_size, size_t r_size, uint32_t seed, Forward forward,
+                   Transpose transpose) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> u(-1, 1);
+  std::vector<float> x(x_size), r(r_size);
+  for (float& v : x) v = u(rng);
+  for (float& v : r) v = u(rng);
+  std::vector<float> ax(r.size()), atr(x.size(), 0.f);
+  forward(x.data(), ax.data());
+  transpose(r.data(), atr.data());
+  double left = 0, right = 0, scale = 0;
+  for (size_t i = 0; i < r.size(); ++i) left += double(ax[i]) * r[i];
+  for (size_t i = 0; i < x.size(); ++i) right += double(x[i]) * atr[i];
+  for (size_t i = 0; i < x.size(); ++i) scale += std::abs(double(x[i]) * atr[i]);
+  ASSERT_GT(scale, 1.0);
+  EXPECT_NEAR(left, right, 1e-5 * scale);
+}
+
+TEST(CompositingWeights, TransposeIsTheAdjoint) {
+  // <A c, r> = <c, A^T r> for random c and r, two channels.
+  const GaussianScene scene = RandomScene(5, 800);
+  absl::StatusOr<CompositingWeights> a =
+      ComputeCompositingWeights(scene, SimpleCamera(64, 48, 60), 0);
+  ASSERT_TRUE(a.ok()) << a.status();
+  ExpectAdjoint(
+      a->gaussians.size() * 2, 64 * 48 * 2, 1,
+      [&](const float* c, float* out) { Composite(*a, c, 2, out); },
+      [&](const float* r, float* out) { AccumulateTransposed(*a, r, 2, out); });
+}
+
+// Random colour gradients in [-0.5, 0.5] on every Gaussian of `scene`.
+GaussianScene WithRandomGradients(GaussianScene scene, uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> u(-0.5f, 0.5f);
+  scene.colour_gradients.resize(6 * scene.size());
+  for (float& g : scene.colour_gradients) g = u(rng);
+  return scene;
+}
+
+// The colours and gradients of `scene` in the local order of `a`, [M, 3, 3].
+std::vector<float> LocalTexturedColours(const GaussianScene& scene, const CompositingWeights& a) {
+  std::vector<float> params;
+  for (uint32_t i : a.gaussians) {
+    for (int c = 0; c < 3; ++c) {
+      params.push_back(scene.features[i * scene.num_channels + c]);
+      params.push_back(scene.colour_gradients[6 * i + 2 * c]);
+      params.push_back(scene.colour_gradients[6 * i + 2 * c + 1]);
+    }
+  }
+  return params;
+}
+
+TEST(CompositingWeights, WithLocalCoordinatesReproducesRenderOfColourGradients) {
+  const GaussianScene scene = WithRandomGradients(RandomScene(3, 3000), 4);
+  RenderCamera distorted = SimpleCamera(96, 64, 80);
+  distorted.model.SetOpenCv(-0.2, 0.05, 0.001, -0.001, 0);
+  for (const RenderCamera& camera : {SimpleCamera(96, 64, 80), distorted}) {
+    RenderOptions options;
+    options.features = false;
+    absl::StatusOr<RenderBuffers> render = Render(scene, camera, 300000, {}, options);
+    ASSERT_TRUE(render.ok()) << render.status();
+    WeightOptions weight_options;
+    weight_options.local_coords = true;
+    absl::StatusOr<CompositingWeights> a =
+        ComputeCompositingWeights(scene, camera, 300000, weight_options);
+    ASSERT_TRUE(a.ok()) << a.status();
+    ASSERT_EQ(a->local_frames.size(), 6 * a->gaussians.size());
+    std::vector<float> image(render->rgb.size());
+    const std::vector<float> params = LocalTexturedColours(scene, *a);
+    CompositeTextured(*a, params.data(), image.data());
+    double max_error = 0;
+    for (size_t i = 0; i < image.size(); ++i)
+      max_error = std::max(max_error, double(std::abs(image[i] - render->rgb[i])));
+    EXPECT_LT(max_error, 2e-4);
+    // The gradients matter: flat colours give another image.
+    std::vector<float> flat(render->rgb.size());
+    const std::vector<float> colours = LocalColours(scene, *a);
+    Composite(*a, colours.data(), 3, flat.data());
+    double max_difference = 0;
+    for (size_t i = 0; i < flat.size(); ++i)
+      max_difference = std::max(max_difference, double(std::abs(flat[i] - render->rgb[i])));
+    EXPECT_GT(max_difference, 0.05);
+  }
+}
+
+TEST(CompositingWeights, TexturedTransposeIsTheAdjoint) {
+  const GaussianScene scene = RandomScene(5, 800);
+  WeightOptions options;
+  options.local_coords = true;
+  absl::StatusOr<CompositingWeights> a =
+      ComputeCompositingWeights(scene, SimpleCamera(64, 48, 60), 0, options);
+  ASSERT_TRUE(a.ok()) << a.status();
+  ExpectAdjoint(
+      a->gaussians.size() * 9, 64 * 48 * 3, 2,
+      [&](const float* x, float* out) { CompositeTextured(*a, x, out); },
+      [&](const float* r, float* out) { AccumulateTransposedTextured(*a, r, out); });
+}
+
+TEST(CompositingWeights, AccumulateNormalIsTheTransposeOfTheMaskedComposite) {
+  // A^T M A x in one pass equals Composite, the pixels outside the mask
+  // zeroed, then AccumulateTransposed: flat RGB and with gradients.
+  const GaussianScene scene = RandomScene(6, 800);
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> u(-1.f, 1.f);
+  std::vector<uint8_t> mask(64 * 48);
+  for (size_t p = 0; p < mask.size(); ++p) mask[p] = (p * 7919 % 5) != 0;  // 4 in 5 pixels.
+  for (const bool textured : {false, true}) {
+    SCOPED_TRACE(textured);
+    WeightOptions options;
+    options.local_coords = textured;
+    absl::StatusOr<CompositingWeights> a =
+        ComputeCompositingWeights(scene, SimpleCamera(64, 48, 60), 0, options);
+    ASSERT_TRUE(a.ok()) << a.status();
+    const size_t per = textured ? 9 : 3;
+    std::vector<float> x(per * a->gaussians.size());
+    for (float& v : x) v = u(rng);
+    std::vector<float> image(3 * mask.size());
+    if (textured) {
+      CompositeTextured(*a, x.data(), image.data());
+    } else {
+      Composite(*a, x.data(), 3, image.data());
+    }
+    for (size_t p = 0; p < mask.size(); ++p)
+      if (!mask[p]) image[3 * p] = image[3 * p + 1] = image[3 * p + 2] = 0.f;
+    std::vector<float> expected(x.size(), 0.f), got(x.size(), 0.f);
+    if (textured) {
+      AccumulateTransposedTextured(*a, image.data(), expected.data());
+    } else {
+      AccumulateTransposed(*a, image.data(), 3, expected.data());
+    }
+    AccumulateNormal(*a, mask, x.data(), got.data());
+    double max_error = 0, max_value = 0;
+    for (size_t k = 0; k < x.size(); ++k) {
+      max_error = std::max(max_error, double(std::abs(got[k] - expected[k])));
+      max_value = std::max(max_value, double(std::abs(expected[k])));
+    }
+    EXPECT_GT(max_value, 0.1);
+    EXPECT_LT(max_error, 1e-5 * max_value);
+  }
+}
+
+TEST(CompositingWeights, APixelStrideRecordsTheLatticePixelsOnly) {
+  // With pixel_stride k only the pixels OnPixelLattice(x, y, k) have
+  // entries, and exactly the entries (Gaussians, weights, local
+  // coordinates) a full recording gives them; alpha is every pixel's.
+  const GaussianScene scene = WithRandomGradients(RandomScene(7, 2000), 5);
+  const RenderCamera camera = SimpleCamera(96, 64, 80);
+  WeightOptions options;
+  options.local_coords = true;
+  absl::StatusOr<CompositingWeights> full = ComputeCompositingWeights(scene, camera, 0, options);
+  ASSERT_TRUE(full.ok()) << full.status();
+  for (const int stride : {2, 3, 4}) {
+    SCOPED_TRACE(stride);
+    options.pixel_stride = stride;
+    absl::StatusOr<CompositingWeights> a = ComputeCompositingWeights(scene, camera, 0, options);
+    ASSERT_TRUE(a.ok()) << a.status();
+    EXPECT_EQ(a->alpha, full->alpha);
+    size_t lattice = 0, compared = 0;
+    for (int y = 0; y < 64; ++y) {
+      for (int x = 0; x < 96; ++x) {
+        const size_t p = static_cast<size_t>(y) * 96 + x;
+        ASSERT_EQ(a->Records(p), OnPixelLattice(x, y, stride));
+        if (!a->Records(p)) {
+          ASSERT_EQ(a->pixel_count[p], 0u);
+          continue;
+        }
+        ++lattice;
+        ASSERT_EQ(a->pixel_count[p], full->pixel_count[p]);
+        for (uint32_t j = 0; j < a->pixel_count[p]; ++j) {
+          const uint64_t e = a->pixel_begin[p] + j, f = full->pixel_begin[p] + j;
+          ASSERT_EQ(a->gaussians[a->local[e]], full->gaussians[full->local[f]]);
+          ASSERT_EQ(a->weights[e], full->weights[f]);
+          float u, v, fu, fv;
+          a->LocalCoords(e, x + 0.5f, y + 0.5f, &u, &v);
+          full->LocalCoords(f, x + 0.5f, y + 0.5f, &fu, &fv);
+          ASSERT_EQ(u, fu);
+          ASSERT_EQ(v, fv);
+          ++compared;
+        }
+      }
+    }
+    // 1 pixel in k, spread: every row and every column holds about 1 in k.
+    EXPECT_NEAR(double(lattice) / (96 * 64), 1.0 / stride, 0.01);
+    EXPECT_GT(compared, 0u);
+    EXPECT_LT(a->entries(), full->entries() / (stride - 0.5));
+  }
+  options.pixel_stride = 0;
+  EXPECT_EQ(ComputeCompositingWeights(scene, camera, 0, options).status().code(),
+            absl::StatusCode::kInvalidArgument);
+}
+
+TEST(CompositingWeights, RejectsEmptyCameraAndBadScenes) {
+  GaussianScene scene = RandomScene(7, 10);
+  EXPECT_EQ(ComputeCompositingWeights(scene, SimpleCamera(0, 10, 10), 0).status().code(),
+            absl::StatusCode::kInvalidArgument);
+  scene.owners[3] = 9;
+  EXPECT_EQ(ComputeCompositingWeights(scene, SimpleCamera(10, 10, 10), 0).status().code(),
+            absl::StatusCode::kInvalidArgument);
+  scene.owners[3] = 0;
+  scene.means.pop_back();
+  EXPECT_EQ(ComputeCompositingWeights(scene, SimpleCamera(10, 10, 10), 0).status().code(),
+            absl::StatusCode::kInvalidArgument);
+}
+
+}  // namespace
+}  // namespace pf

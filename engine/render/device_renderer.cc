@@ -1,0 +1,37 @@
+// Rendering on the CPU or a GPU (device_renderer.h).
+#include "engine/render/device_renderer.h"
+
+#include <string>
+
+#include "absl/strings/str_cat.h"
+
+namespace pf {
+
+absl::StatusOr<std::unique_ptr<DeviceRenderer>> DeviceRenderer::Create(const GaussianScene* scene,
+                                                                       const ComputeDevice& device,
+                                                                       const std::string& field) {
+  std::unique_ptr<CudaScene> gpu;
+  if (device.kind == ComputeDevice::Kind::kCuda) {
+    // Upload checks the scene, then the device.
+    absl::StatusOr<std::unique_ptr<CudaScene>> uploaded = CudaScene::Upload(*scene, device.index);
+    if (absl::IsFailedPrecondition(uploaded.status())) {
+      return absl::FailedPreconditionError(absl::StrCat(
+          field, ": '", device.ToString(), "' cannot render: ", uploaded.status().message()));
+    }
+    if (!uploaded.ok()) return uploaded.status();
+    gpu = std::move(*uploaded);
+  } else if (absl::Status s = CheckRenderable(*scene); !s.ok()) {
+    return s;
+  }
+  return std::unique_ptr<DeviceRenderer>(new DeviceRenderer(scene, device, std::move(gpu)));
+}
+
+absl::StatusOr<RenderBuffers> DeviceRenderer::Render(const RenderCamera& camera,
+                                                     int64_t timestamp_us,
+                                                     const std::vector<ActorEdit>& edits,
+                                                     const RenderOptions& options) const {
+  if (gpu_ != nullptr) return gpu_->Render(camera, timestamp_us, edits, options);
+  return pf::Render(*scene_, camera, timestamp_us, edits, options);
+}
+
+}  // namespace pf

@@ -1,0 +1,112 @@
+// The in-memory Gaussian scene, in structure-of-arrays form.
+//
+// Gaussian i is background (owner 0) or belongs to instance k (owner k,
+// 1-based into `instances`). Background means live in world space; an
+// instance's means and rotations live in its canonical frame, the frame of
+// its first box (docs/DESIGN.md section 3): at render time t' they are moved
+// to the world by the instance's box pose at t'.
+//
+// Colour comes from spherical harmonics when `sh_degree` >= 0 (scenes from
+// 3DGS tools), else from the first three feature channels. Those may vary
+// linearly across a Gaussian (`colour_gradients`, reconstructed scenes): at
+// local coordinates (u, v) along the Gaussian's first two axes, in units of
+// its standard deviations, channel c is features[c] + g_cu u + g_cv v. A
+// pixel at screen offset d from the centre takes the expected (u, v) given
+// d, B^T Sigma^-1 d (B: the axes projected to the screen and scaled by the
+// std-devs, Sigma the 2D covariance with the low-pass), so a Gaussian seen
+// edge-on or much smaller than the low-pass blends to its centre colour.
+//
+// `low_pass` is the screen-space variance (pixels^2) the rasterizer adds to
+// every projected 2D covariance. It belongs to the scene because a scene's
+// colours are fitted under one: 3DGS tools train with 0.3 (kThreeDgsLowPass,
+// what PLY files from them need); our reconstruction uses 0.1 (about the
+// variance of a one-pixel box, 1/12, which is what antialiased camera
+// images integrate over), docs/QUALITY.md has the comparison.
+#ifndef POINTFORWARD_ENGINE_RENDER_GAUSSIAN_SCENE_H_
+#define POINTFORWARD_ENGINE_RENDER_GAUSSIAN_SCENE_H_
+
+#include <cstdint>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "common/colour_space.h"
+#include "common/geometry.h"
+
+namespace pf {
+
+// A box of an instance track, in world space.
+struct TrackBox {
+  int64_t timestamp_us = 0;
+  Vec3 center;
+  Vec3 size;      // Length (box x), width (y), height (z).
+  Quat rotation;  // Box-to-world.
+};
+
+// A moving actor: its id, category and boxes sorted by time.
+struct InstanceTrack {
+  std::string id;
+  std::string category;
+  std::vector<TrackBox> boxes;  // Sorted by timestamp_us; boxes[0] is canonical.
+};
+
+// The low-pass of the reference 3DGS rasterizer, and the default.
+inline constexpr float kThreeDgsLowPass = 0.3f;
+// The range ValidateScene accepts for GaussianScene::low_pass.
+inline constexpr float kMaxLowPass = 4.f;
+
+struct GaussianScene {
+  int num_channels = 3;               // N_c, 3..256.
+  int sh_degree = -1;                 // -1: no SH; 0..3 otherwise.
+  float low_pass = kThreeDgsLowPass;  // Screen-space low-pass, pixels^2, in [0, kMaxLowPass].
+  // Scene time of t = 0 for `times`; lifespans are in seconds.
+  int64_t time_origin_us = 0;
+  // What the colours (SH or the first three feature channels, and their
+  // gradients) encode, so a render's colour is too: sRGB-encoded values (3DGS
+  // scenes; reconstructions in the sRGB working space) or linear light.
+  // Render outputs convert from it (render_outputs.h).
+  ColourEncoding colour_encoding = ColourEncoding::kSrgb;
+
+  std::vector<float> means;           // [N, 3]
+  std::vector<float> rotations;       // [N, 4] (w, x, y, z), any norm > 0
+  std::vector<float> log_scales;      // [N, 3] natural log of the std-devs
+  std::vector<float> opacity_logits;  // [N] opacity = sigmoid(logit)
+  std::vector<float> features;        // [N, num_channels]
+  std::vector<float> sh;              // [N, 3, (sh_degree+1)^2] channel-major; empty if none
+  std::vector<float> times;           // [N] seconds since time_origin_us
+  std::vector<float> lifespans;       // [N] sigma in seconds; +inf: never fades
+  std::vector<uint32_t> owners;       // [N] 0 background, k: instances[k-1]
+  // [N, 3, 2] (g_cu, g_cv) per colour channel; empty: flat colours. Only
+  // without SH.
+  std::vector<float> colour_gradients;
+
+  std::vector<InstanceTrack> instances;
+
+  size_t size() const { return opacity_logits.size(); }
+  int sh_coeffs() const { return sh_degree < 0 ? 0 : (sh_degree + 1) * (sh_degree + 1); }
+  bool has_colour_gradients() const { return !colour_gradients.empty(); }
+
+  // Resizes every per-Gaussian array to `n`, keeping existing entries; new
+  // ones are identity rotations, zero elsewhere, lifespan +inf, owner 0
+  // (colour gradients only when the scene has them).
+  void Resize(size_t n);
+};
+
+inline void GaussianScene::Resize(size_t n) {
+  const size_t old = size();
+  means.resize(n * 3, 0.f);
+  rotations.resize(n * 4, 0.f);
+  for (size_t i = old; i < n; ++i) rotations[i * 4] = 1.f;
+  log_scales.resize(n * 3, 0.f);
+  opacity_logits.resize(n, 0.f);
+  features.resize(n * num_channels, 0.f);
+  if (sh_degree >= 0) sh.resize(n * 3 * sh_coeffs(), 0.f);
+  times.resize(n, 0.f);
+  lifespans.resize(n, std::numeric_limits<float>::infinity());
+  owners.resize(n, 0);
+  if (!colour_gradients.empty()) colour_gradients.resize(n * 6, 0.f);
+}
+
+}  // namespace pf
+
+#endif  // POINTFORWARD_ENGINE_RENDER_GAUSSIAN_SCENE_H_

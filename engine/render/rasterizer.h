@@ -1,0 +1,90 @@
+// Tile-based EWA splatting of a GaussianScene on the CPU.
+//
+// Render() projects every live Gaussian (EWA Jacobian, the scene's low-pass
+// dilation (GaussianScene::low_pass), opacity-aware extent), bins them into 16x16 tiles, sorts each
+// tile by depth and composites front to back (alpha clamped to 0.99,
+// contributions under 1/255 skipped, a pixel stops once transmittance < 1e-4).
+// Time t' scales opacity by exp(-0.5 ((t' - t) / (sigma + 1))^2) and moves
+// instance Gaussians from canonical space by the instance's box at t'
+// (linear centre, slerp rotation between the two nearest boxes; before the
+// first box or after the last, the end box is held). A scene with colour
+// gradients shades its first three channels across each Gaussian
+// (GaussianScene::colour_gradients, splat_projection.h).
+#ifndef POINTFORWARD_ENGINE_RENDER_RASTERIZER_H_
+#define POINTFORWARD_ENGINE_RENDER_RASTERIZER_H_
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "common/geometry.h"
+#include "engine/camera/camera_model.h"
+#include "engine/render/gaussian_scene.h"
+
+namespace pf {
+
+// A camera to render through: its model and pose.
+struct RenderCamera {
+  CameraModel model;
+  Rigid world_from_camera;
+};
+
+// A per-render change to one actor.
+struct ActorEdit {
+  enum class Kind { kRemove, kTrajectory };
+  Kind kind = Kind::kRemove;
+  std::string instance_id;      // InstanceTrack::id.
+  std::vector<TrackBox> boxes;  // kTrajectory: the new track, sorted by time.
+};
+
+struct RenderOptions {
+  bool features = true;      // Fill RenderBuffers::features.
+  bool depth = true;         // Fill depth.
+  bool instance = true;      // Fill instance ids.
+  float near_plane = 0.01f;  // Gaussians closer than this (z, metres) are culled.
+};
+
+// Counters of one render, for the benchmark.
+struct RasterStats {
+  int64_t gaussians_visible = 0;   // Projected and inside the image.
+  int64_t pairs_tested = 0;        // Gaussian-pixel pairs evaluated.
+  int64_t pairs_contributing = 0;  // Pairs that changed the pixel.
+};
+
+// Per-pixel outputs, row-major [H, W, ...].
+struct RenderBuffers {
+  int width = 0;
+  int height = 0;
+  int channels = 0;             // N_c of the scene.
+  std::vector<float> features;  // [H, W, C] premultiplied by alpha (empty if not asked)
+  std::vector<float> rgb;       // [H, W, 3] premultiplied by alpha
+  std::vector<float> alpha;     // [H, W]
+  // [H, W] expected z depth normalised by alpha: sum(w_i z_i) / sum(w_i);
+  // 0 where alpha == 0.
+  std::vector<float> depth;
+  std::vector<uint32_t> instance;  // [H, W] owner of the largest contributor; 0 background/empty
+  RasterStats stats;
+};
+
+// What Render() (and ComputeCompositingWeights()) require of a scene, checked
+// in O(n) without reading the values: num_channels in [3, 256], sh_degree in
+// [-1, 3], fewer than 2^32 Gaussians, every array of the size size() implies,
+// every owner an instance of the scene. INVALID_ARGUMENT naming the field.
+absl::Status CheckRenderable(const GaussianScene& scene);
+
+// Most pixels one render may have (2^31): beyond, its buffers' sizes no
+// longer fit the rasterizer's indices.
+inline constexpr int64_t kMaxRenderPixels = int64_t{1} << 31;
+
+// Renders `scene` through `camera` at scene time `timestamp_us` with `edits`
+// applied. INVALID_ARGUMENT if an edit names an unknown instance or the
+// camera has no pixels or more than kMaxRenderPixels. Deterministic for the same input and thread
+// count; uses DefaultThreadPool().
+absl::StatusOr<RenderBuffers> Render(const GaussianScene& scene, const RenderCamera& camera,
+                                     int64_t timestamp_us, const std::vector<ActorEdit>& edits,
+                                     const RenderOptions& options = {});
+
+}  // namespace pf
+
+#endif  // POINTFORWARD_ENGINE_RENDER_RASTERIZER_H_

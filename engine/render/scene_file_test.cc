@@ -1,0 +1,418 @@
+// Tests of the binary scene file: exact round trips and every rejection.
+#include "engine/render/scene_file.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <limits>
+
+#include "absl/strings/str_cat.h"
+#include "common/file_util.h"
+#include "common/hash.h"
+#include "tests/test_util.h"
+
+namespace pf {
+namespace {
+
+namespace fs = std::filesystem;
+
+// A small scene with SH, 4 channels, an instance and a few finite lifespans.
+GaussianScene MakeScene() {
+  GaussianScene scene;
+  scene.num_channels = 4;
+  scene.sh_degree = 1;
+  scene.time_origin_us = 1'700'000'000'123'456;
+  scene.low_pass = 0.1f;
+  InstanceTrack car;
+  car.id = "car1";
+  car.category = "car";
+  car.boxes.push_back({1'700'000'000'123'456, {1, 2, 3}, {4.5, 1.8, 1.5}, {1, 0, 0, 0}});
+  car.boxes.push_back(
+      {1'700'000'000'623'456, {3, 2, 3}, {4.5, 1.8, 1.5}, QuatNormalized({0.9, 0.05, -0.03, 0.1})});
+  scene.instances.push_back(car);
+  scene.Resize(7);
+  for (size_t i = 0; i < scene.size(); ++i) {
+    for (int a = 0; a < 3; ++a) {
+      scene.means[3 * i + a] = 0.5f * i - a;
+      scene.log_scales[3 * i + a] = -1.f - 0.1f * a;
+    }
+    scene.rotations[4 * i + 1] = 0.1f * i;
+    scene.opacity_logits[i] = 0.25f * i - 1.f;
+    for (int c = 0; c < scene.num_channels; ++c) scene.features[i * 4 + c] = 0.1f * (c + i);
+    for (int k = 0; k < 3 * scene.sh_coeffs(); ++k) scene.sh[i * 12 + k] = 0.01f * (k - 5) * i;
+    scene.times[i] = 0.05f * i;
+    if (i % 2 == 1) scene.lifespans[i] = 0.3f;
+    scene.owners[i] = i >= 5 ? 1 : 0;
+  }
+  return scene;
+}
+
+void ExpectScenesEqual(const GaussianScene& a, const GaussianScene& b) {
+  EXPECT_EQ(a.num_channels, b.num_channels);
+  EXPECT_EQ(a.sh_degree, b.sh_degree);
+  EXPECT_EQ(a.time_origin_us, b.time_origin_us);
+  EXPECT_EQ(a.low_pass, b.low_pass);
+  EXPECT_EQ(a.colour_encoding, b.colour_encoding);
+  EXPECT_EQ(a.means, b.means);
+  EXPECT_EQ(a.rotations, b.rotations);
+  EXPECT_EQ(a.log_scales, b.log_scales);
+  EXPECT_EQ(a.opacity_logits, b.opacity_logits);
+  EXPECT_EQ(a.features, b.features);
+  EXPECT_EQ(a.sh, b.sh);
+  EXPECT_EQ(a.times, b.times);
+  EXPECT_EQ(a.lifespans, b.lifespans);
+  EXPECT_EQ(a.owners, b.owners);
+  EXPECT_EQ(a.colour_gradients, b.colour_gradients);
+  ASSERT_EQ(a.instances.size(), b.instances.size());
+  for (size_t k = 0; k < a.instances.size(); ++k) {
+    EXPECT_EQ(a.instances[k].id, b.instances[k].id);
+    EXPECT_EQ(a.instances[k].category, b.instances[k].category);
+    ASSERT_EQ(a.instances[k].boxes.size(), b.instances[k].boxes.size());
+    for (size_t j = 0; j < a.instances[k].boxes.size(); ++j) {
+      const TrackBox& x = a.instances[k].boxes[j];
+      const TrackBox& y = b.instances[k].boxes[j];
+      EXPECT_EQ(x.timestamp_us, y.timestamp_us);
+      for (int i = 0; i < 3; ++i) {
+        EXPECT_EQ(x.center[i], y.center[i]);
+        EXPECT_EQ(x.size[i], y.size[i]);
+      }
+      EXPECT_EQ(x.rotation.w, y.rotation.w);
+      EXPECT_EQ(x.rotation.x, y.rotation.x);
+      EXPECT_EQ(x.rotation.y, y.rotation.y);
+      EXPECT_EQ(x.rotation.z, y.rotation.z);
+    }
+  }
+}
+
+class SceneFileTest : public ::testing::Test {
+ protected:
+  void SetUp() override { path_ = testing::MakeTempDir("scene_file") + "/scene.pfscene"; }
+
+  // Saves MakeScene(), lets `edit` change the bytes, and returns the load status.
+  template <typename Edit>
+  absl::Status LoadEdited(Edit edit) {
+    EXPECT_TRUE(SaveScene(MakeScene(), path_).ok());
+    std::string bytes = *ReadFileToString(path_);
+    edit(bytes);
+    EXPECT_TRUE(WriteFileAtomic(path_, bytes).ok());
+    return ReadSceneFile(path_).status();
+  }
+
+  std::string path_;
+};
+
+TEST_F(SceneFileTest, RoundTripPreservesEveryArrayAndMetadata) {
+  const GaussianScene scene = MakeScene();
+  ASSERT_TRUE(SaveScene(scene, path_, {{"model", "analytic"}, {"clip", "abc"}}).ok());
+  absl::StatusOr<SceneFile> loaded = ReadSceneFile(path_);
+  ASSERT_TRUE(loaded.ok()) << loaded.status();
+  ExpectScenesEqual(scene, loaded->scene);
+  EXPECT_TRUE(std::isinf(loaded->scene.lifespans[0]));
+  EXPECT_EQ(loaded->metadata.at("model"), "analytic");
+  EXPECT_EQ(loaded->metadata.at("clip"), "abc");
+  EXPECT_EQ(loaded->checksum_hex.size(), 64u);
+  // The same content gives the same checksum; different content another.
+  const std::string other = path_ + ".2";
+  ASSERT_TRUE(SaveScene(scene, other, {{"model", "analytic"}, {"clip", "abc"}}).ok());
+  EXPECT_EQ(ReadSceneFile(other)->checksum_hex, loaded->checksum_hex);
+  ASSERT_TRUE(SaveScene(scene, other).ok());
+  EXPECT_NE(ReadSceneFile(other)->checksum_hex, loaded->checksum_hex);
+}
+
+TEST_F(SceneFileTest, RoundTripWithoutShAndEmptyScene) {
+  GaussianScene scene = MakeScene();
+  scene.sh_degree = -1;
+  scene.sh.clear();
+  ASSERT_TRUE(SaveScene(scene, path_).ok());
+  absl::StatusOr<GaussianScene> loaded = LoadScene(path_);
+  ASSERT_TRUE(loaded.ok()) << loaded.status();
+  ExpectScenesEqual(scene, *loaded);
+
+  GaussianScene empty;
+  ASSERT_TRUE(SaveScene(empty, path_).ok());
+  loaded = LoadScene(path_);
+  ASSERT_TRUE(loaded.ok()) << loaded.status();
+  EXPECT_EQ(loaded->size(), 0u);
+  EXPECT_EQ(loaded->num_channels, 3);
+}
+
+TEST_F(SceneFileTest, FileSizeIsHeaderPlusArraysPlusChecksum) {
+  const GaussianScene scene = MakeScene();
+  ASSERT_TRUE(SaveScene(scene, path_).ok());
+  const std::string bytes = *ReadFileToString(path_);
+  uint32_t header_bytes = 0;
+  std::memcpy(&header_bytes, bytes.data() + 12, 4);
+  // Per Gaussian: 3 + 4 + 3 + 1 + 4 features + 12 SH + 3 = 30 four-byte values.
+  EXPECT_EQ(bytes.size(), 16 + header_bytes + 7 * 30 * 4 + 32);
+  EXPECT_TRUE(LooksLikeSceneFile(path_));
+  // No temporary file is left beside it.
+  int files = 0;
+  for (const auto& entry : fs::directory_iterator(fs::path(path_).parent_path())) {
+    (void)entry;
+    ++files;
+  }
+  EXPECT_EQ(files, 1);
+}
+
+TEST_F(SceneFileTest, RejectsWrongMagic) {
+  const absl::Status status = LoadEdited([](std::string& b) { b[0] = 'X'; });
+  EXPECT_EQ(status.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(status.message().find("wrong magic"), absl::string_view::npos) << status;
+  EXPECT_NE(status.message().find(path_), absl::string_view::npos) << status;
+  EXPECT_FALSE(LooksLikeSceneFile(path_));
+}
+
+TEST_F(SceneFileTest, RejectsWrongVersion) {
+  for (int version : {0, 5}) {
+    const absl::Status status =
+        LoadEdited([version](std::string& b) { b[8] = static_cast<char>(version); });
+    EXPECT_EQ(status.code(), absl::StatusCode::kInvalidArgument);
+    EXPECT_NE(status.message().find(absl::StrCat("unsupported scene file version ", version,
+                                                 " (this build reads versions 1 to 4)")),
+              absl::string_view::npos)
+        << status;
+  }
+}
+
+// Rewrites the file at `path` as an older version: drops `drop` header
+// bytes at `offset`, sets the version and header size, fixes the checksum.
+void RewriteAsVersion(const std::string& path, uint32_t version, size_t offset, size_t drop) {
+  std::string bytes = *ReadFileToString(path);
+  bytes.erase(offset, drop);
+  uint32_t header_bytes = 0;
+  std::memcpy(&header_bytes, bytes.data() + 12, 4);
+  header_bytes -= static_cast<uint32_t>(drop);
+  std::memcpy(bytes.data() + 8, &version, 4);
+  std::memcpy(bytes.data() + 12, &header_bytes, 4);
+  Sha256 hasher;
+  hasher.Update(bytes.data(), bytes.size() - 32);
+  const std::array<uint8_t, 32> digest = hasher.Finish();
+  std::memcpy(bytes.data() + bytes.size() - 32, digest.data(), 32);
+  ASSERT_TRUE(WriteFileAtomic(path, bytes).ok());
+}
+
+TEST_F(SceneFileTest, RoundTripWithColourGradients) {
+  GaussianScene scene = MakeScene();
+  scene.sh_degree = -1;
+  scene.sh.clear();
+  scene.colour_gradients.resize(6 * scene.size());
+  for (size_t k = 0; k < scene.colour_gradients.size(); ++k) {
+    scene.colour_gradients[k] = 0.01f * static_cast<float>(k) - 0.2f;
+  }
+  ASSERT_TRUE(SaveScene(scene, path_).ok());
+  absl::StatusOr<SceneFile> loaded = ReadSceneFile(path_);
+  ASSERT_TRUE(loaded.ok()) << loaded.status();
+  EXPECT_EQ(loaded->version, 4u);
+  ExpectScenesEqual(scene, loaded->scene);
+  // 6 more floats per Gaussian than the same scene with flat colours.
+  const std::string flat_path = path_ + ".flat";
+  GaussianScene flat = scene;
+  flat.colour_gradients.clear();
+  ASSERT_TRUE(SaveScene(flat, flat_path).ok());
+  EXPECT_EQ(ReadFileToString(path_)->size(),
+            ReadFileToString(flat_path)->size() + 6 * 4 * scene.size());
+
+  // Bad gradients are named: with SH, the wrong size, not finite.
+  GaussianScene bad = scene;
+  bad.sh_degree = 0;
+  bad.sh.assign(3 * scene.size(), 0.f);
+  EXPECT_NE(SaveScene(bad, path_).message().find("colour_gradients"), absl::string_view::npos);
+  bad = scene;
+  bad.colour_gradients.pop_back();
+  EXPECT_NE(SaveScene(bad, path_).message().find("colour_gradients"), absl::string_view::npos);
+  bad = scene;
+  bad.colour_gradients[13] = std::numeric_limits<float>::infinity();
+  EXPECT_NE(SaveScene(bad, path_).message().find("colour_gradients[2]"), absl::string_view::npos);
+}
+
+TEST_F(SceneFileTest, RoundTripKeepsLinearColours) {
+  GaussianScene scene = MakeScene();
+  scene.colour_encoding = ColourEncoding::kLinear;
+  ASSERT_TRUE(SaveScene(scene, path_).ok());
+  uint32_t flag = 7;
+  std::memcpy(&flag, ReadFileToString(path_)->data() + 48, 4);
+  EXPECT_EQ(flag, 1u);
+  absl::StatusOr<SceneFile> loaded = ReadSceneFile(path_);
+  ASSERT_TRUE(loaded.ok()) << loaded.status();
+  EXPECT_EQ(loaded->scene.colour_encoding, ColourEncoding::kLinear);
+  ExpectScenesEqual(scene, loaded->scene);
+}
+
+TEST_F(SceneFileTest, ReadsVersionThreeFilesAsSrgb) {
+  // A version-3 file is a version-4 file without the colour-encoding flag (a
+  // uint32 after the colour-gradient flag, at byte 48).
+  GaussianScene scene = MakeScene();
+  scene.colour_encoding = ColourEncoding::kLinear;
+  ASSERT_TRUE(SaveScene(scene, path_).ok());
+  RewriteAsVersion(path_, 3, 48, 4);
+  absl::StatusOr<SceneFile> loaded = ReadSceneFile(path_);
+  ASSERT_TRUE(loaded.ok()) << loaded.status();
+  EXPECT_EQ(loaded->version, 3u);
+  scene.colour_encoding = ColourEncoding::kSrgb;
+  ExpectScenesEqual(scene, loaded->scene);
+}
+
+TEST_F(SceneFileTest, ReadsVersionTwoFilesWithFlatColours) {
+  // A version-2 file is a version-4 file without the colour-gradient flag
+  // (a uint32 after the low-pass, at byte 44), the colour-encoding flag after
+  // it and without gradients.
+  const GaussianScene scene = MakeScene();
+  ASSERT_TRUE(SaveScene(scene, path_, {{"model", "analytic"}}).ok());
+  uint32_t flag = 7;
+  std::memcpy(&flag, ReadFileToString(path_)->data() + 44, 4);
+  ASSERT_EQ(flag, 0u);
+  RewriteAsVersion(path_, 2, 44, 8);
+  absl::StatusOr<SceneFile> loaded = ReadSceneFile(path_);
+  ASSERT_TRUE(loaded.ok()) << loaded.status();
+  EXPECT_EQ(loaded->version, 2u);
+  ExpectScenesEqual(scene, loaded->scene);
+}
+
+TEST_F(SceneFileTest, ReadsVersionOneFilesWithTheThreeDgsLowPass) {
+  // A version-1 file is a version-2 file without the low-pass in the header
+  // (a float32 after time_origin_us, at byte 16 + 8 + 4 + 4 + 8 = 40), so a
+  // version-4 file without the low-pass and the two flags after it.
+  const GaussianScene scene = MakeScene();
+  ASSERT_TRUE(SaveScene(scene, path_, {{"model", "analytic"}}).ok());
+  float stored = 0;
+  std::memcpy(&stored, ReadFileToString(path_)->data() + 40, 4);
+  ASSERT_EQ(stored, 0.1f);
+  RewriteAsVersion(path_, 1, 40, 12);
+
+  absl::StatusOr<SceneFile> loaded = ReadSceneFile(path_);
+  ASSERT_TRUE(loaded.ok()) << loaded.status();
+  EXPECT_EQ(loaded->version, 1u);
+  EXPECT_EQ(loaded->scene.low_pass, kThreeDgsLowPass);
+  GaussianScene expected = scene;
+  expected.low_pass = kThreeDgsLowPass;
+  ExpectScenesEqual(expected, loaded->scene);
+  EXPECT_EQ(loaded->metadata.at("model"), "analytic");
+}
+
+TEST(ValidateScene, RejectsALowPassOutsideItsRange) {
+  for (float bad : {-0.1f, 4.5f, std::numeric_limits<float>::quiet_NaN()}) {
+    GaussianScene scene = MakeScene();
+    scene.low_pass = bad;
+    const absl::Status status = ValidateScene(scene);
+    EXPECT_EQ(status.code(), absl::StatusCode::kInvalidArgument) << bad;
+    EXPECT_NE(status.message().find("low_pass"), absl::string_view::npos) << status;
+  }
+  GaussianScene scene = MakeScene();
+  scene.low_pass = 0;  // No low-pass at all is allowed.
+  EXPECT_TRUE(ValidateScene(scene).ok());
+}
+
+TEST_F(SceneFileTest, RejectsTruncationNamingBothSizes) {
+  size_t full = 0;
+  const absl::Status status = LoadEdited([&full](std::string& b) {
+    full = b.size();
+    b.resize(b.size() - 10);
+  });
+  EXPECT_EQ(status.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(status.message().find("truncated"), absl::string_view::npos) << status;
+  EXPECT_NE(status.message().find(absl::StrCat("expected ", full, " bytes")),
+            absl::string_view::npos)
+      << status;
+  EXPECT_NE(status.message().find(absl::StrCat("has ", full - 10, " bytes")),
+            absl::string_view::npos)
+      << status;
+}
+
+TEST_F(SceneFileTest, RejectsTruncationInsideHeader) {
+  const absl::Status status = LoadEdited([](std::string& b) { b.resize(30); });
+  EXPECT_EQ(status.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(status.message().find("header"), absl::string_view::npos) << status;
+}
+
+TEST_F(SceneFileTest, RejectsChecksumMismatch) {
+  const absl::Status status = LoadEdited([](std::string& b) { b[b.size() - 100] ^= 0x40; });
+  EXPECT_EQ(status.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(status.message().find("checksum mismatch"), absl::string_view::npos) << status;
+}
+
+TEST_F(SceneFileTest, RejectsHostileCountsWithoutAllocating) {
+  // num_gaussians is the first header field, at byte 16.
+  absl::Status status = LoadEdited([](std::string& b) {
+    const uint64_t huge = uint64_t{1} << 60;
+    std::memcpy(b.data() + 16, &huge, 8);
+  });
+  EXPECT_EQ(status.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(status.message().find("promises 1152921504606846976 Gaussians"),
+            absl::string_view::npos)
+      << status;
+
+  status = LoadEdited([](std::string& b) {
+    const uint32_t huge = 0xFFFFFFFFu;
+    std::memcpy(b.data() + 12, &huge, 4);
+  });
+  EXPECT_EQ(status.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(status.message().find("header of 4294967295 bytes"), absl::string_view::npos) << status;
+
+  // colour_encoding follows num_gaussians, num_channels, sh_degree, time
+  // origin, low-pass, colour-gradient flag; num_instances follows it.
+  status = LoadEdited([](std::string& b) {
+    const uint32_t huge = 0x7FFFFFFFu;
+    std::memcpy(b.data() + 16 + 8 + 4 + 4 + 8 + 4 + 4, &huge, 4);
+  });
+  EXPECT_EQ(status.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(status.message().find("colour_encoding 2147483647"), absl::string_view::npos) << status;
+  status = LoadEdited([](std::string& b) {
+    const uint32_t huge = 0x7FFFFFFFu;
+    std::memcpy(b.data() + 16 + 8 + 4 + 4 + 8 + 4 + 4 + 4, &huge, 4);
+  });
+  EXPECT_EQ(status.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(status.message().find("num_instances"), absl::string_view::npos) << status;
+
+  status = LoadEdited([](std::string& b) {
+    const uint32_t flag = 2;
+    std::memcpy(b.data() + 16 + 8 + 4 + 4 + 8 + 4, &flag, 4);
+  });
+  EXPECT_NE(status.message().find("header colour_gradients 2 is neither 0 nor 1"),
+            absl::string_view::npos)
+      << status;
+
+  status = LoadEdited([](std::string& b) {
+    const int32_t channels = 100000;
+    std::memcpy(b.data() + 16 + 8, &channels, 4);
+  });
+  EXPECT_NE(status.message().find("num_channels 100000"), absl::string_view::npos) << status;
+}
+
+TEST_F(SceneFileTest, MissingFileIsNotFound) {
+  EXPECT_EQ(LoadScene(path_ + ".missing").status().code(), absl::StatusCode::kNotFound);
+}
+
+TEST(ValidateSceneTest, NamesTheInconsistentField) {
+  GaussianScene scene = MakeScene();
+  scene.owners[2] = 3;
+  absl::Status status = ValidateScene(scene);
+  EXPECT_EQ(status.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(status.message().find("owners[2]"), absl::string_view::npos) << status;
+
+  scene = MakeScene();
+  scene.features.pop_back();
+  status = ValidateScene(scene);
+  EXPECT_NE(status.message().find("features: has 27 values, expected 28"), absl::string_view::npos)
+      << status;
+
+  scene = MakeScene();
+  scene.means[4] = std::numeric_limits<float>::quiet_NaN();
+  status = ValidateScene(scene);
+  EXPECT_NE(status.message().find("means[1]"), absl::string_view::npos) << status;
+
+  scene = MakeScene();
+  std::swap(scene.instances[0].boxes[0], scene.instances[0].boxes[1]);
+  status = ValidateScene(scene);
+  EXPECT_NE(status.message().find("instances[0] ('car1').boxes[1]"), absl::string_view::npos)
+      << status;
+
+  // SaveScene refuses an inconsistent scene and writes nothing.
+  const std::string path = testing::MakeTempDir("scene_file") + "/bad.pfscene";
+  EXPECT_FALSE(SaveScene(scene, path).ok());
+  EXPECT_FALSE(fs::exists(path));
+}
+
+}  // namespace
+}  // namespace pf
