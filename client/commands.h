@@ -31,7 +31,7 @@ int RunSynth(const std::vector<std::string>& args);        // pf synth [render]
 int RunImport(const std::vector<std::string>& args);       // pf import waymo|dgp
 int RunScene(const std::vector<std::string>& args);        // pf scene info|export
 int RunRender(const std::vector<std::string>& args);       // pf render
-int RunBench(const std::vector<std::string>& args);        // pf bench raster
+int RunBench(const std::vector<std::string>& args);        // pf bench raster|reconstruct
 int RunReconstruct(const std::vector<std::string>& args);  // pf reconstruct
 int RunEval(const std::vector<std::string>& args);         // pf eval
 int RunDepthEval(const std::vector<std::string>& args);    // pf depth-eval

@@ -48,6 +48,9 @@ commands:
   bench raster [--gaussians N] [--width W --height H] [--channels C] [--repeat R] [--seed S]
         [--device cpu|cuda:N] [--compare-cpu]
         time the rasterizer; prints JSON
+  bench reconstruct CLIP.json [--repeat N] [the flags of reconstruct but --out]
+        reconstruct the clip N times (default 3); prints the median time of each stage,
+        the Gaussians and the peak memory as JSON
   reconstruct CLIP.json --out SCENE [--model analytic|pixel-aligned] [--ns N --nd N]
         [--fusion softmax|average|no-depth] [--lifespan] [--refine N] [--splat-sigma S]
         [--low-pass PX2] [--hidden-band PX] [--no-ground-fill] [--no-facades] [--device cpu|cuda[:N]]

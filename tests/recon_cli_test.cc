@@ -187,6 +187,55 @@ TEST_F(ReconCli, ReconstructWritesALoadableSceneAndASummary) {
   EXPECT_GT(scene.size() - dynamic - hidden, 6u * 2000 * 85 / 100);
 }
 
+// `pf bench reconstruct` times every stage over the runs and reports the
+// scene `pf reconstruct` makes with the same flags.
+TEST_F(ReconCli, BenchReconstructPrintsEachStagesMedianAsJson) {
+  const std::vector<std::string> flags = {"--ns", "2000", "--nd", "300", "--refine", "2"};
+  std::vector<std::string> argv = {Pf(), "bench", "reconstruct", Clip(), "--repeat", "2"};
+  argv.insert(argv.end(), flags.begin(), flags.end());
+  const CommandResult bench = RunCommand(argv);
+  ASSERT_EQ(bench.exit_code, 0) << bench.err;
+  const nlohmann::ordered_json report = nlohmann::ordered_json::parse(bench.out);
+  EXPECT_EQ(report["benchmark"], "reconstruct");
+  EXPECT_EQ(report["repeat"], 2);
+  EXPECT_EQ(report["model"], "analytic");
+  EXPECT_EQ(report["views"], 6);
+  EXPECT_GE(report["threads"].get<int>(), 1);
+  EXPECT_FALSE(report["cpu"].get<std::string>().empty());
+  EXPECT_GT(report["peak_rss_mib"].get<double>(), 50);
+  const std::vector<std::string> expected = {"load",   "depth", "lift",   "scene_graph",
+                                             "sample", "fuse",  "decode", "refine"};
+  std::vector<std::string> stages;
+  double sum = 0;
+  for (const auto& [stage, seconds] : report["stage_seconds_median"].items()) {
+    stages.push_back(stage);
+    EXPECT_GE(seconds.get<double>(), 0) << stage;
+    sum += seconds.get<double>();
+  }
+  EXPECT_EQ(stages, expected);
+  EXPECT_LE(report["seconds_min"].get<double>(), report["seconds_median"].get<double>());
+  EXPECT_GE(report["seconds_first"].get<double>(), report["seconds_min"].get<double>());
+  EXPECT_NEAR(sum, report["seconds_median"].get<double>(),
+              0.25 * report["seconds_median"].get<double>());
+  EXPECT_EQ(std::count(bench.err.begin(), bench.err.end(), '\n'), 2) << bench.err;
+
+  const std::string scene_path = *dir_ + "/bench_scene.pfs";
+  argv = {Pf(), "reconstruct", Clip(), "--out", scene_path};
+  argv.insert(argv.end(), flags.begin(), flags.end());
+  ASSERT_EQ(RunCommand(argv).exit_code, 0);
+  absl::StatusOr<SceneFile> file = ReadSceneFile(scene_path);
+  ASSERT_TRUE(file.ok()) << file.status();
+  EXPECT_EQ(report["gaussians"].get<int64_t>(), static_cast<int64_t>(file->scene.size()));
+
+  const CommandResult bad = RunCommand({Pf(), "bench", "reconstruct", Clip(), "--repeat", "0"});
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_NE(bad.err.find("--repeat: must be in [1, 100], got 0"), std::string::npos) << bad.err;
+  const CommandResult usage = RunCommand({Pf(), "bench", "reconstruct"});
+  EXPECT_EQ(usage.exit_code, 2);
+  EXPECT_NE(usage.err.find("usage: pf bench reconstruct CLIP.json"), std::string::npos)
+      << usage.err;
+}
+
 // Hidden queries behind depth edges (agreement channel 0, at full opacity)
 // come within --hidden-band pixels of them (default 256); 0 turns them off,
 // and a narrower band gives fewer (sparse_sampling_test.cc checks where

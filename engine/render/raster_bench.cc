@@ -6,16 +6,15 @@
 #include <cmath>
 #include <cstdio>
 #include <ctime>
-#include <fstream>
 #include <memory>
 #include <string>
 #include <vector>
 
-#include "absl/strings/ascii.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "common/command_line.h"
 #include "common/compute_device.h"
+#include "common/machine_info.h"
 #include "common/status_macros.h"
 #include "common/thread_pool.h"
 #include "engine/render/bench_scene.h"
@@ -44,20 +43,6 @@ double Median(std::vector<double> values) {
   std::sort(values.begin(), values.end());
   const size_t mid = values.size() / 2;
   return values.size() % 2 == 1 ? values[mid] : 0.5 * (values[mid - 1] + values[mid]);
-}
-
-// Returns /proc/cpuinfo's first "model name", or "unknown".
-std::string CpuModel() {
-  std::ifstream in("/proc/cpuinfo");
-  std::string line;
-  while (std::getline(in, line)) {
-    if (line.rfind("model name", 0) == 0) {
-      const size_t colon = line.find(':');
-      if (colon != std::string::npos)
-        return std::string(absl::StripAsciiWhitespace(line.substr(colon + 1)));
-    }
-  }
-  return "unknown";
 }
 
 }  // namespace
@@ -173,10 +158,10 @@ absl::Status RunRasterBench(const std::vector<std::string>& args) {
       "\"mean_alpha\":%.4f,\"scene_build_ms\":%.1f%s,\"scene\":%s}\n",
       device.ToString().c_str(), CpuModel().c_str(), static_cast<long long>(gaussians),
       static_cast<long long>(width), static_cast<long long>(height),
-      static_cast<long long>(channels), DefaultThreadPool().num_threads() + 1,
-      gpu ? "cuda" : raster::TileKernelName(), static_cast<long long>(repeat), median, sorted[0],
-      sorted.back(), cpu_median, static_cast<long long>(stats.gaussians_visible),
-      static_cast<long long>(stats.pairs_tested), static_cast<long long>(stats.pairs_contributing),
+      static_cast<long long>(channels), WorkingThreads(), gpu ? "cuda" : raster::TileKernelName(),
+      static_cast<long long>(repeat), median, sorted[0], sorted.back(), cpu_median,
+      static_cast<long long>(stats.gaussians_visible), static_cast<long long>(stats.pairs_tested),
+      static_cast<long long>(stats.pairs_contributing),
       stats.pairs_contributing > 0
           ? static_cast<double>(stats.pairs_tested) / static_cast<double>(stats.pairs_contributing)
           : 0.0,
