@@ -13,8 +13,8 @@
 
 #include "absl/strings/str_cat.h"
 #include "client/commands.h"
+#include "common/bench_info.h"
 #include "common/command_line.h"
-#include "common/machine_info.h"
 #include "common/status_macros.h"
 #include "engine/clip/clip_validator.h"
 #include "engine/recon/recon_option_table.h"
@@ -28,12 +28,6 @@ namespace {
 
 constexpr char kReconstructBenchUsage[] =
     "CLIP.json [--repeat N] [the flags of pf reconstruct but --out]";
-
-double Median(std::vector<double> values) {
-  std::sort(values.begin(), values.end());
-  const size_t mid = values.size() / 2;
-  return values.size() % 2 == 1 ? values[mid] : 0.5 * (values[mid - 1] + values[mid]);
-}
 
 absl::Status RunReconstructBench(const std::vector<std::string>& args) {
   std::set<std::string> value_flags = ReconValueFlags();

@@ -22,8 +22,8 @@ double Now() {
 
 }  // namespace
 
-Pipeline::Pipeline(const ReconInputs& inputs, const ReconOptions& options, bool colour_gradients)
-    : inputs_(inputs), options_(options), colour_gradients_(colour_gradients) {
+Pipeline::Pipeline(const ReconInputs& inputs, const ReconOptions& options)
+    : inputs_(inputs), options_(options) {
   start_ = last_ = Now();
   const std::vector<ContextView>& views = inputs.views;
   ReconStats& stats = result_.stats;
@@ -166,7 +166,7 @@ void Pipeline::Decode() {
 absl::Status Pipeline::FitColours() {
   if (options_.refinement.iterations <= 0) return absl::OkStatus();
   RefinementOptions refinement = options_.refinement;
-  refinement.colour_gradients = colour_gradients_;
+  refinement.colour_gradients = ColourGradientsFor(options_);
   ASSIGN_OR_RETURN(const RefinementStats refined,
                    RefineColours(inputs_.views, refinement, &result_.scene));
   const int max_stride = options_.refinement.max_pixel_stride;

@@ -5,7 +5,7 @@
 // reports itself through ReconOptions::progress. A learned model replaces
 // Fuse (phi, phi_c, phi_v) and Decode and keeps the rest.
 //
-//   Pipeline p(inputs, options, /*colour_gradients=*/true);
+//   Pipeline p(inputs, options);
 //   RETURN_IF_ERROR(p.Depth());
 //   p.Lift();  p.SceneGraph();  p.Sample(/*dense=*/false);
 //   RETURN_IF_ERROR(p.Fuse());
@@ -30,10 +30,8 @@ namespace pf {
 
 class Pipeline {
  public:
-  // `inputs` and `options` must outlive the pipeline; `colour_gradients`
-  // is what FitColours fits (ReconOptions::colour_gradients, else the
-  // model's default).
-  Pipeline(const ReconInputs& inputs, const ReconOptions& options, bool colour_gradients);
+  // `inputs` and `options` must outlive the pipeline.
+  Pipeline(const ReconInputs& inputs, const ReconOptions& options);
 
   // 1. Each view's depth: measured (map or LiDAR, completed), facades, the far layer.
   absl::Status Depth();
@@ -49,7 +47,8 @@ class Pipeline {
   void KeepQueriesUnfused();
   // 6. Queries to Gaussians.
   void Decode();
-  // 7. The colour fit against the context images (when iterations > 0).
+  // 7. The colour fit against the context images (when iterations > 0), with
+  // colour gradients as ColourGradientsFor(options) says.
   absl::Status FitColours();
   // The scene and its statistics.
   ReconResult Finish();
@@ -59,7 +58,6 @@ class Pipeline {
 
   const ReconInputs& inputs_;
   const ReconOptions& options_;
-  const bool colour_gradients_;
   ReconResult result_;
   double start_ = 0, last_ = 0;
   DepthStage depth_stage_;

@@ -27,7 +27,7 @@ class UnfusedQueriesModel : public ReconModel {
 
   absl::StatusOr<ReconResult> Reconstruct(const ReconInputs& inputs,
                                           const ReconOptions& options) const override {
-    Pipeline p(inputs, options, false);
+    Pipeline p(inputs, options);
     if (absl::Status depth = p.Depth(); !depth.ok()) return depth;
     p.Lift();
     p.SceneGraph();

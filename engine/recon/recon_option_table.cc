@@ -21,18 +21,17 @@ using Spec = ReconOptionSpec;
 using Kind = ReconOptionSpec::Kind;
 using Key = ReconOptionSpec::Key;
 
-Spec Choice(const char* field, const char* flag, const char* what, std::vector<std::string> choices,
-            Key key) {
-  Spec spec{field, flag, Kind::kChoice};
+Spec Choice(const char* field, const char* what, std::vector<std::string> choices, Key key) {
+  Spec spec{field, Kind::kChoice};
   spec.what = what;
   spec.choices = std::move(choices);
   spec.key = key;
   return spec;
 }
 
-Spec Number(const char* field, const char* flag, Kind kind, double lo, bool lo_open, double hi,
-            const char* unit, Key key) {
-  Spec spec{field, flag, kind};
+Spec Number(const char* field, Kind kind, double lo, bool lo_open, double hi, const char* unit,
+            Key key) {
+  Spec spec{field, kind};
   spec.lo = lo;
   spec.lo_open = lo_open;
   spec.hi = hi;
@@ -42,7 +41,7 @@ Spec Number(const char* field, const char* flag, Kind kind, double lo, bool lo_o
 }
 
 Spec Switch(const char* field, Key key, const char* key_name = "") {
-  Spec spec{field, "", Kind::kSwitch};
+  Spec spec{field, Kind::kSwitch};
   spec.key = key;
   spec.key_name = key_name;
   return spec;
@@ -50,15 +49,13 @@ Spec Switch(const char* field, Key key, const char* key_name = "") {
 
 std::vector<Spec> MakeTable() {
   std::vector<Spec> table;
-  Spec model{"model", "model", Kind::kModel};
+  Spec model{"model", Kind::kModel};
   model.key = Key::kText;
   model.fills_default = true;
   table.push_back(model);
-  table.push_back(Number("ns", "ns", Kind::kInt, 1, false, 1e9, " queries per view", Key::kText));
-  table.push_back(
-      Number("nd", "nd", Kind::kInt, 1, false, 1e9, " queries per instance", Key::kText));
-  Spec fusion =
-      Choice("fusion", "fusion", "weighting", {"softmax", "average", "no-depth"}, Key::kText);
+  table.push_back(Number("ns", Kind::kInt, 1, false, 1e9, " queries per view", Key::kText));
+  table.push_back(Number("nd", Kind::kInt, 1, false, 1e9, " queries per instance", Key::kText));
+  Spec fusion = Choice("fusion", "weighting", {"softmax", "average", "no-depth"}, Key::kText);
   fusion.fills_default = true;
   table.push_back(fusion);
   table.push_back(Switch("lifespan", Key::kOnOff));
@@ -66,27 +63,22 @@ std::vector<Spec> MakeTable() {
   no_lifespan.conflicts = "lifespan";
   no_lifespan.clear_default = true;  // The default: one key for both ways of asking.
   table.push_back(no_lifespan);
+  table.push_back(Number("refine", Kind::kInt, 0, false, 64, " iterations", Key::kTextWhenSet));
+  table.push_back(Number("splat_sigma", Kind::kReal, 0.05, true, 4, "", Key::kHexWhenSet));
   table.push_back(
-      Number("refine", "refine", Kind::kInt, 0, false, 64, " iterations", Key::kTextWhenSet));
-  table.push_back(
-      Number("splat_sigma", "splat-sigma", Kind::kReal, 0.05, true, 4, "", Key::kHexWhenSet));
-  table.push_back(Number("low_pass", "low-pass", Kind::kReal, 0, false, kMaxLowPass, " pixels^2",
-                         Key::kHexFloatWhenSet));
-  table.push_back(Number("hidden_band", "hidden-band", Kind::kInt, 0, false, 256, " pixels",
-                         Key::kTextWhenSet));
+      Number("low_pass", Kind::kReal, 0, false, kMaxLowPass, " pixels^2", Key::kHexFloatWhenSet));
+  table.push_back(Number("hidden_band", Kind::kInt, 0, false, 256, " pixels", Key::kTextWhenSet));
   table.push_back(Switch("no_ground_fill", Key::kOffWhenSet, "ground_fill"));
   table.push_back(Switch("no_facades", Key::kOffWhenSet, "facades"));
-  table.push_back(
-      Choice("colour", "colour", "colour model", {"gradients", "flat"}, Key::kTextWhenSet));
-  Spec completion =
-      Choice("completion", "completion", "method", {"nearest", "ip-basic"}, Key::kTextWhenSet);
+  table.push_back(Choice("colour", "colour model", {"gradients", "flat"}, Key::kTextWhenSet));
+  Spec completion = Choice("completion", "method", {"nearest", "ip-basic"}, Key::kTextWhenSet);
   completion.clear_default = true;
   table.push_back(completion);
-  Spec working_space = Choice("working_space", "working-space", "working space", {"srgb", "linear"},
-                              Key::kTextWhenSet);
+  Spec working_space =
+      Choice("working_space", "working space", {"srgb", "linear"}, Key::kTextWhenSet);
   working_space.clear_default = true;
   table.push_back(working_space);
-  Spec device{"device", "device", Kind::kDevice};
+  Spec device{"device", Kind::kDevice};
   device.choices = {"cpu"};
   device.fills_default = true;
   table.push_back(device);
@@ -97,13 +89,10 @@ const FieldDescriptor* FieldOf(const Spec& spec) {
   return v1::ReconstructionOptions::descriptor()->FindFieldByName(spec.field);
 }
 
-// The flag's spelling: switches are their field with '-' for '_'.
-std::string FlagOf(const Spec& spec) {
-  if (spec.kind != Kind::kSwitch) return spec.flag;
-  std::string flag = spec.field;
-  for (char& c : flag) {
-    if (c == '_') c = '-';
-  }
+// A field's flag: '-' for '_'.
+std::string FlagOf(const char* field) {
+  std::string flag = field;
+  std::replace(flag.begin(), flag.end(), '_', '-');
   return flag;
 }
 
@@ -179,11 +168,7 @@ absl::Status CheckText(const Spec& spec, const std::string& value, const std::st
                        const std::vector<std::string>& models) {
   switch (spec.kind) {
     case Kind::kModel:
-      if (std::find(models.begin(), models.end(), value) != models.end()) {
-        return absl::OkStatus();
-      }
-      return absl::InvalidArgumentError(
-          absl::StrCat(name, ": unknown model '", value, "' (expected ", JoinChoices(models), ")"));
+      return CheckModelName(value, models, name);
     case Kind::kChoice:
       if (std::find(spec.choices.begin(), spec.choices.end(), value) != spec.choices.end()) {
         return absl::OkStatus();
@@ -200,6 +185,15 @@ absl::Status CheckText(const Spec& spec, const std::string& value, const std::st
 
 }  // namespace
 
+std::string ReconOptionFlag(const ReconOptionSpec& spec) { return FlagOf(spec.field); }
+
+absl::Status CheckModelName(const std::string& name, const std::vector<std::string>& models,
+                            const std::string& field) {
+  if (std::find(models.begin(), models.end(), name) != models.end()) return absl::OkStatus();
+  return absl::InvalidArgumentError(
+      absl::StrCat(field, ": unknown model '", name, "' (expected ", JoinChoices(models), ")"));
+}
+
 const std::vector<ReconOptionSpec>& ReconOptionTable() {
   static const std::vector<ReconOptionSpec>* table = new std::vector<Spec>(MakeTable());
   return *table;
@@ -214,7 +208,7 @@ std::vector<std::string> BuiltInReconModelNames() {
 std::set<std::string> ReconValueFlags() {
   std::set<std::string> flags;
   for (const Spec& spec : ReconOptionTable()) {
-    if (spec.kind != Kind::kSwitch) flags.insert(FlagOf(spec));
+    if (spec.kind != Kind::kSwitch) flags.insert(FlagOf(spec.field));
   }
   return flags;
 }
@@ -222,7 +216,7 @@ std::set<std::string> ReconValueFlags() {
 std::set<std::string> ReconSwitchFlags() {
   std::set<std::string> flags;
   for (const Spec& spec : ReconOptionTable()) {
-    if (spec.kind == Kind::kSwitch) flags.insert(FlagOf(spec));
+    if (spec.kind == Kind::kSwitch) flags.insert(FlagOf(spec.field));
   }
   return flags;
 }
@@ -232,16 +226,15 @@ absl::StatusOr<v1::ReconstructionOptions> ReconProtoFromFlags(
   v1::ReconstructionOptions options;
   const auto* reflection = options.GetReflection();
   for (const Spec& spec : ReconOptionTable()) {
-    const std::string flag = FlagOf(spec);
+    const std::string flag = FlagOf(spec.field);
     if (!cl.Has(flag)) continue;
     const std::string name = absl::StrCat("--", flag);
     const FieldDescriptor* field = FieldOf(spec);
     switch (spec.kind) {
       case Kind::kSwitch:
-        if (spec.conflicts[0] != '\0' && cl.Has(FlagOf(Spec{spec.conflicts, "", Kind::kSwitch}))) {
+        if (spec.conflicts[0] != '\0' && cl.Has(FlagOf(spec.conflicts))) {
           return absl::InvalidArgumentError(
-              absl::StrCat("--", FlagOf(Spec{spec.conflicts, "", Kind::kSwitch}), ": given with ",
-                           name, "; give one"));
+              absl::StrCat("--", FlagOf(spec.conflicts), ": given with ", name, "; give one"));
         }
         reflection->SetBool(&options, field, true);
         break;

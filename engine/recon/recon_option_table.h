@@ -42,8 +42,7 @@ struct ReconOptionSpec {
     kOnOff,            // Always: "on" or "off".
     kOffWhenSet,       // "off" when the switch is set (it turns a default step off).
   };
-  const char* field;  // ReconstructionOptions field: "splat_sigma".
-  const char* flag;   // Command-line flag without "--": "splat-sigma".
+  const char* field;  // ReconstructionOptions field: "splat_sigma" (flag --splat-sigma).
   Kind kind;
   const char* what = "";             // kChoice, in errors: "unknown weighting 'x'".
   std::vector<std::string> choices;  // kChoice: the first is the default.
@@ -63,6 +62,14 @@ const std::vector<ReconOptionSpec>& ReconOptionTable();
 
 // The names of the models built in (models/model_list.h), in order.
 std::vector<std::string> BuiltInReconModelNames();
+
+// An option's flag without "--": its field with '-' for '_' ("splat-sigma").
+std::string ReconOptionFlag(const ReconOptionSpec& spec);
+
+// OK when `name` is one of `models`; else INVALID_ARGUMENT "`field`: unknown
+// model 'x' (expected analytic or pixel-aligned)".
+absl::Status CheckModelName(const std::string& name, const std::vector<std::string>& models,
+                            const std::string& field);
 
 // The flags of the table, for CommandLine::Parse: those with a value and the switches.
 std::set<std::string> ReconValueFlags();

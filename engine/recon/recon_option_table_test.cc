@@ -45,9 +45,11 @@ TEST(ReconOptionTable, FlagsAndFieldsAreRefusedWithTheSameWords) {
     const double outside = spec.hi + 1;
     const std::string text =
         spec.kind == Kind::kInt ? absl::StrCat(int64_t(outside)) : absl::StrCat(outside);
-    const absl::Status flag = FromFlags({absl::StrCat("--", spec.flag), text}).status();
-    ASSERT_EQ(flag.code(), absl::StatusCode::kInvalidArgument) << spec.flag;
-    ASSERT_EQ(flag.message().rfind(absl::StrCat("--", spec.flag, ": must be in "), 0), 0u) << flag;
+    const absl::Status flag = FromFlags({absl::StrCat("--", ReconOptionFlag(spec)), text}).status();
+    ASSERT_EQ(flag.code(), absl::StatusCode::kInvalidArgument) << ReconOptionFlag(spec);
+    ASSERT_EQ(flag.message().rfind(absl::StrCat("--", ReconOptionFlag(spec), ": must be in "), 0),
+              0u)
+        << flag;
 
     v1::ReconstructionOptions proto;
     const auto* field = v1::ReconstructionOptions::descriptor()->FindFieldByName(spec.field);

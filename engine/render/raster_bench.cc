@@ -12,9 +12,9 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "common/bench_info.h"
 #include "common/command_line.h"
 #include "common/compute_device.h"
-#include "common/machine_info.h"
 #include "common/status_macros.h"
 #include "common/thread_pool.h"
 #include "engine/render/bench_scene.h"
@@ -37,12 +37,6 @@ absl::Status CheckRange(const char* flag, int64_t value, int64_t lo, int64_t hi)
         absl::StrFormat("--%s: %d is outside [%d, %d]", flag, value, lo, hi));
   }
   return absl::OkStatus();
-}
-
-double Median(std::vector<double> values) {
-  std::sort(values.begin(), values.end());
-  const size_t mid = values.size() / 2;
-  return values.size() % 2 == 1 ? values[mid] : 0.5 * (values[mid - 1] + values[mid]);
 }
 
 }  // namespace

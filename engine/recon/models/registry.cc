@@ -4,9 +4,9 @@
 #include <utility>
 
 #include "absl/strings/str_cat.h"
-#include "absl/strings/str_join.h"
 #include "engine/recon/models/model_list.h"
 #include "engine/recon/recon_model.h"
+#include "engine/recon/recon_option_table.h"
 
 namespace pf {
 
@@ -51,15 +51,7 @@ std::vector<std::string> ReconModelNames() {
 }
 
 absl::Status CheckReconModel(const std::string& name, const std::string& field) {
-  if (FindReconModel(name) != nullptr) return absl::OkStatus();
-  std::vector<std::string> names = ReconModelNames();
-  std::string expected = names.back();
-  if (names.size() > 1) {
-    names.pop_back();
-    expected = absl::StrCat(absl::StrJoin(names, ", "), " or ", expected);
-  }
-  return absl::InvalidArgumentError(
-      absl::StrCat(field, ": unknown model '", name, "' (expected ", expected, ")"));
+  return CheckModelName(name, ReconModelNames(), field);
 }
 
 absl::Status RegisterReconModel(const std::string& name, std::unique_ptr<ReconModel> model) {

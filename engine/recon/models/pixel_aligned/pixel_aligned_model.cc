@@ -16,7 +16,7 @@ class PixelAlignedModel : public ReconModel {
 
   absl::StatusOr<ReconResult> Reconstruct(const ReconInputs& inputs,
                                           const ReconOptions& options) const override {
-    Pipeline p(inputs, options, options.colour_gradients.value_or(DefaultColourGradients()));
+    Pipeline p(inputs, options);
     RETURN_IF_ERROR(p.Depth());
     p.Lift();
     p.SceneGraph();

@@ -1,8 +1,9 @@
-// Machine and process facts for benchmarks: see machine_info.h.
-#include "common/machine_info.h"
+// Machine and process facts for benchmarks: see bench_info.h.
+#include "common/bench_info.h"
 
 #include <sys/resource.h>
 
+#include <algorithm>
 #include <fstream>
 
 #include "absl/strings/ascii.h"
@@ -30,6 +31,12 @@ int64_t PeakRssBytes() {
   struct rusage usage {};
   if (getrusage(RUSAGE_SELF, &usage) != 0) return 0;
   return int64_t{usage.ru_maxrss} * 1024;  // Linux reports KiB.
+}
+
+double Median(std::vector<double> values) {
+  std::sort(values.begin(), values.end());
+  const size_t mid = values.size() / 2;
+  return values.size() % 2 == 1 ? values[mid] : 0.5 * (values[mid - 1] + values[mid]);
 }
 
 }  // namespace pf
