@@ -25,6 +25,7 @@
 #include "absl/status/statusor.h"
 #include "absl/strings/str_cat.h"
 #include "common/command_line.h"
+#include "common/memory_reuse.h"
 #include "common/status_macros.h"
 #include "common/thread_pool.h"
 #include "engine/clip/clip_io.h"
@@ -156,6 +157,7 @@ absl::Status Run(const std::vector<std::string>& args) {
 }  // namespace pf
 
 int main(int argc, char** argv) {
+  pf::KeepFreedMemoryForReuse();  // As pf and pf-worker do (common/memory_reuse.h).
   return pf::ExitStatusFor("pf_colour_fit_bench",
                            pf::Run(std::vector<std::string>(argv + 1, argv + argc)));
 }

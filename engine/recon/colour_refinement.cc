@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <array>
 #include <atomic>
+#include <chrono>
 #include <cmath>
 #include <limits>
 
@@ -295,8 +296,14 @@ absl::StatusOr<RefinementStats> RefineColours(const std::vector<ContextView>& vi
   bool gradients = options.colour_gradients;
   int pixel_stride = 1;
   RecordedViews recorded;
+  using Clock = std::chrono::steady_clock;
+  const Clock::time_point record_start = Clock::now();
+  auto seconds_since = [](Clock::time_point start) {
+    return std::chrono::duration<double>(Clock::now() - start).count();
+  };
   for (;;) {
     ASSIGN_OR_RETURN(recorded, RecordViews(views, *scene, options, gradients, pixel_stride));
+    stats.record_seconds = seconds_since(record_start);
     if (!recorded.over_budget) break;
     // The whole clip's units at stride 1, estimated from the views counted.
     const double scale = double(num_views) / double(std::max<int64_t>(1, recorded.counted_views));
@@ -332,6 +339,7 @@ absl::StatusOr<RefinementStats> RefineColours(const std::vector<ContextView>& vi
     for (uint8_t f : view.fitted) stats.pixels += f;
   }
   if (stats.pixels == 0) return stats;
+  const Clock::time_point solve_start = Clock::now();
 
   // x: the colours, starting at the fused ones (c0, the prior's centre, so
   // the prior enters only through Lambda below). for_views runs
@@ -532,6 +540,7 @@ absl::StatusOr<RefinementStats> RefineColours(const std::vector<ContextView>& vi
       },
       nullptr);
   stats.rmse_after = total_rmse();
+  stats.solve_seconds = seconds_since(solve_start);
   return stats;
 }
 

@@ -108,6 +108,10 @@ struct RefinementStats {
   // max_pixel_stride, so the colours were fitted flat (skipped_over_budget
   // then says whether even that passed it).
   bool flat_fallback = false;
+  // Wall seconds spent recording the views' weights (every attempt at a
+  // stride), and in the rest of the fit (its set-up and iterations).
+  double record_seconds = 0;
+  double solve_seconds = 0;
 };
 
 // Refines the first three feature channels of `scene` in place against

@@ -219,6 +219,9 @@ TEST(ColourRefinement, RecoversTheColoursAContextImageWasRenderedFrom) {
   EXPECT_GT(stats->rmse_before, 0.1);
   EXPECT_LT(stats->rmse_after, 0.002);
   EXPECT_FALSE(scene.has_colour_gradients());
+  // The stage line's split of the fit's time: both parts ran.
+  EXPECT_GT(stats->record_seconds, 0);
+  EXPECT_GT(stats->solve_seconds, 0);
 }
 
 TEST(ColourRefinement, FitsColourGradientsAFlatFitCannot) {

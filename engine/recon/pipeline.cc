@@ -191,10 +191,12 @@ absl::Status Pipeline::FitColours() {
                       " GB, even on 1 pixel in ", max_stride,
                       " of each view; colours kept as decoded)"));
   } else {
-    Done(ReconStage::kRefine, absl::StrCat(" (", refined.pairs, " pixel-Gaussian pairs, ",
-                                           absl::SixDigits(double(refined.weight_bytes) / 1e9),
-                                           " GB of weights, context RMSE ", refined.rmse_before,
-                                           " -> ", refined.rmse_after, detail, ")"));
+    Done(ReconStage::kRefine,
+         absl::StrCat(" (", refined.pairs, " pixel-Gaussian pairs, ",
+                      absl::SixDigits(double(refined.weight_bytes) / 1e9),
+                      " GB of weights, context RMSE ", refined.rmse_before, " -> ",
+                      refined.rmse_after, "; weights ", absl::SixDigits(refined.record_seconds),
+                      " s, fit ", absl::SixDigits(refined.solve_seconds), " s", detail, ")"));
   }
   return absl::OkStatus();
 }

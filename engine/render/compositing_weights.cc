@@ -210,13 +210,14 @@ absl::StatusOr<CompositingWeights> ComputeCompositingWeights(const GaussianScene
     }
   }
 
-  // Local indices: the contributing Gaussians in ascending scene order.
+  // Local indices: the contributing Gaussians in the order of their first
+  // entry (CompositingWeights::gaussians).
   std::vector<uint32_t> to_local(n, UINT32_MAX);
-  for (uint32_t k : ranked) to_local[scene_index[k]] = 0;
-  for (size_t i = 0; i < n; ++i) {
-    if (to_local[i] == 0) {
-      to_local[i] = static_cast<uint32_t>(out.gaussians.size());
-      out.gaussians.push_back(static_cast<uint32_t>(i));
+  for (uint32_t k : ranked) {
+    uint32_t& l = to_local[scene_index[k]];
+    if (l == UINT32_MAX) {
+      l = static_cast<uint32_t>(out.gaussians.size());
+      out.gaussians.push_back(scene_index[k]);
     }
   }
   out.local.resize(ranked.size());
@@ -333,16 +334,72 @@ void AccumulateTransposedTextured(const CompositingWeights& a, const float* resi
 
 void AccumulateNormal(const CompositingWeights& a, const std::vector<uint8_t>& mask, const float* x,
                       float* out) {
-  const bool textured = a.has_local_coords();
-  for (size_t p = 0; p < a.pixel_begin.size(); ++p) {
-    if (!mask[p]) continue;
-    float v[3];
-    if (textured) {
-      CompositePixelTextured(a, p, x, v);
-      AccumulatePixelTextured(a, p, v, out);
-    } else {
+  if (!a.has_local_coords()) {
+    for (size_t p = 0; p < a.pixel_begin.size(); ++p) {
+      if (!mask[p]) continue;
+      float v[3];
       CompositePixel<3>(a, p, x, 3, v);
       AccumulatePixel<3>(a, p, v, 3, out);
+    }
+    return;
+  }
+  // Per pixel, (A x)_p then out += (row p of A)^T (A x)_p, with each entry's
+  // (w, w u, w v) worked out once for both and the three channels in 4-wide
+  // vectors: channel c's (colour, g_u, g_v) are params[3c .. 3c+2].
+  // Pixels go tile by tile, as the entries are stored, so a tile's Gaussians
+  // stay in cache.
+  typedef float V4 __attribute__((vector_size(16)));
+  auto load = [](const float* p) {
+    V4 v;
+    std::memcpy(&v, p, sizeof(v));
+    return v;
+  };
+  auto store = [](float* p, V4 v) { std::memcpy(p, &v, sizeof(v)); };
+  auto sum = [](V4 v) { return (v[0] + v[1]) + (v[2] + v[3]); };
+  struct Entry {
+    float* out;
+    float w, wu, wv;
+  };
+  std::vector<Entry> row;
+  const size_t width = static_cast<size_t>(a.width), height = static_cast<size_t>(a.height);
+  for (size_t tile_y = 0; tile_y < height; tile_y += kTile) {
+    for (size_t tile_x = 0; tile_x < width; tile_x += kTile) {
+      for (size_t y = tile_y; y < std::min(height, tile_y + kTile); ++y) {
+        for (size_t p = y * width + tile_x; p < y * width + std::min(width, tile_x + kTile); ++p) {
+          if (!mask[p]) continue;
+          const uint64_t begin = a.pixel_begin[p], count = a.pixel_count[p];
+          if (row.size() < count) row.resize(count);
+          float px, py;
+          a.PixelCentre(p, &px, &py);
+          // Channels 0 and 1 from params[0..3] and [3..6] under (w, wu, wv,
+          // 0); channel 2 from params[5..8] under (0, w, wu, wv), so no load
+          // passes the Gaussian's 9 floats.
+          V4 c0 = {0, 0, 0, 0}, c1 = c0, c2 = c0;
+          for (uint64_t k = 0; k < count; ++k) {
+            const uint64_t e = begin + k;
+            float u, v;
+            a.LocalCoords(e, px, py, &u, &v);
+            const float w = a.weights[e], wu = w * u, wv = w * v;
+            const size_t offset = static_cast<size_t>(a.local[e]) * 9;
+            const float* src = x + offset;
+            const V4 lead = {w, wu, wv, 0.f}, tail = {0.f, w, wu, wv};
+            c0 += lead * load(src);
+            c1 += lead * load(src + 3);
+            c2 += tail * load(src + 5);
+            row[k] = {out + offset, w, wu, wv};
+          }
+          const float v0 = sum(c0), v1 = sum(c1), v2 = sum(c2);
+          for (uint64_t k = 0; k < count; ++k) {
+            const Entry& entry = row[k];
+            float* dst = entry.out;
+            const V4 first = {entry.w * v0, entry.wu * v0, entry.wv * v0, entry.w * v1};
+            const V4 second = {entry.wu * v1, entry.wv * v1, entry.w * v2, entry.wu * v2};
+            store(dst, load(dst) + first);
+            store(dst + 4, load(dst + 4) + second);
+            dst[8] += entry.wv * v2;
+          }
+        }
+      }
     }
   }
 }

@@ -51,7 +51,9 @@ struct CompositingWeights {
   // Rows recorded: the pixels OnPixelLattice(x, y, pixel_stride); the others
   // have no entries (their `alpha` is still the render's).
   int pixel_stride = 1;
-  // Scene indices of the Gaussians with any weight in this view, ascending.
+  // Scene indices of the Gaussians with any weight in this view, each once,
+  // in the order of their first entry (tile by tile, front to back): a
+  // tile's Gaussians are neighbours in arrays kept in this (local) order.
   std::vector<uint32_t> gaussians;
   // Entries of pixel p = y * width + x are [pixel_begin[p], pixel_end[p]),
   // front to back (pixels are stored tile by tile, so rows interleave).
@@ -133,7 +135,8 @@ void AccumulateTransposedTextured(const CompositingWeights& a, const float* resi
 // coordinates, else flat RGB ([a.gaussians.size(), 3]). One pass: each
 // pixel's entries are read from memory once and, still in cache, again for
 // the transposed product, where Composite then AccumulateTransposed read
-// them all twice (the colour fit's iterations are mostly this).
+// them all twice (the colour fit's iterations are mostly this). Pixels are
+// taken tile by tile, so the sums into `out` run in that order.
 void AccumulateNormal(const CompositingWeights& a, const std::vector<uint8_t>& mask, const float* x,
                       float* out);
 

@@ -5,8 +5,10 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
+#include <utility>
 
 namespace pf {
 namespace {
@@ -61,7 +63,9 @@ TEST(CompositingWeights, StackedGaussiansAtAPixelCentre) {
   AddGaussian(&scene, at_pixel(12, 2, 5), {0.01, 0.01, 0.01}, identity, 0.9, {0, 1, 0});
   absl::StatusOr<CompositingWeights> a = ComputeCompositingWeights(scene, camera, 0);
   ASSERT_TRUE(a.ok()) << a.status();
-  EXPECT_EQ(a->gaussians, (std::vector<uint32_t>{0, 1, 2}));
+  // Listed by first entry: pixel (12, 2) comes before (5, 7) in the one
+  // tile, and at (5, 7) the front Gaussian before the one behind.
+  EXPECT_EQ(a->gaussians, (std::vector<uint32_t>{2, 1, 0}));
   const size_t pixel = 7 * 16 + 5;
   ASSERT_EQ(a->pixel_count[pixel], 2u);
   const uint64_t k = a->pixel_begin[pixel];
@@ -82,10 +86,10 @@ TEST(CompositingWeights, StackedGaussiansAtAPixelCentre) {
   std::vector<float> residual(16 * 16 * 3, 0.f), out(9, 0.f);
   residual[3 * pixel] = 1.f;
   AccumulateTransposed(*a, residual.data(), 3, out.data());
-  EXPECT_NEAR(out[0], 0.2f, 1e-6);  // Gaussian 0 (behind).
+  EXPECT_NEAR(out[0], 0.f, 1e-9);   // Gaussian 2 (elsewhere).
   EXPECT_NEAR(out[3], 0.6f, 1e-6);  // Gaussian 1 (in front).
-  EXPECT_NEAR(out[6], 0.f, 1e-9);
-  EXPECT_NEAR(out[1], 0.f, 1e-9);
+  EXPECT_NEAR(out[6], 0.2f, 1e-6);  // Gaussian 0 (behind).
+  EXPECT_NEAR(out[4], 0.f, 1e-9);
 }
 
 // A random scene of flat and round Gaussians of sub-pixel to tile size, a
@@ -262,44 +266,51 @@ TEST(CompositingWeights, TexturedTransposeIsTheAdjoint) {
 
 TEST(CompositingWeights, AccumulateNormalIsTheTransposeOfTheMaskedComposite) {
   // A^T M A x in one pass equals Composite, the pixels outside the mask
-  // zeroed, then AccumulateTransposed: flat RGB and with gradients.
+  // zeroed, then AccumulateTransposed: flat RGB and with gradients, on an
+  // image of whole tiles and on one whose last tiles are cut.
   const GaussianScene scene = RandomScene(6, 800);
   std::mt19937 rng(3);
   std::uniform_real_distribution<float> u(-1.f, 1.f);
-  std::vector<uint8_t> mask(64 * 48);
-  for (size_t p = 0; p < mask.size(); ++p) mask[p] = (p * 7919 % 5) != 0;  // 4 in 5 pixels.
-  for (const bool textured : {false, true}) {
-    SCOPED_TRACE(textured);
-    WeightOptions options;
-    options.local_coords = textured;
-    absl::StatusOr<CompositingWeights> a =
-        ComputeCompositingWeights(scene, SimpleCamera(64, 48, 60), 0, options);
-    ASSERT_TRUE(a.ok()) << a.status();
-    const size_t per = textured ? 9 : 3;
-    std::vector<float> x(per * a->gaussians.size());
-    for (float& v : x) v = u(rng);
-    std::vector<float> image(3 * mask.size());
-    if (textured) {
-      CompositeTextured(*a, x.data(), image.data());
-    } else {
-      Composite(*a, x.data(), 3, image.data());
+  for (const auto& [width, height] : {std::pair{64, 48}, std::pair{70, 45}}) {
+    std::vector<uint8_t> mask(width * height);
+    for (size_t p = 0; p < mask.size(); ++p) mask[p] = (p * 7919 % 5) != 0;  // 4 in 5 pixels.
+    for (const bool textured : {false, true}) {
+      SCOPED_TRACE(testing::Message() << width << "x" << height << " textured " << textured);
+      WeightOptions options;
+      options.local_coords = textured;
+      absl::StatusOr<CompositingWeights> a =
+          ComputeCompositingWeights(scene, SimpleCamera(width, height, 60), 0, options);
+      ASSERT_TRUE(a.ok()) << a.status();
+      // Each contributing Gaussian is listed once.
+      std::vector<uint32_t> listed = a->gaussians;
+      std::sort(listed.begin(), listed.end());
+      EXPECT_EQ(std::adjacent_find(listed.begin(), listed.end()), listed.end());
+      const size_t per = textured ? 9 : 3;
+      std::vector<float> x(per * a->gaussians.size());
+      for (float& v : x) v = u(rng);
+      std::vector<float> image(3 * mask.size());
+      if (textured) {
+        CompositeTextured(*a, x.data(), image.data());
+      } else {
+        Composite(*a, x.data(), 3, image.data());
+      }
+      for (size_t p = 0; p < mask.size(); ++p)
+        if (!mask[p]) image[3 * p] = image[3 * p + 1] = image[3 * p + 2] = 0.f;
+      std::vector<float> expected(x.size(), 0.f), got(x.size(), 0.f);
+      if (textured) {
+        AccumulateTransposedTextured(*a, image.data(), expected.data());
+      } else {
+        AccumulateTransposed(*a, image.data(), 3, expected.data());
+      }
+      AccumulateNormal(*a, mask, x.data(), got.data());
+      double max_error = 0, max_value = 0;
+      for (size_t k = 0; k < x.size(); ++k) {
+        max_error = std::max(max_error, double(std::abs(got[k] - expected[k])));
+        max_value = std::max(max_value, double(std::abs(expected[k])));
+      }
+      EXPECT_GT(max_value, 0.1);
+      EXPECT_LT(max_error, 1e-5 * max_value);
     }
-    for (size_t p = 0; p < mask.size(); ++p)
-      if (!mask[p]) image[3 * p] = image[3 * p + 1] = image[3 * p + 2] = 0.f;
-    std::vector<float> expected(x.size(), 0.f), got(x.size(), 0.f);
-    if (textured) {
-      AccumulateTransposedTextured(*a, image.data(), expected.data());
-    } else {
-      AccumulateTransposed(*a, image.data(), 3, expected.data());
-    }
-    AccumulateNormal(*a, mask, x.data(), got.data());
-    double max_error = 0, max_value = 0;
-    for (size_t k = 0; k < x.size(); ++k) {
-      max_error = std::max(max_error, double(std::abs(got[k] - expected[k])));
-      max_value = std::max(max_value, double(std::abs(expected[k])));
-    }
-    EXPECT_GT(max_value, 0.1);
-    EXPECT_LT(max_error, 1e-5 * max_value);
   }
 }
 
