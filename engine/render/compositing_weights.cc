@@ -23,6 +23,9 @@ using raster::kTile;
 
 using Splat = raster::SplatGeometry;
 
+// How many splats of a tile's list ahead the compositing loop prefetches.
+constexpr uint64_t kPrefetchAhead = 8;
+
 // The camera as the projection reads it, and per owner (0 background, k
 // instance k) the camera-from-owner transform: row-major r, then t.
 struct ViewFrame : raster::ProjectionCamera {
@@ -149,6 +152,10 @@ absl::StatusOr<CompositingWeights> ComputeCompositingWeights(const GaussianScene
       tile_entries.clear();
       int active = (x_end - x_begin) * (y_end - y_begin);  // Pixels not done yet.
       for (uint64_t k = tile_begin[t]; k < tile_begin[t + 1] && active > 0; ++k) {
+        // A tile's splats lie far apart in depth order: ask for one ahead.
+        if (k + kPrefetchAhead < tile_begin[t + 1]) {
+          __builtin_prefetch(&splats[tile_lists[k + kPrefetchAhead]]);
+        }
         const uint32_t i = tile_lists[k];
         const Splat& g = splats[i];
         const float det = g.ca * g.cc - g.cb * g.cb;

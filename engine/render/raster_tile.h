@@ -1,7 +1,7 @@
 // The compositing kernel of the rasterizer: one 16x16 tile, its Gaussians in
-// depth order, front to back. Internal to rasterizer.cc; compiled twice, for
-// the x86-64 baseline (4 lanes, SSE2) and for AVX2 (8 lanes), and chosen at
-// run time (TileKernelName() says which).
+// depth order, front to back. Internal to rasterizer.cc; compiled three
+// times, for the x86-64 baseline (4 lanes, SSE2), AVX2 (8 lanes) and AVX-512
+// (16 lanes), and chosen at run time (TileKernelName() says which).
 #ifndef POINTFORWARD_ENGINE_RENDER_RASTER_TILE_H_
 #define POINTFORWARD_ENGINE_RENDER_RASTER_TILE_H_
 
@@ -70,13 +70,19 @@ struct TileJob {
 void CompositeTileBaseline(TileJob* job);
 // Composites `job` with 8 AVX2 lanes; only call when the CPU has AVX2.
 void CompositeTileAvx2(TileJob* job);
+// Composites `job` with 16 AVX-512 lanes; only call when the CPU has
+// AVX-512F.
+void CompositeTileAvx512(TileJob* job);
 
-// Composites `job` with the best kernel this CPU runs.
+// Composites `job` with the kernel PF_RENDER_KERNEL names (baseline, avx2,
+// avx512) if this CPU runs it, else with AVX2 if it has it, else the
+// baseline. Every kernel gives the same bits.
 void CompositeTile(TileJob* job);
-// Returns "avx2" or "baseline": the kernel CompositeTile() uses.
+// Returns "avx512", "avx2" or "baseline": the kernel CompositeTile() uses.
 const char* TileKernelName();
-// Makes CompositeTile() use the baseline kernel even on AVX2 CPUs (tests).
-void ForceBaselineKernelForTesting(bool force);
+// Makes CompositeTile() use the kernel named (tests); nullptr goes back to
+// the default. False, changing nothing, when this CPU or build lacks it.
+bool UseTileKernelForTesting(const char* name);
 
 }  // namespace pf::raster
 

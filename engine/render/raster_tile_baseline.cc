@@ -1,8 +1,8 @@
 // The tile kernel for the x86-64 baseline (4 lanes), and the run-time choice
-// between it and the AVX2 build.
+// between it and the AVX2 and AVX-512 builds.
 #include <atomic>
 #include <cstdlib>
-#include <string_view>
+#include <cstring>
 
 #include "engine/render/raster_tile.h"
 #include "engine/render/raster_tile_kernel.h"
@@ -10,41 +10,77 @@
 namespace pf::raster {
 namespace {
 
-// AVX2 when the CPU has it, unless PF_RENDER_KERNEL=baseline asks otherwise
-// (to compare the two builds).
-bool UseAvx2() {
+enum Kernel : int { kBaseline, kAvx2, kAvx512, kNumKernels };
+constexpr const char* kKernelNames[kNumKernels] = {"baseline", "avx2", "avx512"};
+
+bool Runs(Kernel kernel) {
 #if defined(PF_RENDER_HAVE_AVX2_KERNEL)
-  static const bool avx2 = [] {
-    const char* env = std::getenv("PF_RENDER_KERNEL");
-    if (env != nullptr && std::string_view(env) == "baseline") return false;
-    return static_cast<bool>(__builtin_cpu_supports("avx2"));
-  }();
-  return avx2;
+  if (kernel == kAvx512) return __builtin_cpu_supports("avx512f");
+  if (kernel == kAvx2) return __builtin_cpu_supports("avx2");
+  return true;
 #else
-  return false;
+  return kernel == kBaseline;
 #endif
 }
 
-std::atomic<bool> g_force_baseline{false};
+// The kernel PF_RENDER_KERNEL names if this CPU runs it, else AVX2 where the
+// CPU has it. AVX-512 is asked for by name only: on the AMD EPYC (Zen 4) it
+// was measured slower than AVX2 (docs/PERFORMANCE.md).
+Kernel DefaultKernel() {
+  static const Kernel kernel = [] {
+    if (const char* env = std::getenv("PF_RENDER_KERNEL"); env != nullptr) {
+      for (int k = 0; k < kNumKernels; ++k) {
+        if (std::strcmp(env, kKernelNames[k]) == 0 && Runs(Kernel(k))) return Kernel(k);
+      }
+    }
+    return Runs(kAvx2) ? kAvx2 : kBaseline;
+  }();
+  return kernel;
+}
+
+std::atomic<int> g_kernel_for_testing{-1};
+
+Kernel CurrentKernel() {
+  const int forced = g_kernel_for_testing.load(std::memory_order_relaxed);
+  return forced >= 0 ? Kernel(forced) : DefaultKernel();
+}
 
 }  // namespace
 
-void ForceBaselineKernelForTesting(bool force) { g_force_baseline = force; }
+bool UseTileKernelForTesting(const char* name) {
+  if (name == nullptr) {
+    g_kernel_for_testing = -1;
+    return true;
+  }
+  for (int k = 0; k < kNumKernels; ++k) {
+    if (std::strcmp(name, kKernelNames[k]) == 0 && Runs(Kernel(k))) {
+      g_kernel_for_testing = k;
+      return true;
+    }
+  }
+  return false;
+}
 
 void CompositeTileBaseline(TileJob* job) { CompositeTileFor<4>(job); }
 
 #if !defined(PF_RENDER_HAVE_AVX2_KERNEL)
 void CompositeTileAvx2(TileJob* job) { CompositeTileFor<4>(job); }
+void CompositeTileAvx512(TileJob* job) { CompositeTileFor<4>(job); }
 #endif
 
 void CompositeTile(TileJob* job) {
-  if (UseAvx2() && !g_force_baseline.load(std::memory_order_relaxed)) {
-    CompositeTileAvx2(job);
-  } else {
-    CompositeTileBaseline(job);
+  switch (CurrentKernel()) {
+    case kAvx512:
+      CompositeTileAvx512(job);
+      break;
+    case kAvx2:
+      CompositeTileAvx2(job);
+      break;
+    default:
+      CompositeTileBaseline(job);
   }
 }
 
-const char* TileKernelName() { return UseAvx2() && !g_force_baseline.load() ? "avx2" : "baseline"; }
+const char* TileKernelName() { return kKernelNames[CurrentKernel()]; }
 
 }  // namespace pf::raster

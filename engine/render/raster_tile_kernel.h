@@ -1,8 +1,8 @@
 // The tile compositing kernel, written once over W float lanes with GCC/Clang
-// vector extensions; raster_tile_baseline.cc and raster_tile_avx2.cc
-// instantiate it with W = 4 and W = 8 under their own compiler flags. Include
-// only from those two files: everything here has internal linkage so the two
-// builds never mix.
+// vector extensions; raster_tile_baseline.cc, raster_tile_avx2.cc and
+// raster_tile_avx512.cc instantiate it with W = 4, 8 and 16 under their own
+// compiler flags. Include only from those files: everything here has
+// internal linkage so the builds never mix.
 //
 // Per Gaussian and tile row, only the W-pixel groups that cover the
 // ellipse's span are visited; lanes outside the span or whose pixel is done
@@ -45,6 +45,11 @@ inline void Store(void* p, const V& v) {
 // Returns a bit per lane of mask `m` (lanes 0 or -1).
 template <int W>
 inline unsigned MoveMask(typename Lanes<W>::I m) {
+#if defined(__AVX512F__)
+  if constexpr (W == 16) {
+    return _mm512_cmpneq_epi32_mask(reinterpret_cast<__m512i>(m), _mm512_setzero_si512());
+  }
+#endif
 #if defined(__AVX2__)
   if constexpr (W == 8) return _mm256_movemask_ps(reinterpret_cast<__m256>(m));
 #endif
@@ -90,6 +95,9 @@ inline typename Lanes<W>::F FastExp2(typename Lanes<W>::F x) {
 template <int W>
 inline typename Lanes<W>::F Sqrt(typename Lanes<W>::F x) {
   using F = typename Lanes<W>::F;
+#if defined(__AVX512F__)
+  if constexpr (W == 16) return reinterpret_cast<F>(_mm512_sqrt_ps(reinterpret_cast<__m512>(x)));
+#endif
 #if defined(__AVX2__)
   if constexpr (W == 8) return reinterpret_cast<F>(_mm256_sqrt_ps(reinterpret_cast<__m256>(x)));
 #endif

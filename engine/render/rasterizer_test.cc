@@ -605,14 +605,12 @@ TEST(Rasterizer, DeterministicAcrossRuns) {
   ExpectSameBits(*a, *b);
 }
 
-TEST(Rasterizer, BaselineAndAvx2KernelsGiveTheSameBits) {
-  if (std::string(raster::TileKernelName()) != "avx2") {
-    GTEST_SKIP() << "this CPU runs the " << raster::TileKernelName()
-                 << " kernel: there is no AVX2 kernel to compare";
-  }
-  // Flat colours, then colour gradients (the kernels' other instantiation).
+TEST(Rasterizer, EveryKernelGivesTheBaselinesBits) {
+  // Flat colours, then colour gradients (the kernels' other instantiation),
+  // with every kernel this CPU runs against the baseline's.
   BenchScene bench = MakeBenchScene(20000, 200, 150, 7, 5);
   std::vector<float> flat_rgb;
+  int compared = 0;
   for (bool gradients : {false, true}) {
     SCOPED_TRACE(gradients);
     if (gradients) {
@@ -621,15 +619,28 @@ TEST(Rasterizer, BaselineAndAvx2KernelsGiveTheSameBits) {
       bench.scene.colour_gradients.resize(6 * bench.scene.size());
       for (float& g : bench.scene.colour_gradients) g = u(rng);
     }
-    absl::StatusOr<RenderBuffers> fast = Render(bench.scene, bench.camera, bench.timestamp_us, {});
-    raster::ForceBaselineKernelForTesting(true);
+    ASSERT_TRUE(raster::UseTileKernelForTesting("baseline"));
     EXPECT_STREQ(raster::TileKernelName(), "baseline");
     absl::StatusOr<RenderBuffers> base = Render(bench.scene, bench.camera, bench.timestamp_us, {});
-    raster::ForceBaselineKernelForTesting(false);
-    ASSERT_TRUE(fast.ok() && base.ok());
-    ExpectSameBits(*fast, *base);
-    if (!gradients) flat_rgb = fast->rgb;
-    if (gradients) EXPECT_NE(fast->rgb, flat_rgb);  // The gradients were used.
+    ASSERT_TRUE(base.ok());
+    for (const char* kernel : {"avx2", "avx512"}) {
+      SCOPED_TRACE(kernel);
+      if (!raster::UseTileKernelForTesting(kernel)) continue;
+      EXPECT_STREQ(raster::TileKernelName(), kernel);
+      absl::StatusOr<RenderBuffers> fast =
+          Render(bench.scene, bench.camera, bench.timestamp_us, {});
+      ASSERT_TRUE(fast.ok());
+      ExpectSameBits(*fast, *base);
+      ++compared;
+    }
+    raster::UseTileKernelForTesting(nullptr);
+    if (!gradients) flat_rgb = base->rgb;
+    if (gradients) EXPECT_NE(base->rgb, flat_rgb);  // The gradients were used.
+  }
+  EXPECT_FALSE(raster::UseTileKernelForTesting("avx1024"));
+  if (compared == 0) {
+    GTEST_SKIP() << "this CPU runs the " << raster::TileKernelName()
+                 << " kernel only: there is no other kernel to compare";
   }
 }
 
