@@ -302,6 +302,14 @@ TEST(PfBench, PfThreadsIsTheNumberOfWorkingThreads) {
     EXPECT_EQ(bench["threads"], std::stoi(threads)) << result.out;
     EXPECT_EQ(bench["device"], "cpu");
     EXPECT_GT(bench["pairs_contributing"].get<int64_t>(), 0);
+    // The machine's blend peak, measured in the same run, and the share of
+    // it the render reached.
+    EXPECT_EQ(bench["peak_gaussians_per_tile"], 128);
+    EXPECT_GT(bench["peak_pairs_per_ms"].get<double>(), 0);
+    EXPECT_GT(bench["share_of_peak"].get<double>(), 0);
+    const std::string peak_kernel = bench["peak_kernel"];
+    EXPECT_TRUE(peak_kernel == "baseline" || peak_kernel == "avx2" || peak_kernel == "avx512")
+        << peak_kernel;
   }
   const testing::CommandResult bad =
       RunCommand({BinPath("pf"), "bench", "raster", "--device", "tpu"});

@@ -74,6 +74,26 @@ void CompositeTileAvx2(TileJob* job);
 // AVX-512F.
 void CompositeTileAvx512(TileJob* job);
 
+// The blend peak of `pf bench raster`: what the compositing arithmetic alone
+// reaches on this CPU. One Gaussian of the peak loop: centre, conic,
+// opacity and colour, as Projected has them.
+struct PeakGaussian {
+  float mx, my, ca, cb, cc, opacity;
+  float rgb[3];
+};
+// Blends `count` Gaussians, front to back, over every pixel of one tile
+// (pixel centres x + 0.5, y + 0.5 in tile coordinates) with no spans, masks,
+// cut-offs or early exit, each group of pixels' transmittance and RGB kept
+// in registers, and writes them to `out` ([4, 256]: transmittance, r, g, b).
+// Every build gives the same bits. BlendPeakTile() runs the widest build
+// this CPU has, whatever CompositeTile() uses: the machine's peak.
+void BlendPeakTileBaseline(const PeakGaussian* gaussians, int count, float* out);
+void BlendPeakTileAvx2(const PeakGaussian* gaussians, int count, float* out);
+void BlendPeakTileAvx512(const PeakGaussian* gaussians, int count, float* out);
+void BlendPeakTile(const PeakGaussian* gaussians, int count, float* out);
+// Returns the kernel BlendPeakTile() runs: "avx512", "avx2" or "baseline".
+const char* BlendPeakKernelName();
+
 // Composites `job` with the kernel PF_RENDER_KERNEL names (baseline, avx2,
 // avx512) if this CPU runs it, else with AVX2 if it has it, else the
 // baseline. Every kernel gives the same bits.

@@ -5,5 +5,8 @@
 namespace pf::raster {
 
 void CompositeTileAvx2(TileJob* job) { CompositeTileFor<8>(job); }
+void BlendPeakTileAvx2(const PeakGaussian* gaussians, int count, float* out) {
+  BlendPeakTileFor<8>(gaussians, count, out);
+}
 
 }  // namespace pf::raster

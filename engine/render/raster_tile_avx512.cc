@@ -7,5 +7,8 @@
 namespace pf::raster {
 
 void CompositeTileAvx512(TileJob* job) { CompositeTileFor<16>(job); }
+void BlendPeakTileAvx512(const PeakGaussian* gaussians, int count, float* out) {
+  BlendPeakTileFor<16>(gaussians, count, out);
+}
 
 }  // namespace pf::raster

@@ -38,6 +38,9 @@ Kernel DefaultKernel() {
   return kernel;
 }
 
+// The widest kernel this CPU runs, whatever PF_RENDER_KERNEL says.
+Kernel WidestKernel() { return Runs(kAvx512) ? kAvx512 : Runs(kAvx2) ? kAvx2 : kBaseline; }
+
 std::atomic<int> g_kernel_for_testing{-1};
 
 Kernel CurrentKernel() {
@@ -63,9 +66,19 @@ bool UseTileKernelForTesting(const char* name) {
 
 void CompositeTileBaseline(TileJob* job) { CompositeTileFor<4>(job); }
 
+void BlendPeakTileBaseline(const PeakGaussian* gaussians, int count, float* out) {
+  BlendPeakTileFor<4>(gaussians, count, out);
+}
+
 #if !defined(PF_RENDER_HAVE_AVX2_KERNEL)
 void CompositeTileAvx2(TileJob* job) { CompositeTileFor<4>(job); }
 void CompositeTileAvx512(TileJob* job) { CompositeTileFor<4>(job); }
+void BlendPeakTileAvx2(const PeakGaussian* gaussians, int count, float* out) {
+  BlendPeakTileFor<4>(gaussians, count, out);
+}
+void BlendPeakTileAvx512(const PeakGaussian* gaussians, int count, float* out) {
+  BlendPeakTileFor<4>(gaussians, count, out);
+}
 #endif
 
 void CompositeTile(TileJob* job) {
@@ -80,6 +93,21 @@ void CompositeTile(TileJob* job) {
       CompositeTileBaseline(job);
   }
 }
+
+void BlendPeakTile(const PeakGaussian* gaussians, int count, float* out) {
+  switch (WidestKernel()) {
+    case kAvx512:
+      BlendPeakTileAvx512(gaussians, count, out);
+      break;
+    case kAvx2:
+      BlendPeakTileAvx2(gaussians, count, out);
+      break;
+    default:
+      BlendPeakTileBaseline(gaussians, count, out);
+  }
+}
+
+const char* BlendPeakKernelName() { return kKernelNames[WidestKernel()]; }
 
 const char* TileKernelName() { return kKernelNames[CurrentKernel()]; }
 

@@ -25,6 +25,8 @@
 namespace pf::raster {
 namespace {
 
+constexpr float kMinusHalfLog2e = -0.72134752044448170f;  // exp(-d2/2) = 2^(d2 * this).
+
 template <int W>
 struct Lanes {
   typedef float F __attribute__((vector_size(sizeof(float) * W)));
@@ -126,7 +128,6 @@ inline typename Lanes<W>::I Ceil(typename Lanes<W>::F x) {
 
 template <int W, int kFixedCount, bool kGradients>
 inline void CompositeTileLanes(TileJob* job) {
-  constexpr float kMinusHalfLog2e = -0.72134752044448170f;  // exp(-d2/2) = 2^(d2 * this).
   using F = typename Lanes<W>::F;
   using I = typename Lanes<W>::I;
   const int count = kFixedCount > 0 ? kFixedCount : job->count;
@@ -254,6 +255,40 @@ inline void CompositeTileLanes(TileJob* job) {
   }
   job->tested = tested;
   job->contributing = contributing;
+}
+
+// The blend peak (raster_tile.h): for each W-pixel group of the tile, every
+// Gaussian blended in turn, transmittance and RGB held in registers.
+template <int W>
+inline void BlendPeakTileFor(const PeakGaussian* gaussians, int count, float* out) {
+  using F = typename Lanes<W>::F;
+  F lane;
+  for (int l = 0; l < W; ++l) lane[l] = static_cast<float>(l);
+  for (int row = 0; row < kTile; ++row) {
+    const float y = row + 0.5f;
+    for (int gx = 0; gx < kTile; gx += W) {
+      const F x = lane + static_cast<float>(gx) + 0.5f;
+      F t = F{} + 1.f, r{}, g{}, b{};
+      for (int k = 0; k < count; ++k) {
+        const PeakGaussian& p = gaussians[k];
+        const F dx = x - p.mx;
+        const float dy = y - p.my;
+        const F d2 = p.ca * dx * dx + (2.f * p.cb * dy) * dx + p.cc * dy * dy;
+        F alpha = p.opacity * FastExp2<W>(d2 * kMinusHalfLog2e);
+        alpha = alpha < kMaxAlpha ? alpha : F{} + kMaxAlpha;
+        const F weight = alpha * t;
+        r += weight * p.rgb[0];
+        g += weight * p.rgb[1];
+        b += weight * p.rgb[2];
+        t = t * (1.f - alpha);
+      }
+      const int at = row * kTile + gx;
+      Store(out + at, t);
+      Store(out + kTilePixels + at, r);
+      Store(out + 2 * kTilePixels + at, g);
+      Store(out + 3 * kTilePixels + at, b);
+    }
+  }
 }
 
 // Dispatches on colour gradients and the channel count (3 is the common

@@ -5,12 +5,14 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstring>
 #include <limits>
 #include <random>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "engine/render/bench_scene.h"
@@ -642,6 +644,56 @@ TEST(Rasterizer, EveryKernelGivesTheBaselinesBits) {
     GTEST_SKIP() << "this CPU runs the " << raster::TileKernelName()
                  << " kernel only: there is no other kernel to compare";
   }
+}
+
+TEST(Rasterizer, BlendPeakBlendsFrontToBackAlikeOnEveryKernel) {
+  // Five round Gaussians over one tile; at every pixel the peak loop's
+  // transmittance and RGB are the front-to-back blend computed here in double
+  // (its exp is a polynomial: 1e-5), and every kernel gives the same bits.
+  std::vector<raster::PeakGaussian> gaussians;
+  std::mt19937 rng(4);
+  std::uniform_real_distribution<float> u(0.f, 1.f);
+  for (int k = 0; k < 5; ++k) {
+    const float sigma = 1.f + 4.f * u(rng);
+    gaussians.push_back({16 * u(rng),
+                         16 * u(rng),
+                         1 / (sigma * sigma),
+                         0.f,
+                         1 / (sigma * sigma),
+                         0.2f + 0.7f * u(rng),
+                         {u(rng), u(rng), u(rng)}});
+  }
+  std::vector<float> base(4 * raster::kTilePixels);
+  raster::BlendPeakTileBaseline(gaussians.data(), 5, base.data());
+  for (int p = 0; p < raster::kTilePixels; ++p) {
+    const double x = p % raster::kTile + 0.5, y = p / raster::kTile + 0.5;
+    double t = 1, rgb[3] = {0, 0, 0};
+    for (const raster::PeakGaussian& g : gaussians) {
+      const double dx = x - g.mx, dy = y - g.my;
+      const double d2 = g.ca * dx * dx + 2 * g.cb * dx * dy + g.cc * dy * dy;
+      const double alpha = std::min(0.99, g.opacity * std::exp(-0.5 * d2));
+      for (int c = 0; c < 3; ++c) rgb[c] += alpha * t * g.rgb[c];
+      t *= 1 - alpha;
+    }
+    ASSERT_NEAR(base[p], t, 1e-5) << "pixel " << p;
+    for (int c = 0; c < 3; ++c) {
+      ASSERT_NEAR(base[(c + 1) * raster::kTilePixels + p], rgb[c], 1e-5) << "pixel " << p;
+    }
+  }
+  EXPECT_LT(*std::min_element(base.begin(), base.begin() + raster::kTilePixels), 0.5f);
+  using Blend = void (*)(const raster::PeakGaussian*, int, float*);
+  for (const auto& [name, blend] :
+       {std::pair<const char*, Blend>{"avx2", raster::BlendPeakTileAvx2},
+        {"avx512", raster::BlendPeakTileAvx512}}) {
+    if (!raster::UseTileKernelForTesting(name)) continue;  // The CPU lacks it.
+    raster::UseTileKernelForTesting(nullptr);
+    std::vector<float> out(4 * raster::kTilePixels);
+    blend(gaussians.data(), 5, out.data());
+    EXPECT_EQ(std::memcmp(out.data(), base.data(), out.size() * sizeof(float)), 0) << name;
+  }
+  std::vector<float> widest(4 * raster::kTilePixels);
+  raster::BlendPeakTile(gaussians.data(), 5, widest.data());
+  EXPECT_EQ(widest, base) << raster::BlendPeakKernelName();
 }
 
 TEST(Rasterizer, BenchSceneIsReproducibleAndCoversTheImage) {
