@@ -169,13 +169,13 @@ void Gather(const FitView& view, const Layout& layout, const std::vector<float>&
       scratch->local_in[per * k + c] = global[per * size_t(view.a.gaussians[k]) + c];
 }
 
-// Adds every view's local_out into `global` (views in order, so the sums do
-// not depend on thread timing).
-void Scatter(const std::vector<FitView>& views, int per, const std::vector<ViewScratch>& scratch,
-             std::vector<float>* global) {
-  for (size_t v = 0; v < views.size(); ++v) {
-    const std::vector<uint32_t>& ids = views[v].a.gaussians;
-    const std::vector<float>& local = scratch[v].local_out;
+// Adds the local_out of views [first, first + scratch.size()) into `global`
+// (views in order, so the sums do not depend on thread timing).
+void Scatter(const std::vector<FitView>& views, size_t first, int per,
+             const std::vector<ViewScratch>& scratch, std::vector<float>* global) {
+  for (size_t slot = 0; slot < scratch.size() && first + slot < views.size(); ++slot) {
+    const std::vector<uint32_t>& ids = views[first + slot].a.gaussians;
+    const std::vector<float>& local = scratch[slot].local_out;
     DefaultThreadPool().ParallelFor(0, static_cast<int64_t>(ids.size()), 16384,
                                     [&](int64_t b, int64_t e) {
                                       for (int64_t k = b; k < e; ++k)
@@ -343,8 +343,11 @@ absl::StatusOr<RefinementStats> RefineColours(const std::vector<ContextView>& vi
 
   // x: the colours, starting at the fused ones (c0, the prior's centre, so
   // the prior enters only through Lambda below). for_views runs
-  // `body(view, scratch)` for every view in parallel, then adds the views'
-  // local_out into `out` (zeroed first) unless it is null.
+  // `body(view, scratch)` for every view, a batch of kViewsPerThread views
+  // per working thread at a time in parallel, and adds each batch's
+  // local_out into `out` (zeroed first) unless it is null: the scratch is
+  // held for one batch, not for every view, and the sums run in view order
+  // whatever the batch.
   // With colour gradients the unknowns are [N, 3, 3] (colour, g_u, g_v per
   // channel), the gradients starting (and centred) at 0.
   const Layout layout{gradients ? 3 : 1};
@@ -353,18 +356,24 @@ absl::StatusOr<RefinementStats> RefineColours(const std::vector<ContextView>& vi
   std::vector<float> x(per * n, 0.f);
   for (size_t i = 0; i < n; ++i)
     for (int c = 0; c < 3; ++c) x[per * i + kk * c] = scene->features[i * stride + c];
-  std::vector<ViewScratch> scratch(views.size());
+  constexpr int64_t kViewsPerThread = 4;
+  const int64_t batch =
+      std::min<int64_t>(num_views, kViewsPerThread * (DefaultThreadPool().num_threads() + 1));
+  std::vector<ViewScratch> scratch(batch);
   auto for_views = [&](const auto& body, std::vector<float>* out, int width = 0) {
     if (width == 0) width = per;
-    DefaultThreadPool().ParallelFor(0, num_views, 1, [&](int64_t b, int64_t e) {
-      for (int64_t v = b; v < e; ++v) {
-        scratch[v].local_out.assign(width * fit[v].a.gaussians.size(), 0.f);
-        body(fit[v], &scratch[v]);
-      }
-    });
-    if (out == nullptr) return;
-    out->assign(width * n, 0.f);
-    Scatter(fit, width, scratch, out);
+    if (out != nullptr) out->assign(width * n, 0.f);
+    for (int64_t first = 0; first < num_views; first += batch) {
+      DefaultThreadPool().ParallelFor(
+          first, std::min(num_views, first + batch), 1, [&](int64_t b, int64_t e) {
+            for (int64_t v = b; v < e; ++v) {
+              ViewScratch& slot = scratch[v - first];
+              slot.local_out.assign(width * fit[v].a.gaussians.size(), 0.f);
+              body(fit[v], &slot);
+            }
+          });
+      if (out != nullptr) Scatter(fit, static_cast<size_t>(first), width, scratch, out);
+    }
   };
   std::vector<Channels> view_sums(views.size());
 
@@ -471,13 +480,15 @@ absl::StatusOr<RefinementStats> RefineColours(const std::vector<ContextView>& vi
   };
 
   // Preconditioned conjugate gradients, the three channels side by side.
-  std::vector<float> z(per * n), p(per * n), q;
+  // z = M^-1 r is worked out per Gaussian where it is needed, not stored.
+  std::vector<float> p(per * n), q;
   Channels rz = for_gaussians([&](size_t i, Channels* sum) {
     const size_t k = per * i;
-    precondition(i, &r[k], &z[k]);
+    float z[9];
+    precondition(i, &r[k], z);
     for (int j = 0; j < per; ++j) {
-      p[k + j] = z[k + j];
-      (*sum)[j / kk] += double(r[k + j]) * z[k + j];
+      p[k + j] = z[j];
+      (*sum)[j / kk] += double(r[k + j]) * z[j];
     }
   });
   for (int iteration = 0; iteration < options.iterations; ++iteration) {
@@ -496,20 +507,24 @@ absl::StatusOr<RefinementStats> RefineColours(const std::vector<ContextView>& vi
     });
     float step[3];
     for (int c = 0; c < 3; ++c) step[c] = pq[c] > 0 ? static_cast<float>(rz[c] / pq[c]) : 0.f;
-    // x += step p, r -= step q, z = M^-1 r.
+    // x += step p, r -= step q; r^T z for the new r.
     const Channels rz_next = for_gaussians([&](size_t i, Channels* sum) {
       const size_t k = per * i;
       for (int j = 0; j < per; ++j) {
         x[k + j] += step[j / kk] * p[k + j];
         r[k + j] -= step[j / kk] * q[k + j];
       }
-      precondition(i, &r[k], &z[k]);
-      for (int j = 0; j < per; ++j) (*sum)[j / kk] += double(r[k + j]) * z[k + j];
+      float z[9];
+      precondition(i, &r[k], z);
+      for (int j = 0; j < per; ++j) (*sum)[j / kk] += double(r[k + j]) * z[j];
     });
     float beta[3];
     for (int c = 0; c < 3; ++c) beta[c] = rz[c] > 0 ? static_cast<float>(rz_next[c] / rz[c]) : 0.f;
     for_gaussians([&](size_t i, Channels*) {
-      for (size_t k = per * i, j = 0; j < size_t(per); ++j, ++k) p[k] = z[k] + beta[j / kk] * p[k];
+      const size_t k = per * i;
+      float z[9];
+      precondition(i, &r[k], z);
+      for (int j = 0; j < per; ++j) p[k + j] = z[j] + beta[j / kk] * p[k + j];
     });
     rz = rz_next;
   }
