@@ -10,12 +10,32 @@
 
 namespace pf {
 
-bool PointInBox(const Vec3& p, const TrackBox& box, const BoxMargin& margin) {
-  const Vec3 local = Transpose(ToMatrix(box.rotation)) * (p - box.center);
+namespace {
+
+// PointInBox with the box's rotation to its frame given.
+bool InBox(const Vec3& p, const TrackBox& box, const Mat3& box_from_world,
+           const BoxMargin& margin) {
+  const Vec3 local = box_from_world * (p - box.center);
   return std::abs(local.x) <= 0.5 * box.size.x + margin.grow &&
          std::abs(local.y) <= 0.5 * box.size.y + margin.grow &&
          local.z <= 0.5 * box.size.z + margin.grow &&
          local.z >= -0.5 * box.size.z + margin.floor_raise;
+}
+
+// Whether `p` is farther from the box's centre than any point InBox accepts
+// (its farthest corner with the margin, a millionth to spare for rounding).
+bool BeyondBox(const Vec3& p, const TrackBox& box, const BoxMargin& margin) {
+  const double hx = 0.5 * box.size.x + margin.grow, hy = 0.5 * box.size.y + margin.grow;
+  const double hz = std::max(std::abs(0.5 * box.size.z + margin.grow),
+                             std::abs(-0.5 * box.size.z + margin.floor_raise));
+  const Vec3 d = p - box.center;
+  return d.x * d.x + d.y * d.y + d.z * d.z > (hx * hx + hy * hy + hz * hz) * (1 + 1e-6);
+}
+
+}  // namespace
+
+bool PointInBox(const Vec3& p, const TrackBox& box, const BoxMargin& margin) {
+  return InBox(p, box, Transpose(ToMatrix(box.rotation)), margin);
 }
 
 Rigid CanonicalFromWorld(const InstanceTrack& track, int64_t timestamp_us) {
@@ -25,16 +45,19 @@ Rigid CanonicalFromWorld(const InstanceTrack& track, int64_t timestamp_us) {
 BoxesAt::BoxesAt(const std::vector<InstanceTrack>& tracks, int64_t timestamp_us) {
   boxes_.resize(tracks.size());
   valid_.resize(tracks.size(), false);
+  box_from_world_.resize(tracks.size());
   for (size_t k = 0; k < tracks.size(); ++k) {
     if (tracks[k].boxes.empty()) continue;
     boxes_[k] = InterpolateBox(tracks[k].boxes, timestamp_us);
+    box_from_world_[k] = Transpose(ToMatrix(boxes_[k].rotation));
     valid_[k] = true;
   }
 }
 
 uint32_t BoxesAt::Owner(const Vec3& p, const BoxMargin& margin) const {
   for (size_t k = 0; k < boxes_.size(); ++k) {
-    if (valid_[k] && PointInBox(p, boxes_[k], margin)) return static_cast<uint32_t>(k + 1);
+    if (!valid_[k] || BeyondBox(p, boxes_[k], margin)) continue;
+    if (InBox(p, boxes_[k], box_from_world_[k], margin)) return static_cast<uint32_t>(k + 1);
   }
   return 0;
 }

@@ -65,6 +65,10 @@ class BoxesAt {
  private:
   std::vector<TrackBox> boxes_;
   std::vector<bool> valid_;
+  // Per box, the rotation PointInBox takes it to its frame by, and the
+  // squared distance from its centre to its farthest corner: a point farther
+  // than that (with the margin) is in no box without the exact test.
+  std::vector<Mat3> box_from_world_;
 };
 
 // Returns the dynamic mask of a view: [H, W] bytes, mask[y * W + x] = owner

@@ -5,6 +5,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <random>
+#include <vector>
 
 namespace pf {
 namespace {
@@ -76,6 +78,45 @@ TEST(SceneGraph, OwnerIsOneBasedAndTimeDependent) {
   EXPECT_EQ(OwnerAt({5, 0, 0}, tracks, 500000), 1u);
   EXPECT_EQ(OwnerAt({0, 5.5, 0}, tracks, 700000), 2u);  // b holds its only box.
   EXPECT_EQ(OwnerAt({0, 3, 0}, tracks, 0), 0u);
+}
+
+TEST(SceneGraph, BoxesAtAgreesWithPointInBoxEverywhere) {
+  // Rotated boxes of several shapes and margins (a raised and a lowered
+  // floor); points around them, many within a few centimetres of faces and
+  // corners: Owner (which skips the exact test beyond each box's farthest
+  // corner) names the first box PointInBox accepts, every time.
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(-1, 1);
+  std::vector<InstanceTrack> tracks(4);
+  for (size_t k = 0; k < tracks.size(); ++k) {
+    const double half = 0.5 * (0.3 + k), axis = std::sqrt(1 - 0.25);
+    const Quat tilted{std::cos(half), 0.5 * std::sin(half), 0, axis * std::sin(half)};
+    tracks[k].boxes = {{0, {2.0 * k, 0.5 * k, 0.2 * k}, {4.0 + k, 1.5 + 0.5 * k, 1.0 + k}, tilted}};
+  }
+  int inside = 0, near_surface = 0;
+  for (const BoxMargin margin : {BoxMargin{}, kMembershipMargin, BoxMargin{0.3, -0.4}}) {
+    const BoxesAt boxes(tracks, 0);
+    for (int i = 0; i < 20000; ++i) {
+      const TrackBox& box = tracks[i % tracks.size()].boxes[0];
+      // A corner or face point of a box, pushed by up to 5 cm, or anywhere.
+      const Vec3 corner{0.5 * box.size.x * (u(rng) > 0 ? 1 : u(rng)),
+                        0.5 * box.size.y * (u(rng) > 0 ? 1 : -1),
+                        0.5 * box.size.z * (u(rng) > 0 ? 1 : u(rng))};
+      const Vec3 p = i % 3 == 0 ? Vec3{8 * u(rng), 8 * u(rng), 4 * u(rng)}
+                                : box.center + ToMatrix(box.rotation) * corner +
+                                      Vec3{0.05 * u(rng), 0.05 * u(rng), 0.05 * u(rng)};
+      uint32_t expected = 0;
+      for (size_t k = 0; k < tracks.size() && expected == 0; ++k) {
+        if (PointInBox(p, tracks[k].boxes[0], margin)) expected = static_cast<uint32_t>(k + 1);
+      }
+      ASSERT_EQ(boxes.Owner(p, margin), expected) << p.x << " " << p.y << " " << p.z;
+      inside += expected != 0;
+      near_surface += i % 3 != 0;
+    }
+  }
+  EXPECT_GT(inside, 10000);
+  EXPECT_LT(inside, 50000);
+  EXPECT_GT(near_surface, 30000);
 }
 
 TEST(SceneGraph, DynamicMaskCoversTheProjectedBox) {
