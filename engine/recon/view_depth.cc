@@ -142,18 +142,7 @@ ImageF CompleteDepth(const ImageF& sparse, const CompletionOptions& options,
   const int max_distance =
       options.max_distance_px > 0 ? options.max_distance_px : CompletionRadius(h);
   const int cell = std::max(1, max_distance);
-  const int gw = (w + cell - 1) / cell, gh = (h + cell - 1) / cell;
-  // Measured pixels bucketed by grid cell (counting sort).
-  std::vector<int> start(static_cast<size_t>(gw) * gh + 1, 0);
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x)
-      if (sparse.at(x, y) > 0.f) ++start[(y / cell) * gw + x / cell + 1];
-  for (size_t i = 1; i < start.size(); ++i) start[i] += start[i - 1];
-  std::vector<int> fill = start;
-  std::vector<int> samples(static_cast<size_t>(start.back()));
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x)
-      if (sparse.at(x, y) > 0.f) samples[fill[(y / cell) * gw + x / cell]++] = y * w + x;
+  const int gw = (w + cell - 1) / cell;  // Cells of a row, for the order of equal depths.
 
   ImageF dense = sparse;
   if (sources != nullptr) {
@@ -161,35 +150,71 @@ ImageF CompleteDepth(const ImageF& sparse, const CompletionOptions& options,
     for (size_t i = 0; i < sources->size(); ++i)
       if (sparse.pixels[i] > 0.f) (*sources)[i] = static_cast<int32_t>(i);
   }
+  // Per column, the rows to the nearest measured pixel in it (above or
+  // below; > h when none): the squared distance to the nearest measurement
+  // is then min over columns x' of (x - x')^2 + rows(x')^2, and within
+  // max_distance only columns within max_distance matter.
+  std::vector<int> rows(static_cast<size_t>(w) * h);
+  DefaultThreadPool().ParallelFor(0, w, 64, [&](int64_t x0, int64_t x1) {
+    for (int64_t x = x0; x < x1; ++x) {
+      int last = -2 * h - 2;
+      for (int y = 0; y < h; ++y) {
+        if (sparse.at(static_cast<int>(x), y) > 0.f) last = y;
+        rows[static_cast<size_t>(y) * w + x] = y - last;
+      }
+      last = 3 * h + 2;
+      for (int y = h - 1; y >= 0; --y) {
+        if (sparse.at(static_cast<int>(x), y) > 0.f) last = y;
+        int& r = rows[static_cast<size_t>(y) * w + x];
+        r = std::min(r, last - y);
+      }
+    }
+  });
   const double max_d2 = double(max_distance) * max_distance;
   DefaultThreadPool().ParallelFor(0, h, 4, [&](int64_t y0, int64_t y1) {
     for (int64_t y = y0; y < y1; ++y) {
       const int cy = static_cast<int>(y) / cell;
+      // The search stays within the 3 x 3 cells around the pixel's cell.
+      const int block_y0 = std::max(0, (cy - 1) * cell);
+      const int block_y1 = std::min(h - 1, (cy + 2) * cell - 1);
+      const int* row_distance = &rows[static_cast<size_t>(y) * w];
       for (int x = 0; x < w; ++x) {
         if (sparse.at(x, y) > 0.f) continue;
         const int cx = x / cell;
+        // The nearest measurement: within max_distance it lies in the 3 x 3
+        // cells (any outside is at least cell + 1 away).
         double nearest = std::numeric_limits<double>::infinity();
-        for (int gy = std::max(0, cy - 1); gy <= std::min(gh - 1, cy + 1); ++gy)
-          for (int gx = std::max(0, cx - 1); gx <= std::min(gw - 1, cx + 1); ++gx)
-            for (int s = start[gy * gw + gx]; s < start[gy * gw + gx + 1]; ++s) {
-              const int sx = samples[s] % w, sy = samples[s] / w;
-              const double d2 = double(sx - x) * (sx - x) + double(sy - y) * (sy - y);
-              nearest = std::min(nearest, d2);
-            }
+        for (int sx = std::max(0, x - max_distance); sx <= std::min(w - 1, x + max_distance);
+             ++sx) {
+          const double dy = row_distance[sx];
+          nearest = std::min(nearest, double(sx - x) * (sx - x) + dy * dy);
+        }
         if (nearest > max_d2) continue;
+        // The nearer surface among measurements within 1.5 px of that
+        // distance; equal depths go to the first in the order the cells and
+        // their raster order give.
         const double limit = std::pow(std::sqrt(nearest) + 1.5, 2);
+        const int reach = static_cast<int>(std::sqrt(limit)) + 1;
+        const int block_x0 = std::max(0, (cx - 1) * cell);
+        const int block_x1 = std::min(w - 1, (cx + 2) * cell - 1);
         float best = std::numeric_limits<float>::infinity();
         int best_pixel = -1;
-        for (int gy = std::max(0, cy - 1); gy <= std::min(gh - 1, cy + 1); ++gy)
-          for (int gx = std::max(0, cx - 1); gx <= std::min(gw - 1, cx + 1); ++gx)
-            for (int s = start[gy * gw + gx]; s < start[gy * gw + gx + 1]; ++s) {
-              const int sx = samples[s] % w, sy = samples[s] / w;
-              const double d2 = double(sx - x) * (sx - x) + double(sy - y) * (sy - y);
-              if (d2 <= limit && sparse.at(sx, sy) < best) {
-                best = sparse.at(sx, sy);
-                best_pixel = samples[s];
-              }
+        int64_t best_order = 0;
+        for (int sy = std::max(block_y0, static_cast<int>(y) - reach);
+             sy <= std::min(block_y1, static_cast<int>(y) + reach); ++sy) {
+          for (int sx = std::max(block_x0, x - reach); sx <= std::min(block_x1, x + reach); ++sx) {
+            const float depth = sparse.at(sx, sy);
+            if (!(depth > 0.f) || depth > best) continue;
+            const double d2 = double(sx - x) * (sx - x) + double(sy - y) * (sy - y);
+            if (d2 > limit) continue;
+            const int64_t order = (int64_t((sy / cell) * gw + sx / cell) << 32) | (sy * w + sx);
+            if (depth < best || order < best_order) {
+              best = depth;
+              best_pixel = sy * w + sx;
+              best_order = order;
             }
+          }
+        }
         dense.at(x, static_cast<int>(y)) = best;
         if (sources != nullptr) (*sources)[static_cast<size_t>(y) * w + x] = best_pixel;
       }

@@ -129,10 +129,11 @@ int CompletionRadius(int height);
 // `max_distance_px` of measured ones takes the depth of the nearest one,
 // preferring the nearer surface among measurements within 1.5 px of the
 // nearest distance (so background does not bleed over thin foreground).
-// Measured pixels keep their value. A coarse grid of measured pixels keeps
-// the search local. `sources`, when given, receives for every pixel the
-// measured pixel (y * W + x) whose depth it took, itself when measured, -1
-// when unknown.
+// Measured pixels keep their value. The search keeps to the 3 x 3 cells of
+// max_distance_px around the pixel's cell; equal depths go to the first
+// measurement in cell order, then raster order. `sources`, when given,
+// receives for every pixel the measured pixel (y * W + x) whose depth it
+// took, itself when measured, -1 when unknown.
 ImageF CompleteDepth(const ImageF& sparse, const CompletionOptions& options = {},
                      std::vector<int32_t>* sources = nullptr);
 

@@ -3,7 +3,12 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <array>
 #include <cmath>
+#include <limits>
+#include <random>
+#include <vector>
 
 #include "engine/recon/depth_completion.h"
 
@@ -54,6 +59,84 @@ TEST(ViewDepth, CompletionFillsNearbyPixelsOnlyAndPrefersTheNearerSurface) {
   EXPECT_EQ(sources[10 * 40 + 11], 10 * 40 + 10);
   EXPECT_EQ(sources[12 * 40 + 14], 10 * 40 + 12);
   EXPECT_EQ(sources[25 * 40 + 30], -1);
+}
+
+// CompleteDepth's contract computed the plain way: every measurement in the
+// 3 x 3 cells of max_distance around the pixel's cell, cell by cell in
+// raster order and each cell's measurements in raster order; the nearest,
+// then the least depth within 1.5 px of its distance, the first on ties.
+ImageF CompleteByScanningCells(const ImageF& sparse, int max_distance,
+                               std::vector<int32_t>* sources) {
+  const int w = sparse.width, h = sparse.height, cell = max_distance;
+  const int gw = (w + cell - 1) / cell, gh = (h + cell - 1) / cell;
+  ImageF dense = sparse;
+  sources->assign(static_cast<size_t>(w) * h, -1);
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      if (sparse.at(x, y) > 0.f) {
+        (*sources)[y * w + x] = y * w + x;
+        continue;
+      }
+      std::vector<int> candidates;  // In the order of the cells.
+      for (int gy = std::max(0, y / cell - 1); gy <= std::min(gh - 1, y / cell + 1); ++gy)
+        for (int gx = std::max(0, x / cell - 1); gx <= std::min(gw - 1, x / cell + 1); ++gx)
+          for (int sy = gy * cell; sy < std::min(h, (gy + 1) * cell); ++sy)
+            for (int sx = gx * cell; sx < std::min(w, (gx + 1) * cell); ++sx)
+              if (sparse.at(sx, sy) > 0.f) candidates.push_back(sy * w + sx);
+      auto d2 = [&](int s) {
+        return double(s % w - x) * (s % w - x) + double(s / w - y) * (s / w - y);
+      };
+      double nearest = std::numeric_limits<double>::infinity();
+      for (int s : candidates) nearest = std::min(nearest, d2(s));
+      if (nearest > double(max_distance) * max_distance) continue;
+      const double limit = std::pow(std::sqrt(nearest) + 1.5, 2);
+      float best = std::numeric_limits<float>::infinity();
+      for (int s : candidates) {
+        if (d2(s) <= limit && sparse.pixels[s] < best) {
+          best = sparse.pixels[s];
+          (*sources)[y * w + x] = s;
+        }
+      }
+      dense.at(x, y) = best;
+    }
+  }
+  return dense;
+}
+
+TEST(ViewDepth, CompletionIsTheNearestThenNearerSurfaceOfTheCellsAround) {
+  // Sparse maps like projected LiDAR rings (rows of measurements with gaps)
+  // plus scattered points, depths on a coarse grid so that many are equal,
+  // a quarter empty; image sizes not a multiple of the cell: every value and
+  // source equals the plain scan's.
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(0, 1);
+  for (const auto& [w, h, radius] :
+       {std::array{97, 61, 12}, std::array{64, 48, 5}, std::array{50, 77, 9}}) {
+    SCOPED_TRACE(testing::Message() << w << "x" << h << " radius " << radius);
+    ImageF sparse(w, h, 1);
+    for (int y = 3; y < h; y += 7)
+      for (int x = 0; x < w; ++x)
+        if (u(rng) < 0.4) sparse.at(x, y) = static_cast<float>(1 + std::floor(8 * u(rng)));
+    for (int k = 0; k < w * h / 60; ++k)
+      sparse.at(static_cast<int>(u(rng) * w), static_cast<int>(u(rng) * h)) =
+          static_cast<float>(1 + std::floor(8 * u(rng)));
+    for (int y = h / 2; y < h; ++y)  // A quarter with no measurement.
+      for (int x = 0; x < w / 2; ++x) sparse.at(x, y) = 0.f;
+    CompletionOptions options;
+    options.max_distance_px = radius;
+    std::vector<int32_t> sources, expected_sources;
+    const ImageF dense = CompleteDepth(sparse, options, &sources);
+    const ImageF expected = CompleteByScanningCells(sparse, radius, &expected_sources);
+    EXPECT_EQ(dense.pixels, expected.pixels);
+    EXPECT_EQ(sources, expected_sources);
+    int filled = 0, unknown = 0;
+    for (size_t i = 0; i < sources.size(); ++i) {
+      filled += sources[i] >= 0 && sparse.pixels[i] == 0.f;
+      unknown += sources[i] < 0;
+    }
+    EXPECT_GT(filled, w * h / 3);
+    EXPECT_GT(unknown, 0);
+  }
 }
 
 TEST(ViewDepth, AutomaticRadiusGrowsWithTheImage) {
