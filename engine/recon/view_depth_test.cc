@@ -112,7 +112,7 @@ TEST(ViewDepth, CompletionIsTheNearestThenNearerSurfaceOfTheCellsAround) {
   std::uniform_real_distribution<double> u(0, 1);
   for (const auto& [w, h, radius] :
        {std::array{97, 61, 12}, std::array{64, 48, 5}, std::array{50, 77, 9}}) {
-    SCOPED_TRACE(testing::Message() << w << "x" << h << " radius " << radius);
+    SCOPED_TRACE(::testing::Message() << w << "x" << h << " radius " << radius);
     ImageF sparse(w, h, 1);
     for (int y = 3; y < h; y += 7)
       for (int x = 0; x < w; ++x)

@@ -275,7 +275,7 @@ TEST(CompositingWeights, AccumulateNormalIsTheTransposeOfTheMaskedComposite) {
     std::vector<uint8_t> mask(width * height);
     for (size_t p = 0; p < mask.size(); ++p) mask[p] = (p * 7919 % 5) != 0;  // 4 in 5 pixels.
     for (const bool textured : {false, true}) {
-      SCOPED_TRACE(testing::Message() << width << "x" << height << " textured " << textured);
+      SCOPED_TRACE(::testing::Message() << width << "x" << height << " textured " << textured);
       WeightOptions options;
       options.local_coords = textured;
       absl::StatusOr<CompositingWeights> a =
