@@ -188,11 +188,11 @@ absl::Status RunRasterBench(const std::vector<std::string>& args) {
   }
   // On the CPU, the blend peak of this machine, measured in the same run:
   // what share of it the rasterizer's tested pairs reach.
+  const double pairs_per_ms = median > 0 ? static_cast<double>(stats.pairs_tested) / median : 0.0;
   std::string peak_json;
   if (!gpu) {
     const BlendPeak peak = MeasureBlendPeak(static_cast<int>(width), static_cast<int>(height),
                                             repeat, static_cast<uint64_t>(seed));
-    const double pairs_per_ms = median > 0 ? static_cast<double>(stats.pairs_tested) / median : 0.0;
     absl::StrAppendFormat(&peak_json,
                           ",\"peak_kernel\":\"%s\",\"peak_gaussians_per_tile\":%d,"
                           "\"peak_ms_median\":%.3f,\"peak_pairs_per_ms\":%.0f,"
@@ -219,8 +219,8 @@ absl::Status RunRasterBench(const std::vector<std::string>& args) {
       stats.pairs_contributing > 0
           ? static_cast<double>(stats.pairs_tested) / static_cast<double>(stats.pairs_contributing)
           : 0.0,
-      median > 0 ? static_cast<double>(stats.pairs_tested) / median : 0.0, coverage, build_ms,
-      peak_json.c_str(), gpu_json.c_str(), bench.description.c_str());
+      pairs_per_ms, coverage, build_ms, peak_json.c_str(), gpu_json.c_str(),
+      bench.description.c_str());
   return absl::OkStatus();
 }
 
