@@ -26,8 +26,9 @@ usage: pf <command> [args]
 
 commands:
   synth --out DIR [--seed N] [--cameras N] [--frames N] [--width W --height H]
-        [--antialias N]
-        write a procedural driving clip with ground truth
+        [--antialias N] [--lens pinhole|ftheta]
+        write a procedural driving clip with ground truth (ftheta: f-theta
+        cameras 120 degrees across)
   synth render --clip DIR --cameras VIEWS.json --out DIR2
         ray-cast true images and depths of a synth clip at any views
   validate CLIP.json [--allow-outside-paths]

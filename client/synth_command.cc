@@ -12,6 +12,7 @@
 #include "common/file_util.h"
 #include "common/status_macros.h"
 #include "engine/synth/synth_clip_writer.h"
+#include "engine/synth/synth_params.h"
 #include "engine/synth/synth_view_renderer.h"
 
 namespace pf {
@@ -35,8 +36,9 @@ absl::Status AsFlagError(const absl::Status& status) {
 }
 
 absl::Status Synth(const std::vector<std::string>& args) {
-  ASSIGN_OR_RETURN(CommandLine cl, CommandLine::Parse(args, {"out", "seed", "cameras", "frames",
-                                                             "width", "height", "antialias"}));
+  ASSIGN_OR_RETURN(CommandLine cl,
+                   CommandLine::Parse(args, {"out", "seed", "cameras", "frames", "width", "height",
+                                             "antialias", "lens"}));
   if (!cl.positional().empty()) {
     return absl::InvalidArgumentError(
         absl::StrCat("unexpected argument '", cl.positional().front(), "'"));
@@ -54,6 +56,11 @@ absl::Status Synth(const std::vector<std::string>& args) {
   RETURN_IF_ERROR(IntFlag(cl, "width", &options.width));
   RETURN_IF_ERROR(IntFlag(cl, "height", &options.height));
   RETURN_IF_ERROR(IntFlag(cl, "antialias", &options.antialias));
+  if (cl.Has("lens")) {
+    const absl::StatusOr<SynthLens> lens = SynthLensFromName(cl.Get("lens"));
+    if (!lens.ok()) return AsFlagError(lens.status());
+    options.lens = *lens;
+  }
   RETURN_IF_ERROR(AsFlagError(ValidateSynthOptions(options)));
 
   const auto start = std::chrono::steady_clock::now();

@@ -1,5 +1,8 @@
-// Camera models: pinhole, OpenCV (k1, k2, p1, p2, k3) and equidistant fisheye
-// (k1..k4), with projection of camera-frame points to pixels and back.
+// Camera models: pinhole, OpenCV (k1, k2, p1, p2, k3), equidistant fisheye
+// (k1..k4) and f-theta (pixel distance from the principal point a polynomial
+// of the angle from the optical axis), with projection of camera-frame points
+// to pixels and back. Every model projects points ahead of the camera (z > 0)
+// only, so a lens covers less than 180 degrees.
 //
 // Pixel coordinates are continuous with the image spanning [0, W] x [0, H]:
 // pixel (i, j) has its centre at (i + 0.5, j + 0.5), and u = fx * x' + cx
@@ -10,6 +13,7 @@
 #define POINTFORWARD_ENGINE_CAMERA_CAMERA_MODEL_H_
 
 #include <string>
+#include <vector>
 
 #include "absl/status/statusor.h"
 #include "common/geometry.h"
@@ -23,7 +27,12 @@ namespace pf {
 
 class CameraModel {
  public:
-  enum class Kind { kPinhole = Lens::kPinhole, kOpenCv = Lens::kOpenCv, kFisheye = Lens::kFisheye };
+  enum class Kind {
+    kPinhole = Lens::kPinhole,
+    kOpenCv = Lens::kOpenCv,
+    kFisheye = Lens::kFisheye,
+    kFTheta = Lens::kFTheta
+  };
 
   CameraModel() = default;
   // A pinhole camera.
@@ -33,6 +42,12 @@ class CameraModel {
   void SetOpenCv(double k1, double k2, double p1, double p2, double k3);
   // Sets equidistant fisheye coefficients.
   void SetFisheye(double k1, double k2, double k3, double k4);
+  // Sets the f-theta model: the distance in pixels from (cx, cy) of a ray at
+  // angle theta (radians) from the optical axis is
+  // sum_i angle_to_pixels[i] theta^i (at most Lens::kFThetaTerms terms;
+  // [0] = 0 and [1] > 0, which CameraModelFromProto checks). Replaces fx and
+  // fy by [1], the focal length at the centre.
+  void SetFTheta(const std::vector<double>& angle_to_pixels);
 
   Kind kind() const { return static_cast<Kind>(lens_.kind); }
   int width() const { return width_; }
@@ -50,6 +65,9 @@ class CameraModel {
   double k4() const { return lens_.k4; }
   double p1() const { return lens_.p1; }
   double p2() const { return lens_.p2; }
+  // The f-theta polynomial in pixels (Lens::kFThetaTerms terms); empty for
+  // the other models.
+  std::vector<double> ftheta_pixels() const;
   // The projection as plain numbers (lens.h), for CUDA kernels.
   const Lens& lens() const { return lens_; }
 
@@ -75,14 +93,27 @@ class CameraModel {
 
  private:
   void UpdateValidRadius();
+  bool UndistortFTheta(double xd, double yd, double* xn, double* yn) const;
 
   int width_ = 0, height_ = 0;
   Lens lens_;
 };
 
 // Builds a CameraModel from a manifest camera. INVALID_ARGUMENT (naming the
-// field) for a non-positive size or focal length or non-finite numbers.
+// field) for a non-positive size or focal length or non-finite numbers. An
+// FTHETA camera takes ftheta_poly (angle to pixels), or fits one of degree 5
+// to ftheta_inverse_poly (pixels to angle) over the image when only that is
+// given (within 0.05 px, else an error); with both, they must invert each
+// other within 0.5 px over the image. Its intrinsics fx and fy are 0 or
+// ftheta_poly[1] (within 1 %).
 absl::StatusOr<CameraModel> CameraModelFromProto(const pointforward::v1::Camera& camera);
+
+// The angle-to-pixel polynomial (Lens::kFThetaTerms terms) of an FTHETA
+// manifest camera, checked as CameraModelFromProto describes; on a fault
+// INVALID_ARGUMENT whose message is "<field>: <problem>", the field under the
+// camera (e.g. "distortion.ftheta_poly[1]").
+absl::StatusOr<std::vector<double>> FThetaPolynomialFromProto(
+    const pointforward::v1::Camera& camera);
 
 // Returns the world point seen through continuous pixel (u, v) at z depth
 // `depth`; false when the pixel cannot be unprojected or depth <= 0.

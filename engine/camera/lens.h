@@ -1,7 +1,8 @@
 // The projection of a camera model as plain numbers, so that host code
 // (CameraModel) and CUDA kernels (the GPU rasterizer) project through the
-// same arithmetic: pinhole, OpenCV (k1, k2, p1, p2, k3) and equidistant
-// fisheye (k1..k4), in double.
+// same arithmetic: pinhole, OpenCV (k1, k2, p1, p2, k3), equidistant
+// fisheye (k1..k4) and f-theta (the distance from the principal point a
+// polynomial of the angle from the optical axis), in double.
 #ifndef POINTFORWARD_ENGINE_CAMERA_LENS_H_
 #define POINTFORWARD_ENGINE_CAMERA_LENS_H_
 
@@ -12,10 +13,15 @@
 namespace pf {
 
 struct Lens {
-  enum Kind : int { kPinhole = 0, kOpenCv = 1, kFisheye = 2 };
+  enum Kind : int { kPinhole = 0, kOpenCv = 1, kFisheye = 2, kFTheta = 3 };
+  static constexpr int kFThetaTerms = 6;
   int kind = kPinhole;
   double fx = 1, fy = 1, cx = 0, cy = 0;
   double k1 = 0, k2 = 0, k3 = 0, k4 = 0, p1 = 0, p2 = 0;
+  // f-theta: the distorted normalised radius at angle theta from the axis is
+  // sum_i ftheta[i] theta^i (the pixel distance over fx; fx = fy, the
+  // polynomial's slope at the centre, so ftheta[1] = 1 and ftheta[0] = 0).
+  double ftheta[kFThetaTerms] = {0, 1, 0, 0, 0, 0};
   double max_radius = 1e6;  // Largest undistorted normalised radius projected.
 };
 
@@ -41,6 +47,20 @@ PF_HD inline void LensDistort(const Lens& lens, double xn, double yn, double* xd
         theta * (1 + t2 * (lens.k1 + t2 * (lens.k2 + t2 * (lens.k3 + t2 * lens.k4))));
     *xd = xn * theta_d / r;
     *yd = yn * theta_d / r;
+    return;
+  }
+  if (lens.kind == Lens::kFTheta) {
+    const double r = std::sqrt(xn * xn + yn * yn);
+    if (r < 1e-12) {
+      *xd = xn;
+      *yd = yn;
+      return;
+    }
+    const double theta = std::atan(r);
+    double rd = 0;
+    for (int i = Lens::kFThetaTerms - 1; i >= 0; --i) rd = rd * theta + lens.ftheta[i];
+    *xd = xn * rd / r;
+    *yd = yn * rd / r;
     return;
   }
   *xd = xn;

@@ -162,7 +162,7 @@ TEST(ClipIo, UnknownEnumNamesListed) {
           "frames[0].role: unknown Role value \"CONTXT\" (expected one of "
           "ROLE_UNSPECIFIED, CONTEXT, TARGET)",
           "cameras[0].distortion.model: unknown Model value 9 (expected one of "
-          "MODEL_UNSPECIFIED, NONE, OPENCV, FISHEYE)",
+          "MODEL_UNSPECIFIED, NONE, OPENCV, FISHEYE, FTHETA)",
       }));
 }
 

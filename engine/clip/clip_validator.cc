@@ -16,6 +16,7 @@
 #include "common/file_util.h"
 #include "common/geometry.h"
 #include "common/thread_pool.h"
+#include "engine/camera/camera_model.h"
 #include "engine/image/image_io.h"
 #include "pointforward/v1/clip.pb.h"
 
@@ -299,14 +300,16 @@ class ClipChecker {
         for (const auto& [name, value, is_focal_length] : values) {
           const std::string field = absl::StrCat(at, ".intrinsics.", name);
           if (!CheckFinite(Section::kCameras, i, field, value)) continue;
-          if (is_focal_length && value <= 0) {
+          // An FTHETA camera's focal length is its polynomial's: 0 is allowed.
+          const bool ftheta = camera.distortion().model() == Distortion::FTHETA;
+          if (is_focal_length && (value < 0 || (value == 0 && !ftheta))) {
             Add(Section::kCameras, i, field,
                 value == 0 ? "missing (focal length in pixels, > 0)"
                            : absl::StrCat("focal length must be positive, got ", value));
           }
         }
       }
-      if (camera.has_distortion()) CheckDistortion(i, at, camera.distortion());
+      if (camera.has_distortion()) CheckDistortion(i, at, camera);
       if (!camera.ego_mask().empty()) {
         CheckPath(Section::kCameras, i, at + ".egoMask", camera.ego_mask(),
                   FileCheck::Kind::kEgoMask, &camera);
@@ -314,7 +317,8 @@ class ClipChecker {
     }
   }
 
-  void CheckDistortion(int i, const std::string& at, const Distortion& d) {
+  void CheckDistortion(int i, const std::string& at, const Camera& camera) {
+    const Distortion& d = camera.distortion();
     const std::pair<const char*, double> values[] = {{"k1", d.k1()}, {"k2", d.k2()},
                                                      {"p1", d.p1()}, {"p2", d.p2()},
                                                      {"k3", d.k3()}, {"k4", d.k4()}};
@@ -324,14 +328,37 @@ class ClipChecker {
       any_set = any_set || value != 0;
     }
     const std::string model_field = absl::StrCat(at, ".distortion.model");
+    const bool polynomial_set = d.ftheta_poly_size() > 0 || d.ftheta_inverse_poly_size() > 0;
+    if (polynomial_set && d.model() != Distortion::FTHETA) {
+      Add(Section::kCameras, i,
+          absl::StrCat(at, d.ftheta_poly_size() > 0 ? ".distortion.fthetaPoly"
+                                                    : ".distortion.fthetaInversePoly"),
+          "only the FTHETA model uses the f-theta polynomials; set the model to FTHETA");
+    }
     switch (d.model()) {
       case Distortion::MODEL_UNSPECIFIED:
       case Distortion::NONE:
         if (any_set) {
           Add(Section::kCameras, i, model_field,
-              "coefficients are set but the model is NONE; set OPENCV or FISHEYE");
+              "coefficients are set but the model is NONE; set OPENCV, FISHEYE or FTHETA");
         }
         break;
+      case Distortion::FTHETA: {
+        if (any_set) {
+          Add(Section::kCameras, i, model_field,
+              "the FTHETA model takes fthetaPoly (or fthetaInversePoly), not k1..k4, p1, p2");
+        }
+        if (camera.width() <= 0 || camera.height() <= 0 || !camera.has_intrinsics()) break;
+        const absl::StatusOr<std::vector<double>> poly = FThetaPolynomialFromProto(camera);
+        if (!poly.ok()) {
+          // "<field>: <problem>", the field under the camera.
+          const std::string message(poly.status().message());
+          const size_t colon = message.find(": ");
+          Add(Section::kCameras, i, absl::StrCat(at, ".", message.substr(0, colon)),
+              colon == std::string::npos ? message : message.substr(colon + 2));
+        }
+        break;
+      }
       case Distortion::OPENCV:
         if (d.k4() != 0) {
           Add(Section::kCameras, i, absl::StrCat(at, ".distortion.k4"),

@@ -25,6 +25,7 @@ namespace pf {
 namespace {
 
 namespace fs = std::filesystem;
+using pointforward::v1::Camera;
 using pointforward::v1::Clip;
 using pointforward::v1::Distortion;
 using pointforward::v1::Frame;
@@ -95,6 +96,30 @@ TEST(ClipValidator, EgoMaskOfTheCamerasSizePasses) {
   EXPECT_EQ(std::count(mask.begin(), mask.end(), 1), testing::kTestWidth);
   EXPECT_EQ(mask.back(), 1);
   EXPECT_EQ(mask.front(), 0);
+}
+
+// Camera 1 of the test clip as an f-theta lens: 30 px per radian at the
+// centre, focal lengths left at 0.
+void MakeFTheta(Clip* clip) {
+  Camera* camera = clip->mutable_cameras(1);
+  camera->mutable_intrinsics()->clear_fx();
+  camera->mutable_intrinsics()->clear_fy();
+  Distortion* d = camera->mutable_distortion();
+  d->Clear();
+  d->set_model(Distortion::FTHETA);
+  for (double c : {0.0, 30.0, 0.0, -1.5}) d->add_ftheta_poly(c);
+}
+
+TEST(ClipValidator, FThetaCameraWithoutFocalLengthsPasses) {
+  const std::string dir = MakeTempDir("clip_ftheta");
+  Clip clip = MakeTestClip(dir);
+  MakeFTheta(&clip);
+  EXPECT_TRUE(Validate(clip, dir).ok()) << Dump(Validate(clip, dir));
+  const std::string path = testing::WriteTestClip(dir, clip);
+  const ClipReport from_file = ValidateClipFile(path, {});
+  EXPECT_TRUE(from_file.ok()) << Dump(from_file);
+  // The JSON names the polynomial as the manifest documents it.
+  EXPECT_NE(ReadFileToString(path)->find("\"fthetaPoly\""), std::string::npos);
 }
 
 TEST(ClipValidator, TimestampRangeIgnoresFrameOrder) {
@@ -293,6 +318,33 @@ const BrokenClip kBrokenClips[] = {
        c->mutable_cameras(1)->mutable_distortion()->set_model(Distortion::NONE);
      },
      "cameras[1].distortion.model", "coefficients are set but the model is NONE"},
+    {"FThetaPolynomialOnAnotherModel",
+     [](Clip* c, auto) { c->mutable_cameras(1)->mutable_distortion()->add_ftheta_poly(0); },
+     "cameras[1].distortion.fthetaPoly", "only the FTHETA model uses the f-theta polynomials"},
+    {"FThetaWithBrownConradyCoefficients",
+     [](Clip* c, auto) {
+       MakeFTheta(c);
+       c->mutable_cameras(1)->mutable_distortion()->set_k1(-0.1);
+     },
+     "cameras[1].distortion.model", "the FTHETA model takes fthetaPoly"},
+    {"FThetaWithoutPolynomial",
+     [](Clip* c, auto) {
+       MakeFTheta(c);
+       c->mutable_cameras(1)->mutable_distortion()->clear_ftheta_poly();
+     },
+     "cameras[1].distortion.fthetaPoly", "missing: FTHETA needs fthetaPoly"},
+    {"FThetaPolynomialOffTheAxis",
+     [](Clip* c, auto) {
+       MakeFTheta(c);
+       c->mutable_cameras(1)->mutable_distortion()->set_ftheta_poly(0, 2.0);
+     },
+     "cameras[1].distortion.fthetaPoly[0]", "must be 0"},
+    {"FThetaFocalLengthNotThePolynomials",
+     [](Clip* c, auto) {
+       MakeFTheta(c);
+       c->mutable_cameras(1)->mutable_intrinsics()->set_fx(40);
+     },
+     "cameras[1].intrinsics.fx", "focal length is fthetaPoly[1] (30 px per radian)"},
     {"DuplicateCameraId", [](Clip* c, auto) { c->mutable_cameras(1)->set_id("front"); },
      "cameras[1].id", "duplicate camera id 'front' (also cameras[0])", -1},
     {"EgoMaskFileMissing", [](Clip* c, auto) { c->mutable_cameras(0)->set_ego_mask("hood.png"); },

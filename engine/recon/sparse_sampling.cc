@@ -7,6 +7,7 @@
 #include <limits>
 #include <optional>
 #include <tuple>
+#include <vector>
 
 #include "absl/container/flat_hash_map.h"
 #include "absl/container/flat_hash_set.h"
@@ -72,6 +73,75 @@ uint32_t FootprintLevel(double footprint) {
 double LevelSide(uint32_t level) { return 0.01 * std::pow(2.0, int(level) - 20); }
 
 double FocalLength(const CameraModel& camera) { return 0.5 * (camera.fx() + camera.fy()); }
+
+// A pixel's footprint per metre of depth (z): the range per metre of z times
+// the widest angle the pixel spans (the largest singular value of the
+// Jacobian of the unit ray by the pixel). For a pinhole camera that is
+// 1 / focal length exactly, and footprints are depth / focal as ever; for a
+// distorted lens (a wide f-theta or fisheye one, whose pixels span far
+// wider angles at the edge than at the centre) it is taken on a grid of
+// kGridPx pixels and interpolated bilinearly.
+class PixelFootprints {
+ public:
+  explicit PixelFootprints(const CameraModel& camera)
+      : focal_(FocalLength(camera)), width_(camera.width()) {
+    if (!camera.has_distortion()) return;
+    nx_ = (camera.width() + kGridPx - 1) / kGridPx + 1;
+    ny_ = (camera.height() + kGridPx - 1) / kGridPx + 1;
+    grid_.resize(static_cast<size_t>(nx_) * ny_);
+    for (int gy = 0; gy < ny_; ++gy) {
+      for (int gx = 0; gx < nx_; ++gx) {
+        const double u = std::min<double>(gx * kGridPx, camera.width());
+        const double v = std::min<double>(gy * kGridPx, camera.height());
+        grid_[static_cast<size_t>(gy) * nx_ + gx] = PerDepth(camera, u, v);
+      }
+    }
+  }
+
+  bool pinhole() const { return grid_.empty(); }
+
+  // The footprint of a surface at z depth `depth` seen in pixel `i`.
+  double Of(double depth, size_t i) const {
+    if (grid_.empty()) return depth / focal_;
+    const double x = (static_cast<double>(i % width_) + 0.5) / kGridPx;
+    const double y = (static_cast<double>(i / width_) + 0.5) / kGridPx;
+    const int x0 = std::min(static_cast<int>(x), nx_ - 2);
+    const int y0 = std::min(static_cast<int>(y), ny_ - 2);
+    const double fx = x - x0, fy = y - y0;
+    const double* row0 = &grid_[static_cast<size_t>(y0) * nx_ + x0];
+    const double* row1 = row0 + nx_;
+    const double top = row0[0] + fx * (row0[1] - row0[0]);
+    const double bottom = row1[0] + fx * (row1[1] - row1[0]);
+    return depth * (top + fy * (bottom - top));
+  }
+
+ private:
+  static constexpr int kGridPx = 16;
+
+  // The footprint per metre of depth at pixel position (u, v); 1 / focal
+  // where the lens does not reach.
+  double PerDepth(const CameraModel& camera, double u, double v) const {
+    Vec3 centre, du_plus, du_minus, dv_plus, dv_minus;
+    if (!camera.Unproject(u, v, &centre) || !camera.Unproject(u + 0.5, v, &du_plus) ||
+        !camera.Unproject(u - 0.5, v, &du_minus) || !camera.Unproject(u, v + 0.5, &dv_plus) ||
+        !camera.Unproject(u, v - 0.5, &dv_minus)) {
+      return 1 / focal_;
+    }
+    const Vec3 a = Normalized(du_plus) - Normalized(du_minus);
+    const Vec3 b = Normalized(dv_plus) - Normalized(dv_minus);
+    // Largest eigenvalue of [a.a a.b; a.b b.b].
+    const double aa = Dot(a, a), ab = Dot(a, b), bb = Dot(b, b);
+    const double half_trace = 0.5 * (aa + bb);
+    const double widest = std::sqrt(
+        half_trace + std::sqrt(std::max(0.0, half_trace * half_trace - (aa * bb - ab * ab))));
+    return Norm(centre) * widest;  // centre has z = 1: its length is range per z.
+  }
+
+  double focal_;
+  int width_;
+  int nx_ = 0, ny_ = 0;
+  std::vector<double> grid_;  // Footprint per metre of depth at the grid's nodes.
+};
 
 // Returns true if pixel `i` of `depth` is on the near side of an occluding
 // edge: a pixel of its 3x3 neighbourhood holds a surface more than `min_jump`
@@ -190,7 +260,7 @@ namespace {
 // Per-view facts for finding the view that sees a point in most detail.
 struct ViewResolution {
   Rigid camera_from_world;
-  double focal = 1;
+  const PixelFootprints* footprints = nullptr;
   double stride = 1;
 };
 
@@ -214,11 +284,17 @@ bool FinerViewSees(const Vec3& p, double footprint, size_t self, double ratio,
   for (size_t u = 0; u < views.size(); ++u) {
     if (u == self) continue;
     const Vec3 pc = resolution[u].camera_from_world * p;
-    if (pc.z <= 0 || pc.z / resolution[u].focal * resolution[u].stride * ratio >= footprint) {
+    if (pc.z <= 0) continue;
+    // A pinhole camera's footprint is the same at every pixel: tested
+    // before finding the pixel.
+    const PixelFootprints& footprints = *resolution[u].footprints;
+    if (footprints.pinhole() &&
+        footprints.Of(pc.z, 0) * resolution[u].stride * ratio >= footprint) {
       continue;
     }
     size_t j;
     if (!PixelOf(views[u], pc, &j)) continue;
+    if (footprints.Of(pc.z, j) * resolution[u].stride * ratio >= footprint) continue;
     // An ego-body pixel shows the body, not the point.
     if (views[u].view->is_ego(j)) continue;
     if (views[u].depth->is_far(j) || (*views[u].owners)[j] != 0) continue;
@@ -322,7 +398,8 @@ HiddenFloor FindHiddenFloor(const std::vector<SamplingView>& views) {
 // wherever the surface was seen and filling a hole where it was not
 // (docs/QUALITY.md, "What was tried and dropped": the occluder rule).
 bool HiddenCandidate(const SamplingView& sv, int v, size_t i, int32_t source, double min_jump,
-                     double focal, double stride, const HiddenFloor& floor, Candidate* out) {
+                     const PixelFootprints& footprints, double stride, const HiddenFloor& floor,
+                     Candidate* out) {
   if (source < 0 || !sv.lifted->valid[i] || sv.depth->is_far(i)) return false;
   const size_t j = static_cast<size_t>(source);
   if (!sv.lifted->valid[j] || (*sv.owners)[j] != 0) return false;
@@ -355,9 +432,12 @@ bool HiddenCandidate(const SamplingView& sv, int v, size_t i, int32_t source, do
     if (Dot(origin + range * ray, floor.up) < floor.height) return false;
   }
   const float z = static_cast<float>(sv.depth->depth[i] * range / range_i);
-  *out = {
-      v, static_cast<int>(i), origin + range * ray, float(z / focal * stride), static_cast<int>(j),
-      z};
+  *out = {v,
+          static_cast<int>(i),
+          origin + range * ray,
+          float(footprints.Of(z, i) * stride),
+          static_cast<int>(j),
+          z};
   return true;
 }
 
@@ -624,10 +704,13 @@ size_t SampleStatic(const std::vector<SamplingView>& views, const SamplingOption
                     std::vector<HiddenColour>* colours) {
   size_t visible = 0;
   const Rigid identity;
+  std::vector<PixelFootprints> footprints;
+  footprints.reserve(views.size());
+  for (const SamplingView& sv : views) footprints.emplace_back(sv.view->camera);
   std::vector<ViewResolution> resolution(views.size());
   for (size_t v = 0; v < views.size(); ++v) {
     const double stride = StaticStride(views[v], options);
-    resolution[v] = {views[v].view->world_from_camera.Inverse(), FocalLength(views[v].view->camera),
+    resolution[v] = {views[v].view->world_from_camera.Inverse(), &footprints[v],
                      options.dense ? stride : std::max(1.0, stride * refine)};
   }
   const bool prefer_finer = !options.dense && options.finer_view_ratio > 0;
@@ -638,7 +721,6 @@ size_t SampleStatic(const std::vector<SamplingView>& views, const SamplingOption
     const double stride = resolution[v].stride;
     const int cells_x = static_cast<int>(std::ceil(w / stride));
     const int cells_y = static_cast<int>(std::ceil(h / stride));
-    const double focal = FocalLength(sv.view->camera);
     const int far_stride = options.dense ? 1 : std::max(1, options.far_stride);
     std::vector<uint64_t> new_keys;
     const BehindSources behind =
@@ -662,8 +744,9 @@ size_t SampleStatic(const std::vector<SamplingView>& views, const SamplingOption
         int hidden_radius = 0;
         const bool on_hidden_grid = cx % behind_stride == 0 && cy % behind_stride == 0;
         for (size_t k = 0; on_hidden_grid && k < behind.sources.size(); ++k) {
-          has_hidden = HiddenCandidate(sv, static_cast<int>(v), i, behind.sources[k][i],
-                                       options.behind_min_jump, focal, stride, floor, &hidden);
+          has_hidden =
+              HiddenCandidate(sv, static_cast<int>(v), i, behind.sources[k][i],
+                              options.behind_min_jump, footprints[v], stride, floor, &hidden);
           hidden_radius = behind.radii[k];
           if (has_hidden) break;
         }
@@ -690,7 +773,7 @@ size_t SampleStatic(const std::vector<SamplingView>& views, const SamplingOption
           }
         }
         if (!sv.lifted->valid[i] || (*sv.owners)[i] != 0) continue;
-        double footprint = sv.depth->depth[i] / focal * stride;
+        double footprint = footprints[v].Of(sv.depth->depth[i], i) * stride;
         if (sv.depth->is_far(i)) {
           if (cx % far_stride != 0 || cy % far_stride != 0) continue;
           footprint *= far_stride;
@@ -756,6 +839,11 @@ QuerySet SampleQueries(const std::vector<SamplingView>& views,
       });
 
   // Dynamic queries, instance by instance, in canonical frames.
+  std::vector<PixelFootprints> view_footprints;
+  if (!tracks.empty()) {
+    view_footprints.reserve(views.size());
+    for (const SamplingView& sv : views) view_footprints.emplace_back(sv.view->camera);
+  }
   for (size_t k = 0; k < tracks.size(); ++k) {
     if (tracks[k].boxes.empty()) continue;
     const uint32_t owner = static_cast<uint32_t>(k + 1);
@@ -764,14 +852,14 @@ QuerySet SampleQueries(const std::vector<SamplingView>& views,
     for (size_t v = 0; v < views.size(); ++v) {
       const SamplingView& sv = views[v];
       to_canonical[v] = CanonicalFromWorld(tracks[k], sv.view->timestamp_us);
-      const double focal = FocalLength(sv.view->camera);
+      const PixelFootprints& footprints = view_footprints[v];
       const size_t n = sv.owners->size();
       for (size_t i = 0; i < n; ++i) {
         if ((*sv.owners)[i] != owner) continue;
         const Vec3 p{sv.lifted->points[3 * i], sv.lifted->points[3 * i + 1],
                      sv.lifted->points[3 * i + 2]};
         candidates.push_back({static_cast<int>(v), static_cast<int>(i), to_canonical[v] * p,
-                              float(sv.depth->depth[i] / focal)});
+                              float(footprints.Of(sv.depth->depth[i], i))});
       }
     }
     if (candidates.empty()) continue;

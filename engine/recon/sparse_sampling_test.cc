@@ -7,6 +7,8 @@
 #include <array>
 #include <cmath>
 #include <set>
+#include <utility>
+#include <vector>
 
 #include "engine/recon/scene_graph.h"
 
@@ -348,6 +350,42 @@ TEST(SparseSampling, DenseModeTakesEveryValidPixel) {
   const QuerySet q = SampleQueries({plane.sampling()}, {}, options);
   EXPECT_EQ(q.size(), 32u * 24 - 1);
   EXPECT_NEAR(q.footprints[0], 10.0 / 32, 1e-6);
+}
+
+// An f-theta lens 150 degrees across: its pixels span far wider angles at
+// the edge than at the centre, and a disc's footprint is the pixel's: the
+// range times the widest angle the pixel spans, not depth / focal length.
+TEST(SparseSampling, FootprintsFollowTheLensesPixelSize) {
+  PlaneView plane(192, 144, Rigid{});
+  const std::vector<double> poly = {0, 96, 0, -4.8};  // 96 theta - 4.8 theta^3 px.
+  plane.view.camera.SetFTheta(poly);
+  plane.lifted = LiftView(plane.view, plane.depth);
+  SamplingOptions options;
+  options.dense = true;
+  const QuerySet q = SampleQueries({plane.sampling()}, {}, options);
+  auto footprint_at = [&](int x, int y) {
+    for (size_t k = 0; k < q.size(); ++k) {
+      if (q.pixels[k] == y * 192 + x) return double(q.footprints[k]);
+    }
+    ADD_FAILURE() << "no query at " << x << ", " << y;
+    return 0.0;
+  };
+  // The angle and the pixel's radial span (1 / the polynomial's slope) at
+  // pixel (x, y); the tangential span sin(theta) / r(theta) is narrower.
+  auto expected_at = [&](int x, int y) {
+    Vec3 ray;
+    EXPECT_TRUE(plane.view.camera.Unproject(x + 0.5, y + 0.5, &ray));
+    const double theta = std::atan(std::hypot(ray.x, ray.y));
+    const double slope = poly[1] + 3 * poly[3] * theta * theta;
+    return 10.0 / std::cos(theta) / slope;
+  };
+  EXPECT_NEAR(footprint_at(96, 72), 10.0 / 96, 0.01 * 10.0 / 96);
+  for (const auto& [x, y] : std::vector<std::pair<int, int>>{{191, 72}, {150, 72}, {96, 2}}) {
+    const double expected = expected_at(x, y);
+    EXPECT_NEAR(footprint_at(x, y), expected, 0.03 * expected) << x << ", " << y;
+  }
+  // At the right edge (61 degrees off the axis) 2.5x the centre's.
+  EXPECT_GT(footprint_at(191, 72), 2.3 * footprint_at(96, 72));
 }
 
 // A 32 x 24 view: a wall at 5 m on the left half, the plane at 10 m on the

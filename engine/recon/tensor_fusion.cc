@@ -129,10 +129,18 @@ void Project(const CameraModel& camera, const Tensor& x, const Tensor& y, const 
       const Tensor r = r2.sqrt();
       const Tensor tiny = r.lt(1e-12);
       const Tensor theta = r.atan();
-      const Tensor t2 = theta * theta;
-      const Tensor theta_d =
-          theta *
-          (1 + t2 * (camera.k1() + t2 * (camera.k2() + t2 * (camera.k3() + t2 * camera.k4()))));
+      Tensor theta_d;
+      if (camera.kind() == CameraModel::Kind::kFTheta) {
+        const Lens& lens = camera.lens();
+        theta_d = at::full_like(theta, lens.ftheta[Lens::kFThetaTerms - 1]);
+        for (int i = Lens::kFThetaTerms - 2; i >= 0; --i)
+          theta_d = theta_d * theta + lens.ftheta[i];
+      } else {
+        const Tensor t2 = theta * theta;
+        theta_d =
+            theta *
+            (1 + t2 * (camera.k1() + t2 * (camera.k2() + t2 * (camera.k3() + t2 * camera.k4()))));
+      }
       const Tensor safe_r = r.masked_fill(tiny, 1.0);
       xd = at::where(tiny, xn, xn * theta_d / safe_r);
       yd = at::where(tiny, yn, yn * theta_d / safe_r);

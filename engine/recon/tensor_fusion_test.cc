@@ -35,7 +35,7 @@ Rigid YawAt(double yaw, const Vec3& position) {
 }
 
 // Five views along x looking at a slanted wall about 10 m ahead, with an
-// OpenCV and a fisheye camera among them, 8 % far pixels, a masked
+// OpenCV, an f-theta and a fisheye camera among them, 8 % far pixels, a masked
 // rectangle per view, the ego body on the bottom rows of views 1 and 3, and
 // a colour gradient; views 100 ms apart.
 std::vector<TestView> RandomViews(std::mt19937& random) {
@@ -46,6 +46,7 @@ std::vector<TestView> RandomViews(std::mt19937& random) {
     t.view.camera = CameraModel(kW, kH, 40, 40, kW / 2.0, kH / 2.0);
     if (v == 3) t.view.camera.SetOpenCv(-0.12, 0.02, 0.001, -0.002, 0.001);
     if (v == 4) t.view.camera.SetFisheye(0.05, -0.01, 0.002, -0.0005);
+    if (v == 2) t.view.camera.SetFTheta({0, 40, 0, -2, 0, 0});
     t.view.world_from_camera = YawAt(0.04 * (v - 2), {0.6 * (v - 2), 0.05 * v, 0});
     t.view.timestamp_us = 100000 * v;
     t.view.rgb = ImageF(kW, kH, 3);
@@ -103,9 +104,10 @@ void ExpectSameFusion(const FusedQueries& expected, const FusedQueries& actual,
 // and CameraModel's refusals, for every lens: points in front across the
 // whole field of view and past its edge, on the axis, and behind.
 TEST(TensorFusion, ProjectionIsCameraModelsForEveryLens) {
-  std::vector<CameraModel> cameras(3, CameraModel(640, 480, 500, 510, 321.5, 238.25));
+  std::vector<CameraModel> cameras(4, CameraModel(640, 480, 500, 510, 321.5, 238.25));
   cameras[1].SetOpenCv(-0.28, 0.09, 0.0012, -0.0007, -0.011);
   cameras[2].SetFisheye(0.05, -0.01, 0.002, -0.0005);
+  cameras[3].SetFTheta({0, 500, 0, -25, 0, 1.5});
   std::vector<double> x, y, z;
   for (double depth : {-2.0, 0.0, 1e-9, 0.5, 7.0}) {
     for (int i = -12; i <= 12; ++i) {

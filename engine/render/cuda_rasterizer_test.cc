@@ -138,7 +138,7 @@ TEST(CudaRasterizer, BenchSceneMatchesTheCpu) {
 
 TEST(CudaRasterizer, EveryCameraModelWithEditsMatchesTheCpu) {
   SKIP_WITHOUT_GPU();
-  for (int model = 0; model < 3; ++model) {
+  for (int model = 0; model < testing_scenes::kCameraModels; ++model) {
     SCOPED_TRACE(model);
     const RenderCamera camera = MovedCameraOfModel(model);
     RandomSceneSpec spec;

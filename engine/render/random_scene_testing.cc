@@ -100,6 +100,7 @@ RenderCamera MovedCameraOfModel(int model) {
   RenderCamera camera = MovedCamera(96, 72);
   if (model == 1) camera.model.SetOpenCv(-0.25, 0.08, 0.002, -0.001, 0.0);
   if (model == 2) camera.model.SetFisheye(0.05, -0.01, 0.002, 0.0);
+  if (model == 3) camera.model.SetFTheta({0, 76.8, 0, -3.84, 0, 0.2});
   return camera;
 }
 

@@ -36,8 +36,9 @@ GaussianScene RandomScene(const RandomSceneSpec& spec, const RenderCamera& camer
 // away from the origin.
 RenderCamera MovedCamera(int width, int height);
 
-// MovedCamera(96, 72) as a pinhole (model 0), OpenCV (1) or fisheye (2)
-// camera.
+// MovedCamera(96, 72) as a pinhole (model 0), OpenCV (1), fisheye (2) or
+// f-theta (3) camera; kCameraModels of them.
+inline constexpr int kCameraModels = 4;
 RenderCamera MovedCameraOfModel(int model);
 
 // A trajectory edit that moves RandomScene's "actor1" 0.4 m along x and

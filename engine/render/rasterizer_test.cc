@@ -133,7 +133,7 @@ INSTANTIATE_TEST_SUITE_P(RandomScenes, RasterizerReferenceTest,
                                            ReferenceCase{7, 500, 33, 17, 32, 2}));
 
 TEST(Rasterizer, MatchesReferenceWithEditsAndDistortion) {
-  for (int model = 0; model < 3; ++model) {
+  for (int model = 0; model < testing_scenes::kCameraModels; ++model) {
     const RenderCamera camera = MovedCameraOfModel(model);
     RandomSceneSpec spec;
     spec.seed = 11 + model;
@@ -148,8 +148,9 @@ TEST(Rasterizer, MatchesReferenceWithEditsAndDistortion) {
 }
 
 TEST(Rasterizer, ColourGradientsMatchReference) {
-  // Pinhole, OpenCV and fisheye cameras, moving and edited actors, features.
-  for (int model = 0; model < 3; ++model) {
+  // Pinhole, OpenCV, fisheye and f-theta cameras, moving and edited actors,
+  // features.
+  for (int model = 0; model < testing_scenes::kCameraModels; ++model) {
     const RenderCamera camera = MovedCameraOfModel(model);
     RandomSceneSpec spec;
     spec.seed = 21 + model;
@@ -585,6 +586,13 @@ TEST(Rasterizer, OpenCvPointsLandWhereProjected) {
 TEST(Rasterizer, FisheyePointsLandWhereProjected) {
   RenderCamera camera = SimpleCamera(160, 120, 60);
   camera.model.SetFisheye(0.08, -0.02, 0.005, -0.001);
+  ExpectPointsLandWhereProjected(camera, 0.05);
+}
+
+TEST(Rasterizer, FThetaPointsLandWhereProjected) {
+  RenderCamera camera = SimpleCamera(160, 120, 60);
+  camera.model.SetFTheta({0, 70, 0, -3.5, 0, 0});
+  camera.world_from_camera.rotation = ToMatrix(YawQuat(-0.2));
   ExpectPointsLandWhereProjected(camera, 0.05);
 }
 

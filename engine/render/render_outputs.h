@@ -32,9 +32,11 @@
 //                      OpenCV camera axes (x right, y down, z forward)
 //   pf:fx, pf:fy, pf:cx, pf:cy  double, intrinsics in pixels (pixel centres
 //                      at +0.5)
-//   pf:cameraModel     string "pinhole" | "opencv" | "fisheye"
+//   pf:cameraModel     string "pinhole" | "opencv" | "fisheye" | "ftheta"
 //   pf:distortion      float[] the model's coefficients (opencv: k1 k2 p1 p2
-//                      k3; fisheye: k1 k2 k3 k4); absent for pinhole
+//                      k3; fisheye: k1 k2 k3 k4; ftheta: pixels at theta^0
+//                      .. theta^5, fx = fy = the theta^1 term); absent for
+//                      pinhole
 //   pf:camera, pf:view string, camera id and view name
 //   timestamp_us       double, the render time (exact for |t| < 2^53)
 //   pf:timestampUs     string, the same as decimal digits

@@ -107,13 +107,17 @@ std::string ModelName(const v1::Distortion& distortion) {
       return "opencv";
     case v1::Distortion::FISHEYE:
       return "fisheye";
+    case v1::Distortion::FTHETA:
+      return "ftheta";
     default:
       return "pinhole";
   }
 }
 
-std::vector<double> DistortionCoefficients(const v1::Distortion& d) {
+std::vector<double> DistortionCoefficients(const v1::Distortion& d, const CameraModel& model) {
   switch (d.model()) {
+    case v1::Distortion::FTHETA:
+      return model.ftheta_pixels();
     case v1::Distortion::OPENCV:
       return {d.k1(), d.k2(), d.p1(), d.p2(), d.k3()};
     case v1::Distortion::FISHEYE:
@@ -181,7 +185,7 @@ absl::StatusOr<RenderRequest> RenderRequestFromProto(
                      PoseFromNumbers(view.world_from_camera(), field + ".worldFromCamera"));
     const v1::Distortion& distortion = message.cameras(camera->second).distortion();
     out.camera_model = ModelName(distortion);
-    out.distortion = DistortionCoefficients(distortion);
+    out.distortion = DistortionCoefficients(distortion, out.camera.model);
     out.name = RenderViewName(view);
     if (!IsSafeFileStem(out.name)) {
       return Invalid(field + ".name",

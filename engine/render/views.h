@@ -31,8 +31,11 @@ struct RenderView {
   std::string camera_id;  // Camera.id.
   RenderCamera camera;
   int64_t timestamp_us = 0;
-  std::string camera_model;        // "pinhole", "opencv" or "fisheye".
-  std::vector<double> distortion;  // opencv: k1 k2 p1 p2 k3; fisheye: k1 k2 k3 k4; else empty.
+  std::string camera_model;  // "pinhole", "opencv", "fisheye" or "ftheta".
+  // opencv: k1 k2 p1 p2 k3; fisheye: k1 k2 k3 k4; ftheta: the angle-to-pixel
+  // polynomial, theta^0 .. theta^5 (fitted when the camera gave its inverse
+  // only); pinhole: empty.
+  std::vector<double> distortion;
 };
 
 struct RenderRequest {

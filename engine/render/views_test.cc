@@ -193,6 +193,36 @@ TEST(RenderViews, CarriesFisheyeCoefficients) {
   EXPECT_EQ(request->views[0].name, "fish_left_7");
 }
 
+TEST(RenderViews, CarriesFThetaPolynomialsAndNamesTheirFaults) {
+  // Given as the inverse (pixels to angle) only, 0.01 rad per pixel: the
+  // view carries the fitted angle-to-pixel polynomial, 100 px per radian.
+  const std::string json = R"({
+    "cameras": [{"id": "surround", "width": 64, "height": 48, "intrinsics": {"cx": 32, "cy": 24},
+                 "distortion": {"model": "FTHETA", "fthetaInversePoly": [0, 0.01]}}],
+    "views": [{"camera": "surround", "timestamp_us": 7, "world_from_camera": [1,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,0,1]}]
+  })";
+  absl::StatusOr<RenderRequest> request = ParseRenderViews(json, GaussianScene{});
+  ASSERT_TRUE(request.ok()) << request.status();
+  const RenderView& view = request->views[0];
+  EXPECT_EQ(view.camera_model, "ftheta");
+  EXPECT_EQ(view.camera.model.kind(), CameraModel::Kind::kFTheta);
+  ASSERT_EQ(view.distortion.size(), 6u);
+  EXPECT_NEAR(view.distortion[0], 0, 1e-9);
+  EXPECT_NEAR(view.distortion[1], 100, 1e-6);
+  for (int i = 2; i < 6; ++i) EXPECT_NEAR(view.distortion[i], 0, 1e-6) << i;
+  EXPECT_NEAR(view.camera.model.fx(), 100, 1e-6);
+
+  std::string bad = json;
+  const std::string inverse = R"("fthetaInversePoly": [0, 0.01])";
+  bad.replace(bad.find(inverse), inverse.size(), R"("fthetaPoly": [1, 100])");
+  request = ParseRenderViews(bad, GaussianScene{});
+  ASSERT_FALSE(request.ok());
+  EXPECT_NE(request.status().message().find(
+                "cameras[0]: camera 'surround'.distortion.fthetaPoly[0]: must be 0"),
+            std::string::npos)
+      << request.status();
+}
+
 TEST(RenderViews, RejectsAnEmptyViewList) {
   absl::StatusOr<RenderRequest> request = ParseRenderViews("{}", SceneWithInstances());
   EXPECT_EQ(request.status().code(), absl::StatusCode::kInvalidArgument);

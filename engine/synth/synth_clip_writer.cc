@@ -45,6 +45,11 @@ v1::Camera SynthCameraProto(const RigCamera& camera) {
   k->set_fy(camera.model.fy());
   k->set_cx(camera.model.cx());
   k->set_cy(camera.model.cy());
+  if (camera.model.kind() == CameraModel::Kind::kFTheta) {
+    v1::Distortion* distortion = proto.mutable_distortion();
+    distortion->set_model(v1::Distortion::FTHETA);
+    for (double c : camera.model.ftheta_pixels()) distortion->add_ftheta_poly(c);
+  }
   return proto;
 }
 

@@ -37,13 +37,21 @@ absl::Status GetInteger(const google::protobuf::Struct& params, const std::strin
 
 }  // namespace
 
+absl::StatusOr<SynthLens> SynthLensFromName(const std::string& name) {
+  if (name == "pinhole") return SynthLens::kPinhole;
+  if (name == "ftheta") return SynthLens::kFTheta;
+  return absl::InvalidArgumentError(
+      absl::StrCat("lens: must be \"pinhole\" or \"ftheta\", got \"", name, "\""));
+}
+
 std::string SynthParamsToJson(const SynthOptions& options) {
   // Written by hand for a fixed field order; read back through protobuf.
-  return absl::StrCat("{\n  \"generator\": \"", kGenerator, "\",\n  \"version\": ", kSynthVersion,
-                      ",\n  \"seed\": ", options.seed, ",\n  \"cameras\": ", options.num_cameras,
-                      ",\n  \"frames\": ", options.num_frames, ",\n  \"width\": ", options.width,
-                      ",\n  \"height\": ", options.height,
-                      ",\n  \"antialias\": ", options.antialias, "\n}\n");
+  return absl::StrCat(
+      "{\n  \"generator\": \"", kGenerator, "\",\n  \"version\": ", kSynthVersion,
+      ",\n  \"seed\": ", options.seed, ",\n  \"cameras\": ", options.num_cameras,
+      ",\n  \"frames\": ", options.num_frames, ",\n  \"width\": ", options.width,
+      ",\n  \"height\": ", options.height, ",\n  \"antialias\": ", options.antialias,
+      options.lens == SynthLens::kFTheta ? ",\n  \"lens\": \"ftheta\"" : "", "\n}\n");
 }
 
 absl::StatusOr<SynthOptions> SynthParamsFromJson(const std::string& json,
@@ -52,8 +60,8 @@ absl::StatusOr<SynthOptions> SynthParamsFromJson(const std::string& json,
   if (const absl::Status parsed = ParseBoundedProtoJson(json, &params); !parsed.ok()) {
     return absl::InvalidArgumentError(absl::StrCat(where, ": malformed JSON: ", parsed.message()));
   }
-  static const std::set<std::string> kKnown = {"generator", "version", "seed",   "cameras",
-                                               "frames",    "width",   "height", "antialias"};
+  static const std::set<std::string> kKnown = {
+      "generator", "version", "seed", "cameras", "frames", "width", "height", "antialias", "lens"};
   for (const auto& [name, value] : params.fields()) {
     if (kKnown.count(name) == 0) {
       return absl::InvalidArgumentError(absl::StrCat(where, ": ", name, ": unknown field"));
@@ -87,6 +95,12 @@ absl::StatusOr<SynthOptions> SynthParamsFromJson(const std::string& json,
   options.width = narrow(width);
   options.height = narrow(height);
   options.antialias = narrow(antialias);
+  // "lens": "pinhole" (when absent) or "ftheta".
+  if (const auto lens = params.fields().find("lens"); lens != params.fields().end()) {
+    absl::StatusOr<SynthLens> parsed_lens = SynthLensFromName(lens->second.string_value());
+    if (!parsed_lens.ok()) return StatusWithContext(parsed_lens.status(), where);
+    options.lens = *parsed_lens;
+  }
   RETURN_IF_ERROR(StatusWithContext(ValidateSynthOptions(options), where));
   return options;
 }

@@ -4,6 +4,8 @@
 //
 //   {"generator": "pf synth", "version": 1, "seed": 7, "cameras": 3,
 //    "frames": 20, "width": 768, "height": 576, "antialias": 2}
+//
+// and "lens": "ftheta" for f-theta cameras (absent: pinhole).
 #ifndef POINTFORWARD_ENGINE_SYNTH_SYNTH_PARAMS_H_
 #define POINTFORWARD_ENGINE_SYNTH_SYNTH_PARAMS_H_
 
@@ -13,6 +15,9 @@
 #include "engine/synth/synth_scene.h"
 
 namespace pf {
+
+// "pinhole" or "ftheta"; INVALID_ARGUMENT naming "lens" otherwise.
+absl::StatusOr<SynthLens> SynthLensFromName(const std::string& name);
 
 // Returns the synth.json text for `options` (with kSynthVersion).
 std::string SynthParamsToJson(const SynthOptions& options);

@@ -24,6 +24,13 @@ TEST(SynthParams, RoundTrips) {
   EXPECT_EQ(back->width, 320);
   EXPECT_EQ(back->height, 240);
   EXPECT_EQ(back->antialias, 3);
+  EXPECT_EQ(back->lens, SynthLens::kPinhole);
+  // Pinhole clips keep their synth.json as it was; f-theta ones say so.
+  EXPECT_EQ(SynthParamsToJson(options).find("lens"), std::string::npos);
+  options.lens = SynthLens::kFTheta;
+  const auto ftheta = SynthParamsFromJson(SynthParamsToJson(options), "synth.json");
+  ASSERT_TRUE(ftheta.ok()) << ftheta.status();
+  EXPECT_EQ(ftheta->lens, SynthLens::kFTheta);
 }
 
 TEST(SynthParams, RejectsBadFilesNamingTheField) {
@@ -53,6 +60,11 @@ TEST(SynthParams, RejectsBadFilesNamingTheField) {
   text.replace(text.find("\"height\": 576"), 13, "\"height\": 5");
   status = SynthParamsFromJson(text, "s.json").status();
   EXPECT_NE(Message(status).find("s.json: height: must be in"), std::string::npos) << status;
+
+  status = SynthParamsFromJson(good + R"(, "lens": "fisheye"})", "s.json").status();
+  EXPECT_NE(Message(status).find(R"(s.json: lens: must be "pinhole" or "ftheta", got "fisheye")"),
+            std::string::npos)
+      << status;
 
   text = good + "}";
   text.replace(text.find("\"version\": 1"), 12, "\"version\": 9");

@@ -16,6 +16,7 @@ constexpr double kDeg = kPi / 180.0;
 
 // Rig numbers.
 constexpr double kHorizontalFovDeg = 75.0;
+constexpr double kFThetaHalfFovDeg = 60.0;
 constexpr double kCameraYawSpacingDeg = 40.0;
 constexpr double kCameraPitchDeg = -3.0;
 
@@ -228,6 +229,13 @@ absl::Status ValidateSynthOptions(const SynthOptions& options) {
   return absl::OkStatus();
 }
 
+std::vector<double> SynthFThetaPolynomial(int width) {
+  constexpr double kCubic = -0.05;
+  const double side = kFThetaHalfFovDeg * kDeg;
+  const double f = (width / 2.0) / (side + kCubic * side * side * side);
+  return {0.0, f, 0.0, kCubic * f, 0.0, 0.0};
+}
+
 bool IsContextTimestamp(int64_t timestamp_us) {
   return std::find(std::begin(kContextTimestampsUs), std::end(kContextTimestampsUs),
                    timestamp_us) != std::end(kContextTimestampsUs);
@@ -370,6 +378,9 @@ absl::StatusOr<SynthScene> GenerateSynthScene(const SynthOptions& options) {
     cam.position = {1.6, 0.3 * std::sin(cam.yaw), 1.55};
     cam.model = CameraModel(options.width, options.height, fx, fx, options.width / 2.0,
                             options.height / 2.0);
+    if (options.lens == SynthLens::kFTheta) {
+      cam.model.SetFTheta(SynthFThetaPolynomial(options.width));
+    }
     scene.cameras.push_back(cam);
   }
   scene.lidar_position = {0.2, 0.0, 1.9};

@@ -59,6 +59,8 @@ namespace pf {
 inline constexpr int kSynthVersion = 1;
 
 // What `pf synth` takes. Everything that shapes the scene or its sensors.
+enum class SynthLens { kPinhole, kFTheta };
+
 struct SynthOptions {
   uint64_t seed = 1;    // [0, 2^53): stored in JSON as a number.
   int num_cameras = 3;  // Front-facing cameras spread in yaw, [1, 8].
@@ -66,7 +68,15 @@ struct SynthOptions {
   int width = 768;      // Image size in pixels, [16, 8192].
   int height = 576;
   int antialias = 2;  // Colour samples per pixel axis, [1, 4].
+  // kPinhole: 75 degrees across; kFTheta: an f-theta lens 120 degrees across
+  // (SynthFThetaPolynomial).
+  SynthLens lens = SynthLens::kPinhole;
 };
+
+// The f-theta polynomial (pixels at theta^0 .. theta^5) of a synth camera
+// `width` pixels wide: f (theta - 0.05 theta^3), f such that the image's
+// sides lie 60 degrees off the axis.
+std::vector<double> SynthFThetaPolynomial(int width);
 
 // Returns INVALID_ARGUMENT naming the option when one is out of range.
 absl::Status ValidateSynthOptions(const SynthOptions& options);
