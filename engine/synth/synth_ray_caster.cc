@@ -252,14 +252,43 @@ RenderedView RenderView(const SceneSnapshot& snapshot, const CameraModel& camera
     return true;
   };
 
-  // Culling by the view's and then each tile's frustum needs straight
-  // frustum edges, which lens distortion bends.
-  const bool cull = !camera.has_distortion();
+  // The pyramid from `origin` holding every ray through the pixel rectangle
+  // [u0, u1] x [v0, v1]: through its corners for a pinhole camera; for a
+  // distorted lens, whose frustum edges bend, through the corners of the
+  // bounding box (on the camera's z = 1 plane) of rays along the rectangle's
+  // border, 1 px apart, widened by 1 % (the border's image bounds the
+  // interior's). False where a border ray is outside the lens model.
+  auto bounding_pyramid = [&](int u0, int v0, int u1, int v1, Vec3 corners[4]) {
+    if (!camera.has_distortion()) {
+      return ray_dir(u0, v0, &corners[0]) && ray_dir(u1, v0, &corners[1]) &&
+             ray_dir(u1, v1, &corners[2]) && ray_dir(u0, v1, &corners[3]);
+    }
+    double x_lo = 1e300, x_hi = -1e300, y_lo = 1e300, y_hi = -1e300;
+    auto take = [&](double u, double v) {
+      Vec3 ray;
+      if (!camera.Unproject(u, v, &ray)) return false;
+      x_lo = std::min(x_lo, ray.x), x_hi = std::max(x_hi, ray.x);
+      y_lo = std::min(y_lo, ray.y), y_hi = std::max(y_hi, ray.y);
+      return true;
+    };
+    for (int u = u0; u <= u1; ++u) {
+      if (!take(u, v0) || !take(u, v1)) return false;
+    }
+    for (int v = v0; v <= v1; ++v) {
+      if (!take(u0, v) || !take(u1, v)) return false;
+    }
+    const double mx = 0.01 * (x_hi - x_lo), my = 0.01 * (y_hi - y_lo);
+    x_lo -= mx, x_hi += mx, y_lo -= my, y_hi += my;
+    corners[0] = rotation * Vec3{x_lo, y_lo, 1};
+    corners[1] = rotation * Vec3{x_hi, y_lo, 1};
+    corners[2] = rotation * Vec3{x_hi, y_hi, 1};
+    corners[3] = rotation * Vec3{x_lo, y_hi, 1};
+    return true;
+  };
   Candidates all = AllCandidates(snapshot);
-  if (cull) {
+  {
     Vec3 corners[4];
-    if (ray_dir(0, 0, &corners[0]) && ray_dir(width, 0, &corners[1]) &&
-        ray_dir(width, height, &corners[2]) && ray_dir(0, height, &corners[3])) {
+    if (bounding_pyramid(0, 0, width, height, corners)) {
       all = CullToPyramid(snapshot, all, origin, corners);
     }
   }
@@ -272,11 +301,9 @@ RenderedView RenderView(const SceneSnapshot& snapshot, const CameraModel& camera
         const int x0 = tx * kTileSize, y0 = static_cast<int>(ty) * kTileSize;
         const int x1 = std::min(width, x0 + kTileSize), y1 = std::min(height, y0 + kTileSize);
         Candidates tile = all;
-        if (cull) {
-          Vec3 corners[4];
-          const bool ok = ray_dir(x0, y0, &corners[0]) && ray_dir(x1, y0, &corners[1]) &&
-                          ray_dir(x1, y1, &corners[2]) && ray_dir(x0, y1, &corners[3]);
-          if (ok) tile = CullToPyramid(snapshot, all, origin, corners);
+        Vec3 corners[4];
+        if (bounding_pyramid(x0, y0, x1, y1, corners)) {
+          tile = CullToPyramid(snapshot, all, origin, corners);
         }
         for (int y = y0; y < y1; ++y) {
           for (int x = x0; x < x1; ++x) {

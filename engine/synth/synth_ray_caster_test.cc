@@ -144,17 +144,22 @@ TEST(SynthRayCaster, ImagesCarryHighFrequencyDetail) {
 }
 
 // Tile culling must not change anything: compare with casting every pixel
-// centre against all primitives.
+// centre against all primitives, through pinhole lenses and through f-theta
+// ones (120 degrees across, whose frustum edges bend).
 TEST(SynthRayCaster, CulledRenderMatchesBruteForce) {
-  const SynthScene scene = SmallScene(3, 80, 60);
-  for (int cam = 0; cam < 3; ++cam) {
+  SynthScene scene = SmallScene(3, 80, 60);
+  for (int cam = 0; cam < 6; ++cam) {
+    if (cam == 3) {
+      for (RigCamera& rig : scene.cameras) rig.model.SetFTheta(SynthFThetaPolynomial(80));
+    }
+    SCOPED_TRACE(cam < 3 ? "pinhole" : "f-theta");
     const double t = 1.2;
     const SceneSnapshot snapshot = SnapshotAt(scene, t);
-    const Rigid pose = scene.WorldFromCamera(cam, t);
-    const RenderedView view = RenderView(snapshot, scene.cameras[cam].model, pose, 1);
+    const Rigid pose = scene.WorldFromCamera(cam % 3, t);
+    const RenderedView view = RenderView(snapshot, scene.cameras[cam % 3].model, pose, 1);
     for (int y = 0; y < 60; ++y) {
       for (int x = 0; x < 80; ++x) {
-        const Vec3 dir = Normalized(PixelRay(scene, cam, t, x, y));
+        const Vec3 dir = Normalized(PixelRay(scene, cam % 3, t, x, y));
         const RayHit hit = CastRay(snapshot, pose.translation, dir);
         const double depth = hit.hit ? Dot(hit.point - pose.translation, pose.rotation.Col(2)) : 0;
         ASSERT_NEAR(view.depth.at(x, y), depth, 1e-4 * (1 + depth)) << cam << ":" << x << "," << y;
