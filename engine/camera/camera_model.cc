@@ -47,6 +47,20 @@ std::vector<double> CameraModel::ftheta_pixels() const {
 }
 
 void CameraModel::UpdateValidRadius() {
+  if (lens_.kind == Lens::kFTheta) {
+    // In angle: up to where the polynomial stops growing, at most
+    // kFThetaMaxAngle.
+    constexpr double kStep = 1e-4;
+    double theta = kStep, previous = 0;
+    for (; theta <= kFThetaMaxAngle; theta += kStep) {
+      double value = 0;
+      for (int i = Lens::kFThetaTerms - 1; i >= 0; --i) value = value * theta + lens_.ftheta[i];
+      if (value <= previous) break;
+      previous = value;
+    }
+    lens_.max_radius = std::tan(theta - kStep);
+    return;
+  }
   // Walk outwards until the distorted radius stops growing with the
   // undistorted one (or up to a radius far beyond any real lens).
   lens_.max_radius = 1e6;
@@ -191,7 +205,7 @@ absl::StatusOr<std::vector<double>> FitFTheta(const std::vector<double>& pixels_
   const int n = static_cast<int>(pixels_to_angle.size());
   std::vector<std::pair<double, double>> samples;  // (theta, pixels).
   double previous = -1;
-  const double max_theta = std::atan(20.0);
+  const double max_theta = kFThetaMaxAngle;
   for (int k = 0; k <= kRadiusSamples; ++k) {
     const double px = max_px * k / kRadiusSamples;
     const double theta = EvalPolynomial(pixels_to_angle.data(), n, px);
@@ -199,11 +213,12 @@ absl::StatusOr<std::vector<double>> FitFTheta(const std::vector<double>& pixels_
     samples.emplace_back(theta, px);
     previous = theta;
   }
-  if (samples.size() < 2 * kFitDegree) {
+  if (samples.size() < kRadiusSamples / 16) {
     return LensFieldError(
         "distortion.fthetaInversePoly",
         "the angle does not grow with the pixel distance from the principal point "
-        "(or passes 87 degrees) within a few pixels; give fthetaPoly instead");
+        "(or passes 89.5 degrees) within a sixteenth of the image; give fthetaPoly "
+        "instead");
   }
   // Normal equations of sum_k (sum_i a_i theta_k^i - px_k)^2, i = 1..5.
   std::array<std::array<double, kFitDegree + 1>, kFitDegree> m{};
@@ -315,7 +330,7 @@ absl::StatusOr<std::vector<double>> FThetaPolynomialFromProto(
     for (int k = 1; k <= kRadiusSamples; ++k, ++checked) {
       const double px = max_px * k / kRadiusSamples;
       const double theta = EvalPolynomial(inverse.data(), n, px);
-      if (!(theta > previous_theta) || theta >= std::atan(20.0)) break;
+      if (!(theta > previous_theta) || theta >= kFThetaMaxAngle) break;
       previous_theta = theta;
       const double back = EvalPolynomial(poly.data(), Lens::kFThetaTerms, theta);
       if (!(std::abs(back - px) <= kInverseTolerancePx)) {
@@ -330,7 +345,7 @@ absl::StatusOr<std::vector<double>> FThetaPolynomialFromProto(
     if (checked < kRadiusSamples / 16) {
       return LensFieldError(
           "distortion.fthetaInversePoly",
-          absl::StrFormat("its angle stops growing or passes 87 degrees %.1f px from the "
+          absl::StrFormat("its angle stops growing or passes 89.5 degrees %.1f px from the "
                           "principal point, where the image reaches %.1f px (are the two "
                           "swapped?)",
                           max_px * (checked + 1) / kRadiusSamples, max_px));

@@ -25,6 +25,10 @@ class Camera;
 
 namespace pf {
 
+// The widest angle from the optical axis an f-theta lens projects (89.5
+// degrees): every model here projects points ahead of the camera only.
+inline constexpr double kFThetaMaxAngle = 89.5 * 3.14159265358979323846 / 180;
+
 class CameraModel {
  public:
   enum class Kind {
@@ -102,16 +106,17 @@ class CameraModel {
 // Builds a CameraModel from a manifest camera. INVALID_ARGUMENT (naming the
 // field) for a non-positive size or focal length or non-finite numbers. An
 // FTHETA camera takes ftheta_poly (angle to pixels), or fits one of degree 5
-// to ftheta_inverse_poly (pixels to angle) over the image when only that is
-// given (within 0.05 px, else an error); with both, they must invert each
-// other within 0.5 px over the image. Its intrinsics fx and fy are 0 or
-// ftheta_poly[1] (within 1 %).
+// to ftheta_inverse_poly (pixels to angle) when only that is given, over the
+// image out to where the inverse's angle stops growing or reaches
+// kFThetaMaxAngle (within 0.05 px, else an error); with both, they must
+// invert each other within 0.5 px over that range. Its intrinsics fx and fy
+// are 0 or ftheta_poly[1] (within 1 %).
 absl::StatusOr<CameraModel> CameraModelFromProto(const pointforward::v1::Camera& camera);
 
 // The angle-to-pixel polynomial (Lens::kFThetaTerms terms) of an FTHETA
 // manifest camera, checked as CameraModelFromProto describes; on a fault
 // INVALID_ARGUMENT whose message is "<field>: <problem>", the field under the
-// camera (e.g. "distortion.ftheta_poly[1]").
+// camera (e.g. "distortion.fthetaPoly[1]").
 absl::StatusOr<std::vector<double>> FThetaPolynomialFromProto(
     const pointforward::v1::Camera& camera);
 

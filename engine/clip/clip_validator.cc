@@ -348,7 +348,11 @@ class ClipChecker {
           Add(Section::kCameras, i, model_field,
               "the FTHETA model takes fthetaPoly (or fthetaInversePoly), not k1..k4, p1, p2");
         }
-        if (camera.width() <= 0 || camera.height() <= 0 || !camera.has_intrinsics()) break;
+        // Sizes and negative focal lengths are reported by the camera's checks.
+        if (camera.width() <= 0 || camera.height() <= 0 || !camera.has_intrinsics() ||
+            camera.intrinsics().fx() < 0 || camera.intrinsics().fy() < 0) {
+          break;
+        }
         const absl::StatusOr<std::vector<double>> poly = FThetaPolynomialFromProto(camera);
         if (!poly.ok()) {
           // "<field>: <problem>", the field under the camera.

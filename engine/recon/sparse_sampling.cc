@@ -80,7 +80,8 @@ double FocalLength(const CameraModel& camera) { return 0.5 * (camera.fx() + came
 // 1 / focal length exactly, and footprints are depth / focal as ever; for a
 // distorted lens (a wide f-theta or fisheye one, whose pixels span far
 // wider angles at the edge than at the centre) it is taken on a grid of
-// kGridPx pixels and interpolated bilinearly.
+// nodes kGridPx apart (covering the image) and interpolated bilinearly. A
+// node the lens does not reach takes the widest of its neighbours'.
 class PixelFootprints {
  public:
   explicit PixelFootprints(const CameraModel& camera)
@@ -89,12 +90,36 @@ class PixelFootprints {
     nx_ = (camera.width() + kGridPx - 1) / kGridPx + 1;
     ny_ = (camera.height() + kGridPx - 1) / kGridPx + 1;
     grid_.resize(static_cast<size_t>(nx_) * ny_);
+    bool any = false;
     for (int gy = 0; gy < ny_; ++gy) {
       for (int gx = 0; gx < nx_; ++gx) {
-        const double u = std::min<double>(gx * kGridPx, camera.width());
-        const double v = std::min<double>(gy * kGridPx, camera.height());
-        grid_[static_cast<size_t>(gy) * nx_ + gx] = PerDepth(camera, u, v);
+        const double value = PerDepth(camera, gx * kGridPx, gy * kGridPx);
+        grid_[static_cast<size_t>(gy) * nx_ + gx] = value;
+        any = any || value > 0;
       }
+    }
+    if (!any) {
+      std::fill(grid_.begin(), grid_.end(), 1 / focal_);
+      return;
+    }
+    // Unreached nodes (0) take the widest reached neighbour's, ring by ring.
+    for (bool changed = true; changed;) {
+      changed = false;
+      std::vector<double> next = grid_;
+      for (int gy = 0; gy < ny_; ++gy) {
+        for (int gx = 0; gx < nx_; ++gx) {
+          double& node = next[static_cast<size_t>(gy) * nx_ + gx];
+          if (node > 0) continue;
+          constexpr int kSteps[4][2] = {{-1, 0}, {1, 0}, {0, -1}, {0, 1}};
+          for (const auto& step : kSteps) {
+            const int x = gx + step[0], y = gy + step[1];
+            if (x < 0 || y < 0 || x >= nx_ || y >= ny_) continue;
+            node = std::max(node, grid_[static_cast<size_t>(y) * nx_ + x]);
+          }
+          changed = changed || node > 0;
+        }
+      }
+      grid_.swap(next);
     }
   }
 
@@ -118,14 +143,14 @@ class PixelFootprints {
  private:
   static constexpr int kGridPx = 16;
 
-  // The footprint per metre of depth at pixel position (u, v); 1 / focal
-  // where the lens does not reach.
-  double PerDepth(const CameraModel& camera, double u, double v) const {
+  // The footprint per metre of depth at pixel position (u, v); 0 where the
+  // lens does not reach.
+  static double PerDepth(const CameraModel& camera, double u, double v) {
     Vec3 centre, du_plus, du_minus, dv_plus, dv_minus;
     if (!camera.Unproject(u, v, &centre) || !camera.Unproject(u + 0.5, v, &du_plus) ||
         !camera.Unproject(u - 0.5, v, &du_minus) || !camera.Unproject(u, v + 0.5, &dv_plus) ||
         !camera.Unproject(u, v - 0.5, &dv_minus)) {
-      return 1 / focal_;
+      return 0;
     }
     const Vec3 a = Normalized(du_plus) - Normalized(du_minus);
     const Vec3 b = Normalized(dv_plus) - Normalized(dv_minus);

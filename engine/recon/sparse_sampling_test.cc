@@ -388,6 +388,42 @@ TEST(SparseSampling, FootprintsFollowTheLensesPixelSize) {
   EXPECT_GT(footprint_at(191, 72), 2.3 * footprint_at(96, 72));
 }
 
+// The footprint grid's last cells when the image is not a multiple of its
+// spacing, and where the lens ends inside the image.
+TEST(SparseSampling, FootprintsAtTheImagesAndTheLensesEdge) {
+  SamplingOptions options;
+  options.dense = true;
+  auto footprints_of = [&](PlaneView& plane, const std::vector<double>& poly) {
+    plane.view.camera.SetFTheta(poly);
+    plane.lifted = LiftView(plane.view, plane.depth);
+    const QuerySet q = SampleQueries({plane.sampling()}, {}, options);
+    std::vector<double> by_pixel(plane.owners.size(), 0.0);
+    for (size_t k = 0; k < q.size(); ++k) by_pixel[q.pixels[k]] = q.footprints[k];
+    return by_pixel;
+  };
+  // 200 px wide: the last column lies 8 px past the last full cell.
+  PlaneView wide(200, 150, Rigid{});
+  const std::vector<double> lens = {0, 96, 0, -4.8};
+  const std::vector<double> wide_footprints = footprints_of(wide, lens);
+  Vec3 ray;
+  ASSERT_TRUE(wide.view.camera.Unproject(199.5, 75.5, &ray));
+  const double theta = std::atan(std::hypot(ray.x, ray.y));
+  const double expected = 10.0 / std::cos(theta) / (96 - 3 * 4.8 * theta * theta);
+  // Linear between nodes 16 px apart, the footprint over-estimates where it
+  // grows fastest (measured 8 % here, 62 degrees off the axis), never under.
+  EXPECT_GE(wide_footprints[75 * 200 + 199], 0.99 * expected);
+  EXPECT_LE(wide_footprints[75 * 200 + 199], 1.1 * expected);
+  // 96 theta - 16 theta^3 stops growing 90.5 px from the centre: the grid
+  // nodes past it take their reached neighbours' footprints, so the pixels
+  // just inside the lens's edge are no narrower than those further in.
+  PlaneView edge(192, 144, Rigid{});
+  const std::vector<double> edge_footprints = footprints_of(edge, {0, 96, 0, -16});
+  EXPECT_EQ(edge_footprints[72 * 192 + 190], 0.0);  // Beyond the lens: no query.
+  ASSERT_GT(edge_footprints[72 * 192 + 176], 0.0);
+  EXPECT_GE(edge_footprints[72 * 192 + 184], 0.99 * edge_footprints[72 * 192 + 176]);
+  EXPECT_GT(edge_footprints[72 * 192 + 176], 2 * edge_footprints[72 * 192 + 96]);
+}
+
 // A 32 x 24 view: a wall at 5 m on the left half, the plane at 10 m on the
 // right, and the sky (far layer) in the last two columns. Discs on the near
 // side of the occluding edge shrink; the far side, the middle of the near

@@ -3,8 +3,8 @@
 //
 // The rules are fusion.h's, step for step: every query is moved by its
 // frame's camera-from-frame transform of each view (instances re-posed to the
-// view's time), projected through the view's camera model (pinhole, OpenCV or
-// fisheye), tested against the view's depth (observation, occlusion, or seen
+// view's time), projected through the view's camera model (pinhole, OpenCV,
+// fisheye or f-theta), tested against the view's depth (observation, occlusion, or seen
 // past across the 3x3 neighbourhood, which here is a 3x3 min-pool of the
 // depth map), weighed, and its colour sampled bilinearly. Geometry runs in
 // float64 as the C++ kernel does, so both give the same observations and

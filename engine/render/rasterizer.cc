@@ -16,7 +16,7 @@
 //     pixels whose transmittance fell under 1e-4 are skipped, and a tile
 //     stops once all of its pixels are done.
 //
-// Distortion (OpenCV, fisheye) is rendered directly: the mean is projected
+// Distortion (OpenCV, fisheye, f-theta) is rendered directly: the mean is projected
 // through CameraModel::Distort, and the EWA Jacobian is the product of the
 // pinhole Jacobian and the distortion's own 2x2 Jacobian at the mean (a local
 // linearisation per Gaussian). Centres land exactly where
