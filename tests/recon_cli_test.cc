@@ -143,6 +143,22 @@ TEST_F(ReconCli, EvalReportHasEveryTargetFrameWithFigures) {
   EXPECT_GT(mean["filledPsnr"].get<double>(), mean["psnr"].get<double>());  // 24.81 vs 24.78.
   EXPECT_GT(report["dynamicGaussians"].get<int64_t>(), 0);
   EXPECT_GT(report["farGaussians"].get<int64_t>(), 0);
+  // The LiDAR rendered along the recorded rays the cameras saw, at each
+  // TARGET time (the clip has a sweep at every frame time): measured Chamfer
+  // 0.27 m, range error median 0.14 m (90th percentile 1.25 m), 98.7 % of the
+  // returns returned. A wrong sensor pose or range scale is metres off.
+  const nlohmann::json& lidar = report["lidarRender"];
+  ASSERT_TRUE(lidar.is_object()) << lidar;
+  EXPECT_EQ(lidar["sweeps"], 6);
+  ASSERT_EQ(lidar["perSweep"].size(), 6u);
+  for (const nlohmann::json& sweep : lidar["perSweep"]) {
+    // The 3 cameras face forward: part of each 360-degree sweep.
+    EXPECT_GT(sweep["points"].get<int64_t>(), 0.2 * sweep["sweepPoints"].get<int64_t>());
+    EXPECT_LT(sweep["points"].get<int64_t>(), 0.8 * sweep["sweepPoints"].get<int64_t>());
+  }
+  EXPECT_GT(lidar["hitShare"].get<double>(), 0.95);
+  EXPECT_LT(lidar["rangeErrorMedian"].get<double>(), 0.3);
+  EXPECT_LT(lidar["chamfer"].get<double>(), 0.5);
 }
 
 TEST_F(ReconCli, AnalyticUsesAtMostAQuarterOfThePixelAlignedGaussians) {

@@ -525,6 +525,36 @@ std::string EvalReportJson(const EvalReport& report) {
     out["frames"] = sources;
     return out;
   };
+  // The rendered LiDAR: means over the sweeps, and each sweep's figures.
+  if (report.lidar_render.empty()) {
+    j["lidarRender"] = nullptr;
+  } else {
+    nlohmann::ordered_json sweeps = nlohmann::ordered_json::array();
+    double hit = 0, median = 0, p90 = 0, chamfer = 0, render_seconds = 0;
+    int64_t points = 0;
+    for (const LidarSweepFigures& f : report.lidar_render) {
+      sweeps.push_back({{"timestampUs", f.timestamp_us},
+                        {"sweepPoints", f.sweep_points},
+                        {"points", f.points},
+                        {"hitShare", f.hit_share},
+                        {"rangeErrorMedian", f.range_error_median},
+                        {"rangeErrorP90", f.range_error_p90},
+                        {"chamfer", f.chamfer},
+                        {"renderSeconds", f.render_seconds}});
+      hit += f.hit_share, median += f.range_error_median, p90 += f.range_error_p90;
+      chamfer += f.chamfer, points += f.points, render_seconds += f.render_seconds;
+    }
+    const double n = static_cast<double>(report.lidar_render.size());
+    j["lidarRender"] = {{"sweeps", report.lidar_render.size()},
+                        {"points", points},
+                        {"hitShare", hit / n},
+                        {"rangeErrorMedian", median / n},
+                        {"rangeErrorP90", p90 / n},
+                        {"chamfer", chamfer / n},
+                        {"seconds", report.lidar_render_seconds},
+                        {"renderSeconds", render_seconds},
+                        {"perSweep", sweeps}};
+  }
   nlohmann::ordered_json frames = nlohmann::ordered_json::array();
   for (size_t i = 0; i < report.frames.size(); ++i) {
     const FrameMetrics& f = report.frames[i];
@@ -667,6 +697,47 @@ absl::StatusOr<EvalReport> EvaluateClip(const LoadedClip& loaded, const ReconOpt
   report.mean = MeanOf(report.frames);
   report.nearest_mean = MeanOf(report.nearest);
   report.warp_mean = MeanOf(report.warp);
+
+  // The LiDAR rendered at the sweep nearest each TARGET time, unless that
+  // sweep is the nearest of a CONTEXT frame (the depth stage's input).
+  const auto lidar_start = std::chrono::steady_clock::now();
+  ASSIGN_OR_RETURN(const std::vector<LidarSweepData> sweeps,
+                   LoadLidarSweeps(loaded, options.allow_outside_paths));
+  std::set<int64_t> target_times;
+  for (const ContextView& target : targets) target_times.insert(target.timestamp_us);
+  std::vector<SeeingCamera> context_cameras;
+  if (!sweeps.empty()) {
+    std::map<std::string, CameraModel> models;
+    for (const pointforward::v1::Camera& camera : loaded.clip.cameras()) {
+      ASSIGN_OR_RETURN(models[camera.id()], CameraModelFromProto(camera));
+    }
+    for (const pointforward::v1::Frame& frame : loaded.clip.frames()) {
+      if (frame.role() == pointforward::v1::Frame::TARGET) continue;
+      context_cameras.push_back(
+          {models.at(frame.camera()), Rigid::FromRowMajor(frame.world_from_camera().data())});
+    }
+  }
+  std::set<int> context_sweeps, measured_sweeps;
+  for (const pointforward::v1::Frame& frame : loaded.clip.frames()) {
+    if (frame.role() != pointforward::v1::Frame::TARGET) {
+      context_sweeps.insert(NearestSweep(sweeps, frame.timestamp_us()));
+    }
+  }
+  for (int64_t t : target_times) {
+    const int j = NearestSweep(sweeps, t);
+    if (j < 0 || context_sweeps.count(j) > 0 || !measured_sweeps.insert(j).second) continue;
+    absl::StatusOr<LidarSweepFigures> figures =
+        EvaluateLidarRender(scene, sweeps[j], context_cameras);
+    if (absl::IsFailedPrecondition(figures.status())) continue;  // Nothing the cameras saw.
+    if (!figures.ok()) return figures.status();
+    report.lidar_render.push_back(*figures);
+  }
+  report.lidar_render_seconds = SecondsSince(lidar_start);
+  if (!report.lidar_render.empty()) {
+    ReportNote(options.progress, std::nullopt,
+               absl::StrCat("LiDAR rendered at ", report.lidar_render.size(), " TARGET times in ",
+                            report.lidar_render_seconds, " s"));
+  }
   if (extra_views.has_value()) {
     RETURN_IF_ERROR(EvaluateExtraViews(scene, *renderer, *extra_views, extra->lane_shift, options,
                                        out_dir, &report));

@@ -78,6 +78,23 @@
 //    "laneShiftTimeUs": t, "laneShiftLeft": [x, y, z]
 // laneShift is sorted by shift; the drop is the first entry's figure minus
 // the largest |shift|'s (positive: the shifted views are worse).
+//
+// Rendered LiDAR (lidar_eval.h): for the sweep nearest each TARGET time,
+// unless it is the sweep nearest a CONTEXT frame (which the depth stage
+// read), the scene is rendered along the rays of the sweep's points that a
+// CONTEXT camera had in its image, from the sweep's sensor at the sweep's
+// time (render/lidar_render.h), and report.json has
+//    "lidarRender": {"sweeps": n, "points": n, "hitShare": x,
+//                    "rangeErrorMedian": m, "rangeErrorP90": m, "chamfer": m,
+//                    "seconds": s (loading, rendering, measuring),
+//                    "renderSeconds": s (RenderLidarRays alone),
+//                    "perSweep": [{"timestampUs": t, "sweepPoints": n,
+//                                  "points": n, "hitShare": x, ...}, ...]}
+// (null without such a sweep): the means over the sweeps of the share of the
+// recorded returns the render returns too, the median and 90th percentile
+// of |rendered - recorded| range over those, and the Chamfer distance (the
+// mean of both directions' mean nearest-point distances, each capped at
+// 5 m). The summary line of `pf eval` gives them.
 #ifndef POINTFORWARD_ENGINE_RECON_EVALUATION_H_
 #define POINTFORWARD_ENGINE_RECON_EVALUATION_H_
 
@@ -91,6 +108,7 @@
 #include "absl/status/statusor.h"
 #include "common/geometry.h"
 #include "engine/clip/clip_io.h"
+#include "engine/recon/lidar_eval.h"
 #include "engine/recon/reconstruction.h"
 #include "engine/render/views.h"
 #include "pointforward/v1/views.pb.h"
@@ -175,6 +193,10 @@ struct EvalReport {
   MeanMetrics views_mean;
   std::optional<LaneShiftSpec> lane_shift;
   std::vector<LaneShiftMetrics> lane_shift_means;  // Sorted by shift.
+  // The LiDAR the scene renders at the held-out sweeps nearest the TARGET
+  // times, in time order (lidar_eval.h), and the time it took.
+  std::vector<LidarSweepFigures> lidar_render;
+  double lidar_render_seconds = 0;
 };
 
 // Returns the means of `frames` as described above.

@@ -1,0 +1,91 @@
+// Tests of the rendered LiDAR's figures against a recorded sweep.
+#include "engine/recon/lidar_eval.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <vector>
+
+namespace pf {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+// A wall of opaque discs 5 cm apart on the plane x = 8, y and z in [-6, 6].
+GaussianScene Wall() {
+  GaussianScene scene;
+  scene.low_pass = 0.1f;
+  for (double y = -6; y <= 6; y += 0.05) {
+    for (double z = -6; z <= 6; z += 0.05) {
+      const size_t i = scene.size();
+      scene.Resize(i + 1);
+      scene.means[3 * i] = 8.f, scene.means[3 * i + 1] = float(y);
+      scene.means[3 * i + 2] = float(z);
+      scene.log_scales[3 * i] = std::log(0.001f);
+      scene.log_scales[3 * i + 1] = scene.log_scales[3 * i + 2] = std::log(0.04f);
+      scene.opacity_logits[i] = 4.f;
+    }
+  }
+  return scene;
+}
+
+// A sweep from the origin: 8 beams from -8 to +6 degrees, every 2 degrees of
+// azimuth; a ray that meets the wall returns there (`offset` metres past
+// it), the others 20 m out (what stands beyond the scene).
+LidarSweepData Sweep(double offset) {
+  LidarSweepData sweep;
+  sweep.timestamp_us = 5;
+  for (int a = 0; a < 180; ++a) {
+    const double azimuth = a * 2 * kPi / 180;
+    for (int b = 0; b < 8; ++b) {
+      const double elevation = (-8 + 2 * b) * kPi / 180;
+      const Vec3 d{std::cos(elevation) * std::cos(azimuth), std::cos(elevation) * std::sin(azimuth),
+                   std::sin(elevation)};
+      double range = 20;
+      if (d.x > 0) {
+        const double t = 8 / d.x;
+        const Vec3 p = t * d;
+        if (std::abs(p.y) < 5.5 && std::abs(p.z) < 5.5) range = t + offset;
+      }
+      for (double v : {range * d.x, range * d.y, range * d.z}) sweep.points.push_back(float(v));
+    }
+  }
+  return sweep;
+}
+
+// A camera at the origin looking along +x (OpenCV axes: z forward = world x),
+// 67 degrees across: azimuths within 33.7 degrees of +x, every one on the
+// wall.
+SeeingCamera ForwardCamera() {
+  SeeingCamera camera;
+  camera.model = CameraModel(200, 200, 150, 150, 100, 100);
+  camera.world_from_camera.rotation.m = {{{0, 0, 1}, {-1, 0, 0}, {0, -1, 0}}};
+  return camera;
+}
+
+TEST(LidarEval, TheWallTheCamerasSawIsMeasuredAndTheRestLeftOut) {
+  const GaussianScene wall = Wall();
+  absl::StatusOr<LidarSweepFigures> figures =
+      EvaluateLidarRender(wall, Sweep(0), {ForwardCamera()});
+  ASSERT_TRUE(figures.ok()) << figures.status();
+  EXPECT_EQ(figures->timestamp_us, 5);
+  EXPECT_EQ(figures->sweep_points, 180 * 8);
+  // Azimuths 0, +-2, ..., +-32 degrees: 33 of the 180.
+  EXPECT_EQ(figures->points, 33 * 8);
+  EXPECT_DOUBLE_EQ(figures->hit_share, 1.0);
+  EXPECT_LT(figures->range_error_median, 0.02);
+  EXPECT_LT(figures->range_error_p90, 0.04);
+  EXPECT_LT(figures->chamfer, 0.03);
+
+  // The recorded returns 0.5 m behind the wall: every figure says so.
+  figures = EvaluateLidarRender(wall, Sweep(0.5), {ForwardCamera()});
+  ASSERT_TRUE(figures.ok()) << figures.status();
+  EXPECT_NEAR(figures->range_error_median, 0.5, 0.03);
+  EXPECT_GT(figures->chamfer, 0.3);
+
+  // No camera: nothing to measure.
+  EXPECT_TRUE(absl::IsFailedPrecondition(EvaluateLidarRender(wall, Sweep(0), {}).status()));
+}
+
+}  // namespace
+}  // namespace pf
