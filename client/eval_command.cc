@@ -242,16 +242,12 @@ absl::Status EvalCommand(const CommandLine& cl) {
                 Figure(shift.mean.psnr, " dB").c_str(), Figure(shift.mean.ssim, "").c_str());
   }
   if (!report.lidar_render.empty()) {
-    double chamfer = 0, median = 0, p90 = 0, hit = 0;
-    for (const LidarSweepFigures& f : report.lidar_render) {
-      chamfer += f.chamfer, median += f.range_error_median, p90 += f.range_error_p90;
-      hit += f.hit_share;
-    }
-    const double n = static_cast<double>(report.lidar_render.size());
+    const LidarSweepFigures mean = MeanLidarFigures(report.lidar_render);
     std::printf(
         "  LiDAR rendered at %zu TARGET times: Chamfer %.3f m, range error median %.3f m "
         "(90th percentile %.3f m), %.1f %% of the recorded returns returned\n",
-        report.lidar_render.size(), chamfer / n, median / n, p90 / n, 100 * hit / n);
+        report.lidar_render.size(), mean.chamfer, mean.range_error_median, mean.range_error_p90,
+        100 * mean.hit_share);
   }
   std::printf("  report: %s/report.json\n", out_dir.c_str());
   return absl::OkStatus();

@@ -28,6 +28,21 @@ void CameraModel::SetFisheye(double k1, double k2, double k3, double k4) {
   UpdateValidRadius();
 }
 
+namespace {
+
+// sum_i c[i] x^i and its derivative.
+double EvalPolynomial(const double* c, int n, double x, double* slope = nullptr) {
+  double value = 0, derivative = 0;
+  for (int i = n - 1; i >= 0; --i) {
+    derivative = derivative * x + value;
+    value = value * x + c[i];
+  }
+  if (slope != nullptr) *slope = derivative;
+  return value;
+}
+
+}  // namespace
+
 void CameraModel::SetFTheta(const std::vector<double>& angle_to_pixels) {
   lens_.kind = Lens::kFTheta;
   lens_.k1 = lens_.k2 = lens_.k3 = lens_.k4 = lens_.p1 = lens_.p2 = 0;
@@ -53,8 +68,7 @@ void CameraModel::UpdateValidRadius() {
     constexpr double kStep = 1e-4;
     double theta = kStep, previous = 0;
     for (; theta <= kFThetaMaxAngle; theta += kStep) {
-      double value = 0;
-      for (int i = Lens::kFThetaTerms - 1; i >= 0; --i) value = value * theta + lens_.ftheta[i];
+      const double value = EvalPolynomial(lens_.ftheta, Lens::kFThetaTerms, theta);
       if (value <= previous) break;
       previous = value;
     }
@@ -120,21 +134,6 @@ bool CameraModel::Undistort(double xd, double yd, double* xn, double* yn) const 
   return true;
 }
 
-namespace {
-
-// sum_i c[i] x^i and its derivative.
-double EvalPolynomial(const double* c, int n, double x, double* slope = nullptr) {
-  double value = 0, derivative = 0;
-  for (int i = n - 1; i >= 0; --i) {
-    derivative = derivative * x + value;
-    value = value * x + c[i];
-  }
-  if (slope != nullptr) *slope = derivative;
-  return value;
-}
-
-}  // namespace
-
 bool CameraModel::UndistortFTheta(double xd, double yd, double* xn, double* yn) const {
   const double rd = std::hypot(xd, yd);
   if (rd < 1e-12) {
@@ -197,22 +196,30 @@ double FarthestCornerPx(const pointforward::v1::Camera& camera) {
   return farthest;
 }
 
+// (theta, pixels) of `pixels_to_angle` at pixel distances max_px k /
+// kRadiusSamples from k = `first` on, up to where its angle stops growing or
+// reaches kFThetaMaxAngle.
+std::vector<std::pair<double, double>> GrowingSamples(const std::vector<double>& pixels_to_angle,
+                                                      double max_px, int first) {
+  const int n = static_cast<int>(pixels_to_angle.size());
+  std::vector<std::pair<double, double>> samples;
+  double previous = -1;
+  for (int k = first; k <= kRadiusSamples; ++k) {
+    const double px = max_px * k / kRadiusSamples;
+    const double theta = EvalPolynomial(pixels_to_angle.data(), n, px);
+    if (!(theta > previous) || theta >= kFThetaMaxAngle) break;
+    samples.emplace_back(theta, px);
+    previous = theta;
+  }
+  return samples;
+}
+
 // The angle-to-pixel polynomial (c0 = 0, degree 5) closest in least squares
 // to the inverse of `pixels_to_angle` over [0, max_px], sampled where the
 // inverse's angle grows and stays ahead of the camera.
 absl::StatusOr<std::vector<double>> FitFTheta(const std::vector<double>& pixels_to_angle,
                                               double max_px) {
-  const int n = static_cast<int>(pixels_to_angle.size());
-  std::vector<std::pair<double, double>> samples;  // (theta, pixels).
-  double previous = -1;
-  const double max_theta = kFThetaMaxAngle;
-  for (int k = 0; k <= kRadiusSamples; ++k) {
-    const double px = max_px * k / kRadiusSamples;
-    const double theta = EvalPolynomial(pixels_to_angle.data(), n, px);
-    if (!(theta > previous) || theta >= max_theta) break;
-    samples.emplace_back(theta, px);
-    previous = theta;
-  }
+  const std::vector<std::pair<double, double>> samples = GrowingSamples(pixels_to_angle, max_px, 0);
   if (samples.size() < kRadiusSamples / 16) {
     return LensFieldError(
         "distortion.fthetaInversePoly",
@@ -324,14 +331,9 @@ absl::StatusOr<std::vector<double>> FThetaPolynomialFromProto(
   }
   if (!forward.empty() && !inverse.empty()) {
     // Both given: the inverse must undo the forward one over the image.
-    const int n = static_cast<int>(inverse.size());
-    double previous_theta = -1;
-    int checked = 0;
-    for (int k = 1; k <= kRadiusSamples; ++k, ++checked) {
-      const double px = max_px * k / kRadiusSamples;
-      const double theta = EvalPolynomial(inverse.data(), n, px);
-      if (!(theta > previous_theta) || theta >= kFThetaMaxAngle) break;
-      previous_theta = theta;
+    const std::vector<std::pair<double, double>> samples = GrowingSamples(inverse, max_px, 1);
+    const int checked = static_cast<int>(samples.size());
+    for (const auto& [theta, px] : samples) {
       const double back = EvalPolynomial(poly.data(), Lens::kFThetaTerms, theta);
       if (!(std::abs(back - px) <= kInverseTolerancePx)) {
         return LensFieldError(

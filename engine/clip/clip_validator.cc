@@ -297,11 +297,11 @@ class ClipChecker {
                                 {"fy", k.fy(), true},
                                 {"cx", k.cx(), false},
                                 {"cy", k.cy(), false}};
+        // An FTHETA camera's focal length is its polynomial's: 0 is allowed.
+        const bool ftheta = camera.distortion().model() == Distortion::FTHETA;
         for (const auto& [name, value, is_focal_length] : values) {
           const std::string field = absl::StrCat(at, ".intrinsics.", name);
           if (!CheckFinite(Section::kCameras, i, field, value)) continue;
-          // An FTHETA camera's focal length is its polynomial's: 0 is allowed.
-          const bool ftheta = camera.distortion().model() == Distortion::FTHETA;
           if (is_focal_length && (value < 0 || (value == 0 && !ftheta))) {
             Add(Section::kCameras, i, field,
                 value == 0 ? "missing (focal length in pixels, > 0)"

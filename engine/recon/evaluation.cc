@@ -530,8 +530,6 @@ std::string EvalReportJson(const EvalReport& report) {
     j["lidarRender"] = nullptr;
   } else {
     nlohmann::ordered_json sweeps = nlohmann::ordered_json::array();
-    double hit = 0, median = 0, p90 = 0, chamfer = 0, render_seconds = 0;
-    int64_t points = 0;
     for (const LidarSweepFigures& f : report.lidar_render) {
       sweeps.push_back({{"timestampUs", f.timestamp_us},
                         {"sweepPoints", f.sweep_points},
@@ -541,18 +539,16 @@ std::string EvalReportJson(const EvalReport& report) {
                         {"rangeErrorP90", f.range_error_p90},
                         {"chamfer", f.chamfer},
                         {"renderSeconds", f.render_seconds}});
-      hit += f.hit_share, median += f.range_error_median, p90 += f.range_error_p90;
-      chamfer += f.chamfer, points += f.points, render_seconds += f.render_seconds;
     }
-    const double n = static_cast<double>(report.lidar_render.size());
+    const LidarSweepFigures mean = MeanLidarFigures(report.lidar_render);
     j["lidarRender"] = {{"sweeps", report.lidar_render.size()},
-                        {"points", points},
-                        {"hitShare", hit / n},
-                        {"rangeErrorMedian", median / n},
-                        {"rangeErrorP90", p90 / n},
-                        {"chamfer", chamfer / n},
+                        {"points", mean.points},
+                        {"hitShare", mean.hit_share},
+                        {"rangeErrorMedian", mean.range_error_median},
+                        {"rangeErrorP90", mean.range_error_p90},
+                        {"chamfer", mean.chamfer},
                         {"seconds", report.lidar_render_seconds},
-                        {"renderSeconds", render_seconds},
+                        {"renderSeconds", mean.render_seconds},
                         {"perSweep", sweeps}};
   }
   nlohmann::ordered_json frames = nlohmann::ordered_json::array();
@@ -706,6 +702,7 @@ absl::StatusOr<EvalReport> EvaluateClip(const LoadedClip& loaded, const ReconOpt
   std::set<int64_t> target_times;
   for (const ContextView& target : targets) target_times.insert(target.timestamp_us);
   std::vector<SeeingCamera> context_cameras;
+  std::set<int> context_sweeps, measured_sweeps;
   if (!sweeps.empty()) {
     std::map<std::string, CameraModel> models;
     for (const pointforward::v1::Camera& camera : loaded.clip.cameras()) {
@@ -715,11 +712,6 @@ absl::StatusOr<EvalReport> EvaluateClip(const LoadedClip& loaded, const ReconOpt
       if (frame.role() == pointforward::v1::Frame::TARGET) continue;
       context_cameras.push_back(
           {models.at(frame.camera()), Rigid::FromRowMajor(frame.world_from_camera().data())});
-    }
-  }
-  std::set<int> context_sweeps, measured_sweeps;
-  for (const pointforward::v1::Frame& frame : loaded.clip.frames()) {
-    if (frame.role() != pointforward::v1::Frame::TARGET) {
       context_sweeps.insert(NearestSweep(sweeps, frame.timestamp_us()));
     }
   }

@@ -9,6 +9,7 @@
 
 #include "absl/container/flat_hash_map.h"
 #include "common/status_macros.h"
+#include "engine/camera/image_pixel.h"
 
 namespace pf {
 namespace {
@@ -73,6 +74,26 @@ double Quantile(std::vector<double> values, double q) {
 
 }  // namespace
 
+LidarSweepFigures MeanLidarFigures(const std::vector<LidarSweepFigures>& sweeps) {
+  LidarSweepFigures mean;
+  for (const LidarSweepFigures& f : sweeps) {
+    mean.sweep_points += f.sweep_points;
+    mean.points += f.points;
+    mean.hit_share += f.hit_share;
+    mean.range_error_median += f.range_error_median;
+    mean.range_error_p90 += f.range_error_p90;
+    mean.chamfer += f.chamfer;
+    mean.render_seconds += f.render_seconds;
+  }
+  if (sweeps.empty()) return mean;
+  const double n = static_cast<double>(sweeps.size());
+  mean.hit_share /= n;
+  mean.range_error_median /= n;
+  mean.range_error_p90 /= n;
+  mean.chamfer /= n;
+  return mean;
+}
+
 absl::StatusOr<LidarSweepFigures> EvaluateLidarRender(const GaussianScene& scene,
                                                       const LidarSweepData& sweep,
                                                       const std::vector<SeeingCamera>& cameras,
@@ -81,9 +102,11 @@ absl::StatusOr<LidarSweepFigures> EvaluateLidarRender(const GaussianScene& scene
   for (const SeeingCamera& c : cameras) camera_from_world.push_back(c.world_from_camera.Inverse());
   auto seen = [&](const Vec3& p) {
     for (size_t k = 0; k < cameras.size(); ++k) {
+      const CameraModel& model = cameras[k].model;
       double u, v;
-      if (cameras[k].model.Project(camera_from_world[k] * p, &u, &v) && u >= 0 && v >= 0 &&
-          u < cameras[k].model.width() && v < cameras[k].model.height()) {
+      int px, py;
+      if (model.Project(camera_from_world[k] * p, &u, &v) &&
+          PixelInImage(u, v, model.width(), model.height(), &px, &py)) {
         return true;
       }
     }

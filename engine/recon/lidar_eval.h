@@ -40,6 +40,11 @@ struct LidarSweepFigures {
 
 inline constexpr double kChamferCap = 5.0;
 
+// The means over `sweeps` of hit_share, the range errors and chamfer;
+// points, sweep_points and render_seconds summed; timestamp_us 0. All zero
+// for none.
+LidarSweepFigures MeanLidarFigures(const std::vector<LidarSweepFigures>& sweeps);
+
 // Renders `scene` along the rays of `sweep`'s points (a sensor at rest at the
 // sweep's time) that one of `cameras` had in its image, and measures it
 // against them: the rest of the sweep (behind a forward rig, say) is nothing

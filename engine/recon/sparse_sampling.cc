@@ -724,14 +724,12 @@ double StaticStride(const SamplingView& sv, const SamplingOptions& options) {
 // cell side multiplied by `refine`, hidden ones kept above `floor` and their
 // colours to find to `colours`; returns how many visible (not hidden)
 // queries were added.
-size_t SampleStatic(const std::vector<SamplingView>& views, const SamplingOptions& options,
+size_t SampleStatic(const std::vector<SamplingView>& views,
+                    const std::vector<PixelFootprints>& footprints, const SamplingOptions& options,
                     double refine, const HiddenFloor& floor, QuerySet* out,
                     std::vector<HiddenColour>* colours) {
   size_t visible = 0;
   const Rigid identity;
-  std::vector<PixelFootprints> footprints;
-  footprints.reserve(views.size());
-  for (const SamplingView& sv : views) footprints.emplace_back(sv.view->camera);
   std::vector<ViewResolution> resolution(views.size());
   for (size_t v = 0; v < views.size(); ++v) {
     const double stride = StaticStride(views[v], options);
@@ -835,14 +833,17 @@ QuerySet SampleQueries(const std::vector<SamplingView>& views,
   // The floor depends on the views alone: found once for both passes.
   const HiddenFloor floor = options.behind_band_px > 0 ? FindHiddenFloor(views) : HiddenFloor{};
   std::vector<HiddenColour> colours;
-  const size_t kept = SampleStatic(views, options, 1.0, floor, &out, &colours);
+  std::vector<PixelFootprints> footprints;
+  footprints.reserve(views.size());
+  for (const SamplingView& sv : views) footprints.emplace_back(sv.view->camera);
+  const size_t kept = SampleStatic(views, footprints, options, 1.0, floor, &out, &colours);
   const double budget =
       double(views.size()) * double(std::max<int64_t>(1, options.static_per_view));
   if (options.fill_static_budget && !options.dense && kept > 0 && kept < 0.95 * budget) {
     const double refine = std::max(options.min_refine, std::sqrt(double(kept) / budget));
     out = QuerySet();
     colours.clear();
-    SampleStatic(views, options, refine, floor, &out, &colours);
+    SampleStatic(views, footprints, options, refine, floor, &out, &colours);
   }
   std::optional<SeenSurfaces> seen;
   if (options.hidden_colour_from_surfaces && !colours.empty()) {
@@ -864,11 +865,6 @@ QuerySet SampleQueries(const std::vector<SamplingView>& views,
       });
 
   // Dynamic queries, instance by instance, in canonical frames.
-  std::vector<PixelFootprints> view_footprints;
-  if (!tracks.empty()) {
-    view_footprints.reserve(views.size());
-    for (const SamplingView& sv : views) view_footprints.emplace_back(sv.view->camera);
-  }
   for (size_t k = 0; k < tracks.size(); ++k) {
     if (tracks[k].boxes.empty()) continue;
     const uint32_t owner = static_cast<uint32_t>(k + 1);
@@ -877,14 +873,13 @@ QuerySet SampleQueries(const std::vector<SamplingView>& views,
     for (size_t v = 0; v < views.size(); ++v) {
       const SamplingView& sv = views[v];
       to_canonical[v] = CanonicalFromWorld(tracks[k], sv.view->timestamp_us);
-      const PixelFootprints& footprints = view_footprints[v];
       const size_t n = sv.owners->size();
       for (size_t i = 0; i < n; ++i) {
         if ((*sv.owners)[i] != owner) continue;
         const Vec3 p{sv.lifted->points[3 * i], sv.lifted->points[3 * i + 1],
                      sv.lifted->points[3 * i + 2]};
         candidates.push_back({static_cast<int>(v), static_cast<int>(i), to_canonical[v] * p,
-                              float(footprints.Of(sv.depth->depth[i], i))});
+                              float(footprints[v].Of(sv.depth->depth[i], i))});
       }
     }
     if (candidates.empty()) continue;

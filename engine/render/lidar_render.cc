@@ -111,7 +111,9 @@ absl::StatusOr<std::vector<LidarReturn>> RenderLidarRays(const GaussianScene& sc
   render_options.instance = false;
   for (int s = 0; s < sectors; ++s) {
     if (members[s].empty()) continue;
-    // The view: the sector's middle azimuth, its rays' elevation range.
+    // The view looks along the sector's middle azimuth, at the middle of its
+    // rays' elevations, with square pixels of pixels_per_degree at its
+    // centre, reaching every ray of the sector plus a pixel.
     const double azimuth = (s + 0.5) * sector_width;
     double lowest = kLidarPi, highest = -kLidarPi, fraction = 0;
     for (size_t i : members[s]) {
@@ -123,8 +125,6 @@ absl::StatusOr<std::vector<LidarReturn>> RenderLidarRays(const GaussianScene& sc
     fraction /= static_cast<double>(members[s].size());
     const double elevation = 0.5 * (lowest + highest);
     const Mat3 sensor_from_camera = SectorRotation(azimuth, elevation);
-    // The view: square pixels of pixels_per_degree at its centre, reaching
-    // every ray of the sector plus a pixel.
     const Mat3 camera_from_sensor = Transpose(sensor_from_camera);
     double tan_x = 0, tan_y = 0;
     for (size_t i : members[s]) {
@@ -136,9 +136,8 @@ absl::StatusOr<std::vector<LidarReturn>> RenderLidarRays(const GaussianScene& sc
     const double focal = options.pixels_per_degree / kLidarDegree;
     const int width = 2 * static_cast<int>(std::ceil(tan_x * focal)) + 4;
     const int height = 2 * static_cast<int>(std::ceil(tan_y * focal)) + 4;
-    const double fx = focal, fy = focal;
     RenderCamera camera;
-    camera.model = CameraModel(width, height, fx, fy, 0.5 * width, 0.5 * height);
+    camera.model = CameraModel(width, height, focal, focal, 0.5 * width, 0.5 * height);
     const Rigid world_from_sensor = SensorPoseAt(pose, fraction);
     camera.world_from_camera = world_from_sensor * Rigid{sensor_from_camera, {}};
     const int64_t time_us =
