@@ -13,6 +13,7 @@
 #   TORCH_INCLUDES="DIR..." TORCH_LIBDIR=DIR TORCH_LIBS="-l..."   another LibTorch
 #   RUN="tests bench recon"                                        what runs (default all)
 #   RUNS=N DEVICES=cpu,cuda:0                    the flags of the benchmark and of the check
+#   RECON_SIZES="768x576 1536x1152"              the check's clip sizes (default 768x576)
 #
 # OpenImageIO is not needed there: no image file is read or written, and the
 # functions of it that our libraries call get stubs that abort, found by a
@@ -87,11 +88,13 @@ if wants bench; then
   bench --views 24 --width 1936 --height 1216 --queries_per_view 200000 | tee "$OUT_DIR/bench_dgp_size.json"
 fi
 if wants recon; then
-  "$WORK/pf_recon_device_check" --runs "${RUNS:-3}" --devices "${DEVICES:-cpu,cuda:0}" |
-    tee "$OUT_DIR/recon_check.json"
-  check_rc=${PIPESTATUS[0]}
-  echo "recon check: exit status $check_rc"
-  [ "$check_rc" = 0 ] || rc=1
+  for size in ${RECON_SIZES:-768x576}; do
+    "$WORK/pf_recon_device_check" --runs "${RUNS:-3}" --devices "${DEVICES:-cpu,cuda:0}" \
+      --width "${size%x*}" --height "${size#*x}" | tee "$OUT_DIR/recon_check_$size.json"
+    check_rc=${PIPESTATUS[0]}
+    echo "recon check at $size: exit status $check_rc ($(($(date +%s) - start)) s)"
+    [ "$check_rc" = 0 ] || rc=1
+  done
 fi
 echo "done in $(($(date +%s) - start)) s"
 exit $rc

@@ -1,10 +1,13 @@
 #!/usr/bin/env bash
 # Packs what a GPU machine without our dependencies needs to run the CUDA
-# rasterizer's checks (scripts/cuda-raster-run.sh): cuda_rasterizer_test and
-# pf_raster_bench from a build with CUDA (CMake found nvcc), stripped, and
-# the shared libraries they load beyond the C and C++ runtimes (abseil,
-# protobuf, spdlog, fmt, zlib), by soname. The CUDA runtime is linked in
-# statically; the GPU driver is the machine's own. About 15 MB.
+# rasterizer's and colour fit's checks (scripts/cuda-raster-run.sh):
+# cuda_rasterizer_test, cuda_colour_fit_test and pf_raster_bench from a build
+# with CUDA (CMake found nvcc), stripped, and the shared libraries they load
+# beyond the C and C++ runtimes (abseil, protobuf, spdlog, fmt, zlib), by
+# soname. The colour fit's test calls nothing of LibTorch, which the
+# library it links names anyway: that entry is dropped (patchelf). The CUDA
+# runtime is linked in statically; the GPU driver is the machine's own.
+# About 25 MB.
 #
 #   scripts/cuda-raster-pack.sh [BUILD_DIR] [PACK_DIR]   (defaults: build .cuda-raster)
 #
@@ -12,15 +15,26 @@
 set -euo pipefail
 BUILD=${1:-build}
 PACK=${2:-.cuda-raster}
-cmake --build "$BUILD" --target cuda_rasterizer_test pf_raster_bench >/dev/null
+command -v patchelf >/dev/null || { echo "needs patchelf (apt-get install patchelf)" >&2; exit 1; }
+cmake --build "$BUILD" --target cuda_rasterizer_test cuda_colour_fit_test pf_raster_bench >/dev/null
 nm -C "$BUILD/bin/pf_raster_bench" | grep -c ProjectKernel >/dev/null ||
   { echo "$BUILD has no CUDA rasterizer (configure where nvcc is on PATH)" >&2; exit 1; }
 rm -rf "$PACK"
 mkdir -p "$PACK/so"
-cp "$BUILD/tests/cuda_rasterizer_test" "$BUILD/bin/pf_raster_bench" "$PACK/"
-strip --strip-debug "$PACK/cuda_rasterizer_test" "$PACK/pf_raster_bench"
-for lib in $(ldd "$PACK/cuda_rasterizer_test" "$PACK/pf_raster_bench" | awk '/=>/ {print $3}' |
-             sort -u); do
+programs="cuda_rasterizer_test cuda_colour_fit_test pf_raster_bench"
+cp "$BUILD/tests/cuda_rasterizer_test" "$BUILD/tests/cuda_colour_fit_test" \
+   "$BUILD/bin/pf_raster_bench" "$PACK/"
+for program in $programs; do
+  strip --strip-debug "$PACK/$program"
+  if nm -D --undefined-only "$PACK/$program" | grep -q -E 'torch|c10|at::'; then
+    echo "$program calls LibTorch" >&2
+    exit 1
+  fi
+  for torch in $(readelf -d "$PACK/$program" | grep -o -E '\[lib(torch|c10)[^]]*' | tr -d '['); do
+    patchelf --remove-needed "$torch" "$PACK/$program"
+  done
+done
+for lib in $(cd "$PACK" && ldd $programs | awk '/=>/ {print $3}' | sort -u); do
   case $(basename "$lib") in
     libc.so* | libm.so* | libstdc++* | libgcc_s* | ld-linux* | libpthread* | libdl.so* | librt.so*) continue ;;
   esac

@@ -8,25 +8,28 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <memory>
 
 #include "absl/strings/str_cat.h"
 #include "common/status_macros.h"
 #include "common/thread_pool.h"
+#include "engine/recon/colour_fit_blocks.h"
+#include "engine/recon/cuda_colour_fit.h"
 #include "engine/recon/gaussian_decoder.h"
 #include "engine/render/compositing_weights.h"
 
 namespace pf {
 namespace {
 
-using Channels = std::array<double, 3>;
+using Channels = ChannelSums;
+using colour_fit::kMinTransmittance;
+using colour_fit::kSums;
+using colour_fit::PreconditionBlock;
 
 // Added to every Gaussian's data weight (its sum of squared compositing
 // weights) before the relative prior is taken, so that a Gaussian no fitted
 // pixel sees still has a positive prior and keeps its fused colour.
 constexpr float kPriorFloor = 1e-3f;
-
-// The transmittance under which alpha_ip = w_ip / T is not trusted.
-constexpr float kMinTransmittance = 1e-4f;
 
 // The data weight a colour's prior is relative to: the geometric mean of
 // the Gaussian's own data weight `seen` (sum of w_ip^2) and the weight it
@@ -106,13 +109,8 @@ void InvertSymmetric3(double a, double b, double c, double d, double e, double f
   out[5] = static_cast<float>((a * d - b * b) / det);
 }
 
-// Sums over one view's fitted pixels, per Gaussian (kSums floats each, the
-// same for the three channels): w^2, (w u)^2, (w v)^2, w^2 u, w^2 v,
-// w^2 u v (its block of A^T M A; u, v the local coordinates, 0 for flat
-// colours) and alpha^2 = (w / T)^2, T the transmittance left by the
-// entries in front (1 - their summed weight; the few under min_weight are
-// not counted): the Gaussian's data weight with nothing in front of it.
-constexpr int kSums = 7;
+// Adds each Gaussian's colour_fit::kSums sums over one view's fitted pixels
+// to `out` (local order).
 void AccumulateSums(const CompositingWeights& a, const std::vector<uint8_t>& fitted, float* out) {
   const bool textured = a.has_local_coords();
   for (size_t p = 0; p < fitted.size(); ++p) {
@@ -255,6 +253,276 @@ absl::StatusOr<RecordedViews> RecordViews(const std::vector<ContextView>& views,
   return out;
 }
 
+// The prior of each unknown ([N, 3K]) and the inverse of each Gaussian's
+// block of A^T M A + Lambda (colour_fit::PreconditionBlock's layout).
+struct Preconditioner {
+  std::vector<float> prior;
+  std::vector<float> inverse;
+};
+
+// Whether Gaussian i keeps its decoded colour (agreement channel 0: no
+// context view observes it; RefinementOptions::keep_hidden).
+bool HiddenGaussian(const GaussianScene& scene, const RefinementOptions& options, size_t i) {
+  const int stride = scene.num_channels;
+  return options.keep_hidden && stride > kAgreementChannel &&
+         scene.features[i * stride + kAgreementChannel] <= 0.f;
+}
+
+// The prior of each Gaussian is relative to its own data weight (plus a
+// floor for Gaussians no fitted pixel sees), so one prior_weight means the
+// same for small pixel-aligned discs and large fused ones; with
+// prior_from_unoccluded, to UnoccludedPrior of it.
+// Hidden Gaussians keep their colour: the little weight they get where the
+// surface in front is not quite opaque would only let them absorb its
+// residuals. The gradients' prior pulls them to 0 (flat), relative in the
+// same way.
+// The preconditioner: per Gaussian, the inverse of its block of
+// A^T M A + Lambda (1x1 for flat colours; 3x3, colour and its two
+// gradients, with gradients), the same for the three channels. The colour
+// and its gradients of one disc share every pixel, so their block is far
+// from diagonal, and by the diagonal alone the fit converged slowly
+// (docs/QUALITY.md, "The method as built"). `sums` is [N, kSums].
+Preconditioner MakePreconditioner(const std::vector<float>& sums, const Layout& layout,
+                                  const RefinementOptions& options, const GaussianScene& scene) {
+  const size_t n = scene.size();
+  const int per = layout.per_gaussian();
+  const int kk = layout.k;
+  const float lambda = static_cast<float>(options.prior_weight);
+  const float lambda_gradient = static_cast<float>(options.gradient_prior_weight);
+  Preconditioner out;
+  out.prior.resize(per * n);
+  out.inverse.resize((kk == 3 ? 6 : 1) * n);
+  for (size_t i = 0; i < n; ++i) {
+    const float* sum = &sums[kSums * i];
+    const bool hidden = HiddenGaussian(scene, options, i);
+    const float data =
+        hidden || !options.prior_from_unoccluded ? sum[0] : UnoccludedPrior(sum[0], sum[6]);
+    const float prior_colour = (hidden ? kHiddenPrior : lambda) * (data + kPriorFloor);
+    for (int c = 0; c < 3; ++c) out.prior[per * i + kk * c] = prior_colour;
+    if (kk == 1) {
+      out.inverse[i] = 1.f / (sum[0] + prior_colour);
+      continue;
+    }
+    const float gradient = hidden ? kHiddenPrior : lambda_gradient;
+    const float prior_u = gradient * (sum[1] + kPriorFloor);
+    const float prior_v = gradient * (sum[2] + kPriorFloor);
+    for (int c = 0; c < 3; ++c) {
+      out.prior[per * i + 3 * c + 1] = prior_u;
+      out.prior[per * i + 3 * c + 2] = prior_v;
+    }
+    InvertSymmetric3(sum[0] + prior_colour, sum[3], sum[4], sum[1] + prior_u, sum[5],
+                     sum[2] + prior_v, &out.inverse[6 * i]);
+  }
+  return out;
+}
+
+// Clamps the solution `x` in place to the colour and gradient ranges and
+// writes it to the scene (gradients are fitted here or not at all: flat
+// colours drop old ones). Hidden Gaussians stay flat (their prior only
+// nearly pins them).
+void StoreColours(const Layout& layout, const RefinementOptions& options, std::vector<float>* x,
+                  GaussianScene* scene) {
+  const size_t n = scene->size();
+  const int per = layout.per_gaussian();
+  const int kk = layout.k;
+  const int stride = scene->num_channels;
+  if (kk == 3) {
+    scene->colour_gradients.assign(6 * n, 0.f);
+  } else {
+    scene->colour_gradients.clear();
+  }
+  for (size_t i = 0; i < n; ++i) {
+    const bool hidden = HiddenGaussian(*scene, options, i);
+    for (int c = 0; c < 3; ++c) {
+      float* xc = &(*x)[per * i + kk * c];
+      xc[0] = std::clamp(xc[0], options.min_colour, options.max_colour);
+      scene->features[i * stride + c] = xc[0];
+      for (int g = 1; g < kk; ++g) {
+        xc[g] = hidden ? 0.f : std::clamp(xc[g], -options.max_gradient, options.max_gradient);
+        scene->colour_gradients[6 * i + 2 * c + g - 1] = xc[g];
+      }
+    }
+  }
+}
+
+double Rmse(const Channels& sums, int64_t pixels) {
+  return std::sqrt((sums[0] + sums[1] + sums[2]) / (3.0 * double(pixels)));
+}
+
+// The fit on the CPU: preconditioned conjugate gradients over the recorded
+// weights, from x (the decoded colours) to the stored result.
+void SolveOnCpu(std::vector<FitView>& fit, const Layout& layout, const RefinementOptions& options,
+                GaussianScene* scene, std::vector<float>* x_out, RefinementStats* stats) {
+  std::vector<float>& x = *x_out;
+  const size_t n = scene->size();
+  const int64_t num_views = static_cast<int64_t>(fit.size());
+  const int per = layout.per_gaussian();
+  const int kk = layout.k;
+  // for_views runs `body(view, scratch)` for every view, a batch of
+  // kViewsPerThread views per working thread at a time in parallel, and
+  // adds each batch's local_out into `out` (zeroed first) unless it is
+  // null: the scratch is held for one batch, not for every view, and the
+  // sums run in view order whatever the batch.
+  constexpr int64_t kViewsPerThread = 4;
+  const int64_t batch =
+      std::min<int64_t>(num_views, kViewsPerThread * (DefaultThreadPool().num_threads() + 1));
+  std::vector<ViewScratch> scratch(batch);
+  auto for_views = [&](const auto& body, std::vector<float>* out, int width = 0) {
+    if (width == 0) width = per;
+    if (out != nullptr) out->assign(width * n, 0.f);
+    for (int64_t first = 0; first < num_views; first += batch) {
+      DefaultThreadPool().ParallelFor(
+          first, std::min(num_views, first + batch), 1, [&](int64_t b, int64_t e) {
+            for (int64_t v = b; v < e; ++v) {
+              ViewScratch& slot = scratch[v - first];
+              slot.local_out.assign(width * fit[v].a.gaussians.size(), 0.f);
+              body(fit[v], &slot);
+            }
+          });
+      if (out != nullptr) Scatter(fit, static_cast<size_t>(first), width, scratch, out);
+    }
+  };
+  std::vector<Channels> view_sums(fit.size());
+  auto total = [&]() {
+    Channels sum{0, 0, 0};
+    for (const Channels& s : view_sums)
+      for (int c = 0; c < 3; ++c) sum[c] += s[c];
+    return sum;
+  };
+
+  // r = A^T M (I - A x), the negative gradient at x = c0 (where the prior
+  // term is 0).
+  std::vector<float> r;
+  for_views(
+      [&](const FitView& view, ViewScratch* s) {
+        Gather(view, layout, x, s);
+        view_sums[&view - fit.data()] = Residual(view, s);
+        ApplyTransposed(view.a, s->pixels.data(), s->local_out.data());
+      },
+      &r);
+  stats->rmse_before = Rmse(total(), stats->pixels);
+  std::vector<float> sums;
+  for_views([&](const FitView& view,
+                ViewScratch* s) { AccumulateSums(view.a, view.fitted, s->local_out.data()); },
+            &sums, kSums);
+  const Preconditioner pre = MakePreconditioner(sums, layout, options, *scene);
+  std::vector<float>().swap(sums);
+  // Runs body(i, &sum) for every Gaussian i on the pool, in blocks of a
+  // fixed size, and returns the per-channel sums it adds up: the blocks'
+  // sums are added in block order, so they do not depend on the thread
+  // count. The vector updates of an iteration are three such passes.
+  constexpr int64_t kBlock = 16384;
+  const int64_t num_blocks = (static_cast<int64_t>(n) + kBlock - 1) / kBlock;
+  std::vector<Channels> block_sums(num_blocks);
+  auto for_gaussians = [&](const auto& body) {
+    DefaultThreadPool().ParallelFor(0, num_blocks, 1, [&](int64_t b, int64_t e) {
+      for (int64_t block = b; block < e; ++block) {
+        Channels sum{0, 0, 0};
+        const size_t end = std::min(n, static_cast<size_t>(block + 1) * kBlock);
+        for (size_t i = static_cast<size_t>(block) * kBlock; i < end; ++i) body(i, &sum);
+        block_sums[block] = sum;
+      }
+    });
+    Channels total{0, 0, 0};
+    for (const Channels& sum : block_sums)
+      for (int c = 0; c < 3; ++c) total[c] += sum[c];
+    return total;
+  };
+  // z_i = (block i)^-1 r_i for Gaussian i.
+  const size_t inverse_size = kk == 3 ? 6 : 1;
+  auto precondition = [&](size_t i, const float* r, float* z) {
+    PreconditionBlock(&pre.inverse[inverse_size * i], kk, r, z);
+  };
+
+  // Preconditioned conjugate gradients, the three channels side by side.
+  // z = M^-1 r is worked out per Gaussian where it is needed, not stored.
+  std::vector<float> p(per * n), q;
+  Channels rz = for_gaussians([&](size_t i, Channels* sum) {
+    const size_t k = per * i;
+    float z[9];
+    precondition(i, &r[k], z);
+    for (int j = 0; j < per; ++j) {
+      p[k + j] = z[j];
+      (*sum)[j / kk] += double(r[k + j]) * z[j];
+    }
+  });
+  for (int iteration = 0; iteration < options.iterations; ++iteration) {
+    // q = (A^T M A + Lambda) p.
+    for_views(
+        [&](const FitView& view, ViewScratch* s) {
+          Gather(view, layout, p, s);
+          AccumulateNormal(view.a, view.fitted, s->local_in.data(), s->local_out.data());
+        },
+        &q);
+    const Channels pq = for_gaussians([&](size_t i, Channels* sum) {
+      for (size_t k = per * i, j = 0; j < size_t(per); ++j, ++k) {
+        q[k] += pre.prior[k] * p[k];
+        (*sum)[j / kk] += double(p[k]) * q[k];
+      }
+    });
+    float step[3];
+    for (int c = 0; c < 3; ++c) step[c] = pq[c] > 0 ? static_cast<float>(rz[c] / pq[c]) : 0.f;
+    // x += step p, r -= step q; r^T z for the new r.
+    const Channels rz_next = for_gaussians([&](size_t i, Channels* sum) {
+      const size_t k = per * i;
+      for (int j = 0; j < per; ++j) {
+        x[k + j] += step[j / kk] * p[k + j];
+        r[k + j] -= step[j / kk] * q[k + j];
+      }
+      float z[9];
+      precondition(i, &r[k], z);
+      for (int j = 0; j < per; ++j) (*sum)[j / kk] += double(r[k + j]) * z[j];
+    });
+    float beta[3];
+    for (int c = 0; c < 3; ++c) beta[c] = rz[c] > 0 ? static_cast<float>(rz_next[c] / rz[c]) : 0.f;
+    for_gaussians([&](size_t i, Channels*) {
+      const size_t k = per * i;
+      float z[9];
+      precondition(i, &r[k], z);
+      for (int j = 0; j < per; ++j) p[k + j] = z[j] + beta[j / kk] * p[k + j];
+    });
+    rz = rz_next;
+  }
+
+  StoreColours(layout, options, &x, scene);
+  for_views(
+      [&](const FitView& view, ViewScratch* s) {
+        Gather(view, layout, x, s);
+        view_sums[&view - fit.data()] = Residual(view, s);
+      },
+      nullptr);
+  stats->rmse_after = Rmse(total(), stats->pixels);
+}
+
+// The same fit with the weights, residual, sums and iterations on GPU
+// options.device (cuda_colour_fit.h); the preconditioner is built here.
+absl::Status SolveOnGpu(const std::vector<FitView>& fit, const Layout& layout,
+                        const RefinementOptions& options, GaussianScene* scene,
+                        std::vector<float>* x, RefinementStats* stats) {
+  std::vector<ColourFitView> views;
+  views.reserve(fit.size());
+  for (const FitView& view : fit) {
+    views.push_back({&view.a, view.fitted.data(), view.image->pixels.data()});
+  }
+  const auto upload_start = std::chrono::steady_clock::now();
+  ASSIGN_OR_RETURN(
+      std::unique_ptr<CudaColourFit> gpu,
+      CudaColourFit::Upload(views, scene->size(), layout.k == 3, options.device.index));
+  stats->upload_seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - upload_start).count();
+  stats->gpu_bytes = static_cast<int64_t>(gpu->device_bytes());
+  ASSIGN_OR_RETURN(const ChannelSums before, gpu->Residual(*x, /*start=*/true));
+  stats->rmse_before = Rmse(before, stats->pixels);
+  ASSIGN_OR_RETURN(const std::vector<float> sums, gpu->Sums());
+  const Preconditioner pre = MakePreconditioner(sums, layout, options, *scene);
+  RETURN_IF_ERROR(gpu->Solve(pre.prior, pre.inverse, options.iterations, x));
+  StoreColours(layout, options, x, scene);
+  ASSIGN_OR_RETURN(const ChannelSums after, gpu->Residual(*x, /*start=*/false));
+  stats->rmse_after = Rmse(after, stats->pixels);
+  stats->on_gpu = true;
+  return absl::OkStatus();
+}
+
 }  // namespace
 
 absl::StatusOr<RefinementStats> RefineColours(const std::vector<ContextView>& views,
@@ -339,222 +607,22 @@ absl::StatusOr<RefinementStats> RefineColours(const std::vector<ContextView>& vi
     for (uint8_t f : view.fitted) stats.pixels += f;
   }
   if (stats.pixels == 0) return stats;
-  const Clock::time_point solve_start = Clock::now();
 
+  const Clock::time_point solve_start = Clock::now();
   // x: the colours, starting at the fused ones (c0, the prior's centre, so
-  // the prior enters only through Lambda below). for_views runs
-  // `body(view, scratch)` for every view, a batch of kViewsPerThread views
-  // per working thread at a time in parallel, and adds each batch's
-  // local_out into `out` (zeroed first) unless it is null: the scratch is
-  // held for one batch, not for every view, and the sums run in view order
-  // whatever the batch.
-  // With colour gradients the unknowns are [N, 3, 3] (colour, g_u, g_v per
-  // channel), the gradients starting (and centred) at 0.
+  // the prior enters only through Lambda). With colour gradients the
+  // unknowns are [N, 3, 3] (colour, g_u, g_v per channel), the gradients
+  // starting (and centred) at 0.
   const Layout layout{gradients ? 3 : 1};
   const int per = layout.per_gaussian();
-  const int kk = layout.k;
   std::vector<float> x(per * n, 0.f);
   for (size_t i = 0; i < n; ++i)
-    for (int c = 0; c < 3; ++c) x[per * i + kk * c] = scene->features[i * stride + c];
-  constexpr int64_t kViewsPerThread = 4;
-  const int64_t batch =
-      std::min<int64_t>(num_views, kViewsPerThread * (DefaultThreadPool().num_threads() + 1));
-  std::vector<ViewScratch> scratch(batch);
-  auto for_views = [&](const auto& body, std::vector<float>* out, int width = 0) {
-    if (width == 0) width = per;
-    if (out != nullptr) out->assign(width * n, 0.f);
-    for (int64_t first = 0; first < num_views; first += batch) {
-      DefaultThreadPool().ParallelFor(
-          first, std::min(num_views, first + batch), 1, [&](int64_t b, int64_t e) {
-            for (int64_t v = b; v < e; ++v) {
-              ViewScratch& slot = scratch[v - first];
-              slot.local_out.assign(width * fit[v].a.gaussians.size(), 0.f);
-              body(fit[v], &slot);
-            }
-          });
-      if (out != nullptr) Scatter(fit, static_cast<size_t>(first), width, scratch, out);
-    }
-  };
-  std::vector<Channels> view_sums(views.size());
-
-  // r = A^T M (I - A x), the negative gradient at x = c0 (where the prior
-  // term is 0).
-  std::vector<float> r;
-  for_views(
-      [&](const FitView& view, ViewScratch* s) {
-        Gather(view, layout, x, s);
-        view_sums[&view - fit.data()] = Residual(view, s);
-        ApplyTransposed(view.a, s->pixels.data(), s->local_out.data());
-      },
-      &r);
-  auto total_rmse = [&]() {
-    double sum = 0;
-    for (const Channels& s : view_sums) sum += s[0] + s[1] + s[2];
-    return std::sqrt(sum / (3.0 * double(stats.pixels)));
-  };
-  stats.rmse_before = total_rmse();
-  // Each Gaussian's block of A^T M A and its data weight with nothing in
-  // front (AccumulateSums).
-  std::vector<float> sums;
-  for_views([&](const FitView& view,
-                ViewScratch* s) { AccumulateSums(view.a, view.fitted, s->local_out.data()); },
-            &sums, kSums);
-  // The prior of each Gaussian is relative to its own data weight (plus a
-  // floor for Gaussians no fitted pixel sees), so one prior_weight means the
-  // same for small pixel-aligned discs and large fused ones; with
-  // prior_from_unoccluded, to UnoccludedPrior of it.
-  // Hidden Gaussians (agreement channel 0: no context view observes them)
-  // keep their colour: the little weight they get where the surface in front
-  // is not quite opaque would only let them absorb its residuals.
-  // The gradients' prior pulls them to 0 (flat), relative in the same way.
-  const float lambda = static_cast<float>(options.prior_weight);
-  const float lambda_gradient = static_cast<float>(options.gradient_prior_weight);
-  const bool has_agreement = options.keep_hidden && stride > kAgreementChannel;
-  auto hidden_gaussian = [&](size_t i) {
-    return has_agreement && scene->features[i * stride + kAgreementChannel] <= 0.f;
-  };
-  // The preconditioner: per Gaussian, the inverse of its block of
-  // A^T M A + Lambda (1x1 for flat colours; 3x3, colour and its two
-  // gradients, with gradients), the same for the three channels. The
-  // colour and its gradients of one disc share every pixel, so their block
-  // is far from diagonal, and by the diagonal alone the fit converged
-  // slowly (docs/QUALITY.md, "The method as built").
-  std::vector<float> prior(per * n);
-  std::vector<float> inverse((kk == 3 ? 6 : 1) * n);
-  for (size_t i = 0; i < n; ++i) {
-    const float* sum = &sums[kSums * i];
-    const bool hidden = hidden_gaussian(i);
-    const float data =
-        hidden || !options.prior_from_unoccluded ? sum[0] : UnoccludedPrior(sum[0], sum[6]);
-    const float prior_colour = (hidden ? kHiddenPrior : lambda) * (data + kPriorFloor);
-    for (int c = 0; c < 3; ++c) prior[per * i + kk * c] = prior_colour;
-    if (kk == 1) {
-      inverse[i] = 1.f / (sum[0] + prior_colour);
-      continue;
-    }
-    const float gradient = hidden ? kHiddenPrior : lambda_gradient;
-    const float prior_u = gradient * (sum[1] + kPriorFloor);
-    const float prior_v = gradient * (sum[2] + kPriorFloor);
-    for (int c = 0; c < 3; ++c) {
-      prior[per * i + 3 * c + 1] = prior_u;
-      prior[per * i + 3 * c + 2] = prior_v;
-    }
-    InvertSymmetric3(sum[0] + prior_colour, sum[3], sum[4], sum[1] + prior_u, sum[5],
-                     sum[2] + prior_v, &inverse[6 * i]);
-  }
-  std::vector<float>().swap(sums);
-  // z_i = (block i)^-1 r_i for Gaussian i.
-  auto precondition = [&](size_t i, const float* r, float* z) {
-    if (kk == 1) {
-      for (int c = 0; c < 3; ++c) z[c] = inverse[i] * r[c];
-      return;
-    }
-    const float* m = &inverse[6 * i];
-    for (int c = 0; c < 3; ++c) {
-      const float r0 = r[3 * c], r1 = r[3 * c + 1], r2 = r[3 * c + 2];
-      z[3 * c] = m[0] * r0 + m[1] * r1 + m[2] * r2;
-      z[3 * c + 1] = m[1] * r0 + m[3] * r1 + m[4] * r2;
-      z[3 * c + 2] = m[2] * r0 + m[4] * r1 + m[5] * r2;
-    }
-  };
-  // Runs body(i, &sum) for every Gaussian i on the pool, in blocks of a
-  // fixed size, and returns the per-channel sums it adds up: the blocks'
-  // sums are added in block order, so they do not depend on the thread
-  // count. The vector updates of an iteration are three such passes.
-  constexpr int64_t kBlock = 16384;
-  const int64_t num_blocks = (static_cast<int64_t>(n) + kBlock - 1) / kBlock;
-  std::vector<Channels> block_sums(num_blocks);
-  auto for_gaussians = [&](const auto& body) {
-    DefaultThreadPool().ParallelFor(0, num_blocks, 1, [&](int64_t b, int64_t e) {
-      for (int64_t block = b; block < e; ++block) {
-        Channels sum{0, 0, 0};
-        const size_t end = std::min(n, static_cast<size_t>(block + 1) * kBlock);
-        for (size_t i = static_cast<size_t>(block) * kBlock; i < end; ++i) body(i, &sum);
-        block_sums[block] = sum;
-      }
-    });
-    Channels total{0, 0, 0};
-    for (const Channels& sum : block_sums)
-      for (int c = 0; c < 3; ++c) total[c] += sum[c];
-    return total;
-  };
-
-  // Preconditioned conjugate gradients, the three channels side by side.
-  // z = M^-1 r is worked out per Gaussian where it is needed, not stored.
-  std::vector<float> p(per * n), q;
-  Channels rz = for_gaussians([&](size_t i, Channels* sum) {
-    const size_t k = per * i;
-    float z[9];
-    precondition(i, &r[k], z);
-    for (int j = 0; j < per; ++j) {
-      p[k + j] = z[j];
-      (*sum)[j / kk] += double(r[k + j]) * z[j];
-    }
-  });
-  for (int iteration = 0; iteration < options.iterations; ++iteration) {
-    // q = (A^T M A + Lambda) p.
-    for_views(
-        [&](const FitView& view, ViewScratch* s) {
-          Gather(view, layout, p, s);
-          AccumulateNormal(view.a, view.fitted, s->local_in.data(), s->local_out.data());
-        },
-        &q);
-    const Channels pq = for_gaussians([&](size_t i, Channels* sum) {
-      for (size_t k = per * i, j = 0; j < size_t(per); ++j, ++k) {
-        q[k] += prior[k] * p[k];
-        (*sum)[j / kk] += double(p[k]) * q[k];
-      }
-    });
-    float step[3];
-    for (int c = 0; c < 3; ++c) step[c] = pq[c] > 0 ? static_cast<float>(rz[c] / pq[c]) : 0.f;
-    // x += step p, r -= step q; r^T z for the new r.
-    const Channels rz_next = for_gaussians([&](size_t i, Channels* sum) {
-      const size_t k = per * i;
-      for (int j = 0; j < per; ++j) {
-        x[k + j] += step[j / kk] * p[k + j];
-        r[k + j] -= step[j / kk] * q[k + j];
-      }
-      float z[9];
-      precondition(i, &r[k], z);
-      for (int j = 0; j < per; ++j) (*sum)[j / kk] += double(r[k + j]) * z[j];
-    });
-    float beta[3];
-    for (int c = 0; c < 3; ++c) beta[c] = rz[c] > 0 ? static_cast<float>(rz_next[c] / rz[c]) : 0.f;
-    for_gaussians([&](size_t i, Channels*) {
-      const size_t k = per * i;
-      float z[9];
-      precondition(i, &r[k], z);
-      for (int j = 0; j < per; ++j) p[k + j] = z[j] + beta[j / kk] * p[k + j];
-    });
-    rz = rz_next;
-  }
-
-  // Gradients are fitted here or not at all (flat colours drop old ones).
-  if (gradients) {
-    scene->colour_gradients.assign(6 * n, 0.f);
+    for (int c = 0; c < 3; ++c) x[per * i + layout.k * c] = scene->features[i * stride + c];
+  if (options.device.kind == ComputeDevice::Kind::kCuda) {
+    RETURN_IF_ERROR(SolveOnGpu(fit, layout, options, scene, &x, &stats));
   } else {
-    scene->colour_gradients.clear();
+    SolveOnCpu(fit, layout, options, scene, &x, &stats);
   }
-  for (size_t i = 0; i < n; ++i) {
-    for (int c = 0; c < 3; ++c) {
-      float* xc = &x[per * i + kk * c];
-      xc[0] = std::clamp(xc[0], options.min_colour, options.max_colour);
-      scene->features[i * stride + c] = xc[0];
-      for (int g = 1; g < kk; ++g) {
-        // Hidden Gaussians stay flat (their prior only nearly pins them).
-        xc[g] = hidden_gaussian(i) ? 0.f
-                                   : std::clamp(xc[g], -options.max_gradient, options.max_gradient);
-        scene->colour_gradients[6 * i + 2 * c + g - 1] = xc[g];
-      }
-    }
-  }
-  for_views(
-      [&](const FitView& view, ViewScratch* s) {
-        Gather(view, layout, x, s);
-        view_sums[&view - fit.data()] = Residual(view, s);
-      },
-      nullptr);
-  stats.rmse_after = total_rmse();
   stats.solve_seconds = seconds_since(solve_start);
   return stats;
 }

@@ -38,6 +38,7 @@
 #include <vector>
 
 #include "absl/status/statusor.h"
+#include "common/compute_device.h"
 #include "engine/recon/context_views.h"
 #include "engine/render/gaussian_scene.h"
 #include "engine/render/hole_fill.h"
@@ -89,6 +90,11 @@ struct RefinementOptions {
   // clips.
   int64_t max_pairs = 256'000'000;
   int max_pixel_stride = 4;
+  // Where the solve runs (the residuals, sums and iterations over the
+  // recorded weights): the CPU, or GPU cuda:N (cuda_colour_fit.h; the
+  // weights are recorded on the CPU either way, and the results agree to
+  // float rounding).
+  ComputeDevice device;
 };
 
 // What a refinement did, over the fitted context pixels.
@@ -112,12 +118,16 @@ struct RefinementStats {
   // stride), and in the rest of the fit (its set-up and iterations).
   double record_seconds = 0;
   double solve_seconds = 0;
+  bool on_gpu = false;        // The solve ran on RefinementOptions::device's GPU.
+  int64_t gpu_bytes = 0;      // GPU memory the solve held.
+  double upload_seconds = 0;  // Of solve_seconds: copying the weights to the GPU.
 };
 
 // Refines the first three feature channels of `scene` in place against
 // `views`. INVALID_ARGUMENT when the scene has fewer than 3 feature channels
-// or options are out of range; errors of ComputeCompositingWeights
-// otherwise.
+// or options are out of range; errors of ComputeCompositingWeights, and of
+// the GPU (CudaColourFit: no CUDA in the build, no such GPU, out of its
+// memory) for a cuda device, otherwise.
 absl::StatusOr<RefinementStats> RefineColours(const std::vector<ContextView>& views,
                                               const RefinementOptions& options,
                                               GaussianScene* scene);

@@ -4,8 +4,10 @@
 // In a build with LibTorch (CMake finds it; PF_TORCH=OFF leaves it out),
 // fusion runs as LibTorch tensor work on the chosen device
 // (tensor_fusion.h). Without LibTorch only `cpu` exists, and fusion runs the
-// plain C++ kernel of fusion.h. The per-pixel kernels (depth completion,
-// sampling, rasterization, the colour fit) are C++ on the CPU either way.
+// plain C++ kernel of fusion.h. Where the build has CUDA the colour fit's
+// solve runs on the same GPU (cuda_colour_fit.h). The other per-pixel kernels
+// (depth completion, sampling, recording the fit's weights) are C++ on the
+// CPU either way.
 //
 //   ASSIGN_OR_RETURN(ComputeDevice device, ParseComputeDevice(flag, "--device"));
 //   RETURN_IF_ERROR(CheckComputeDevice(device, "--device"));

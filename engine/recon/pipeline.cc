@@ -7,6 +7,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "common/status_macros.h"
+#include "engine/recon/cuda_colour_fit.h"
 #include "engine/recon/scene_graph.h"
 #include "pointforward/v1/clip.pb.h"
 #if PF_HAVE_TORCH
@@ -167,8 +168,30 @@ absl::Status Pipeline::FitColours() {
   if (options_.refinement.iterations <= 0) return absl::OkStatus();
   RefinementOptions refinement = options_.refinement;
   refinement.colour_gradients = ColourGradientsFor(options_);
-  ASSIGN_OR_RETURN(const RefinementStats refined,
-                   RefineColours(inputs_.views, refinement, &result_.scene));
+  // The solve goes where fusion went when this build has the GPU colour fit;
+  // a GPU without room for it leaves it to the CPU.
+  std::string device_note;
+  if (options_.device.kind == ComputeDevice::Kind::kCuda) {
+    if (HaveCudaColourFit()) {
+      refinement.device = options_.device;
+    } else {
+      device_note = "; solved on the cpu: this build has no CUDA kernels";
+    }
+  }
+  absl::StatusOr<RefinementStats> fitted = RefineColours(inputs_.views, refinement, &result_.scene);
+  if (!fitted.ok() && absl::IsResourceExhausted(fitted.status()) &&
+      refinement.device.kind == ComputeDevice::Kind::kCuda) {
+    device_note = absl::StrCat("; solved on the cpu: ", fitted.status().message());
+    refinement.device = ComputeDevice{};
+    fitted = RefineColours(inputs_.views, refinement, &result_.scene);
+  }
+  RETURN_IF_ERROR(fitted.status());
+  const RefinementStats& refined = *fitted;
+  if (refined.on_gpu) device_note = absl::StrCat("; solved on ", refinement.device.ToString());
+  result_.stats.colour_fit_device = refined.on_gpu ? refinement.device.ToString() : "cpu";
+  result_.stats.colour_fit_record_seconds = refined.record_seconds;
+  result_.stats.colour_fit_solve_seconds = refined.solve_seconds;
+  result_.stats.colour_fit_upload_seconds = refined.upload_seconds;
   const int max_stride = options_.refinement.max_pixel_stride;
   std::string detail = refined.flat_fallback
                            ? absl::StrCat(
@@ -176,6 +199,7 @@ absl::Status Pipeline::FitColours() {
                                  "even on 1 pixel in ",
                                  max_stride)
                            : "";
+  absl::StrAppend(&detail, device_note);
   if (refined.pixel_stride > 1) {
     absl::StrAppend(&detail, "; fitted on 1 pixel in ", refined.pixel_stride,
                     " of each view to stay within the memory bound");

@@ -27,7 +27,7 @@
 //   --working-space srgb|linear      the colour encoding the context images are
 //                                    decoded to and the scene's colours are fitted
 //                                    in (default srgb; docs/SCENE_FORMAT.md, "Colour")
-//   --device cpu|cuda[:N]            where fusion's tensor work runs (compute_device.h)
+//   --device cpu|cuda[:N]            where fusion and the colour fit's solve run (compute_device.h)
 //   --allow-outside-paths            accept manifest paths that are absolute or leave
 //                                    the clip's directory (as pf validate does)
 #ifndef POINTFORWARD_ENGINE_RECON_RECON_OPTIONS_H_

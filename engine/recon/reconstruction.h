@@ -56,7 +56,8 @@ struct ReconOptions {
   // convert to linear for EXR and to sRGB for PNG either way.
   ColourEncoding colour_encoding = ColourEncoding::kSrgb;
   // Where fusion's tensor work runs (compute_device.h); without LibTorch in
-  // the build only the CPU, with the C++ kernel.
+  // the build only the CPU, with the C++ kernel. A cuda device also takes
+  // the colour fit's solve where the build has CUDA (cuda_colour_fit.h).
   ComputeDevice device;
   // Called after each stage and with notes (recon_stages.h); may be null.
   ReconProgressFn progress;
@@ -81,6 +82,12 @@ struct ReconStats {
   // The colour fit's pixels: 1 in colour_fit_pixel_stride of each view (1:
   // every pixel; 0: no fit ran).
   int colour_fit_pixel_stride = 0;
+  // Where the colour fit's solve ran ("cpu" or "cuda:N"; empty: no fit), and
+  // its seconds recording the weights and solving (RefinementStats).
+  std::string colour_fit_device;
+  double colour_fit_record_seconds = 0;
+  double colour_fit_solve_seconds = 0;
+  double colour_fit_upload_seconds = 0;  // Of the solve: the weights to the GPU.
   std::vector<std::pair<std::string, double>> stage_seconds;  // In order.
   double total_seconds = 0;
 };

@@ -25,6 +25,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "engine/render/cuda_rasterizer.h"
+#include "engine/render/cuda_support.h"
 #include "engine/render/raster_frame.h"
 #include "engine/render/raster_sh.h"
 #include "engine/render/raster_tile.h"
@@ -40,46 +41,9 @@ using raster::kTile;
 using raster::kTilePixels;
 using raster::Projected;
 
-absl::Status CudaError(cudaError_t error, const char* what) {
-  if (error == cudaSuccess) return absl::OkStatus();
-  const std::string message = absl::StrCat("CUDA: ", what, ": ", cudaGetErrorName(error), " (",
-                                           cudaGetErrorString(error), ")");
-  cudaGetLastError();  // Clears a non-sticky error.
-  if (error == cudaErrorMemoryAllocation) return absl::ResourceExhaustedError(message);
-  return absl::InternalError(message);
-}
-
-#define PF_CUDA_RETURN_IF_ERROR(call)                                             \
-  do {                                                                            \
-    if (absl::Status cuda_status = CudaError((call), #call); !cuda_status.ok()) { \
-      return cuda_status;                                                         \
-    }                                                                             \
-  } while (false)
-
-// A device allocation that only grows.
-template <typename T>
-struct DeviceBuffer {
-  T* data = nullptr;
-  size_t capacity = 0;  // Elements.
-
-  ~DeviceBuffer() { cudaFree(data); }
-  absl::Status Reserve(size_t n) {
-    if (n <= capacity) return absl::OkStatus();
-    cudaFree(data);
-    data = nullptr;
-    capacity = 0;
-    PF_CUDA_RETURN_IF_ERROR(cudaMalloc(&data, std::max<size_t>(n, 1) * sizeof(T)));
-    capacity = n;
-    return absl::OkStatus();
-  }
-  absl::Status Upload(const std::vector<T>& host) {
-    if (absl::Status s = Reserve(host.size()); !s.ok()) return s;
-    if (host.empty()) return absl::OkStatus();
-    return CudaError(cudaMemcpy(data, host.data(), host.size() * sizeof(T), cudaMemcpyHostToDevice),
-                     "cudaMemcpy to the GPU");
-  }
-  size_t bytes() const { return capacity * sizeof(T); }
-};
+using cuda::CeilDiv;
+using cuda::CudaError;
+using cuda::DeviceBuffer;
 
 // Per owner (0 background, k instance k), as the kernels read it.
 struct OwnerPose {
@@ -299,8 +263,6 @@ __global__ void __launch_bounds__(kTilePixels) CompositeKernel(CompositeArgs a) 
     }
   }
 }
-
-int CeilDiv(size_t a, int b) { return static_cast<int>((a + b - 1) / b); }
 
 }  // namespace
 
