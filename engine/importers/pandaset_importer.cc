@@ -16,6 +16,7 @@
 #include "absl/strings/match.h"
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
 #include "absl/strings/str_join.h"
 #include "absl/strings/str_split.h"
 #include "common/file_util.h"
@@ -27,6 +28,7 @@
 #include "engine/importers/jpeg_header.h"
 #include "engine/importers/json_fields.h"
 #include "engine/importers/npy.h"
+#include "engine/importers/spinning_lidar_origin.h"
 #include "pointforward/v1/clip.pb.h"
 
 namespace pf {
@@ -141,6 +143,7 @@ class PandasetImport {
   absl::Status AddCamera(const std::string& name, std::vector<ImageJob>* jobs);
   absl::Status WriteImages(const std::vector<ImageJob>& jobs);
   absl::Status CheckPickleReader(const absl::StatusOr<ProcessResult>& run);
+  absl::Status LocateLidarHead(const std::string& pickles, const SensorTrack& lidar);
   absl::Status AddLidar(const std::string& pickles, int frame, const SensorTrack& lidar);
   absl::Status AddCuboids(const std::string& pickles, int frame, const SensorTrack& lidar);
 
@@ -151,6 +154,8 @@ class PandasetImport {
   std::map<std::string, v1::Instance> instances_;
   std::set<std::string> stationary_tracks_;
   std::vector<int> frames_without_lidar_, frames_without_cuboids_;
+  // The Pandar64's head in the frame of lidar/poses.json (LocateLidarHead).
+  LidarOriginEstimate lidar_head_;
   v1::Clip clip_;
 };
 
@@ -288,20 +293,60 @@ absl::Status PandasetImport::CheckPickleReader(const absl::StatusOr<ProcessResul
   }
 }
 
-absl::Status PandasetImport::AddLidar(const std::string& pickles, int frame,
-                                      const SensorTrack& lidar) {
+// Reads the frame's converted sweep (x, y, z, i, t, d rows, world frame).
+absl::StatusOr<std::optional<NpyArray>> ReadSweep(const std::string& pickles,
+                                                  const std::string& dir, int frame) {
   const std::string npy_path = absl::StrCat(pickles, "/lidar/", frame, ".npy");
-  if (!fs::exists(npy_path)) {
-    frames_without_lidar_.push_back(frame);
-    return absl::OkStatus();
-  }
-  const std::string label = absl::StrCat(dir_, "/lidar: frame ", frame);
+  if (!fs::exists(npy_path)) return std::optional<NpyArray>();
+  const std::string label = absl::StrCat(dir, "/lidar: frame ", frame);
   ASSIGN_OR_RETURN(std::string bytes, ReadFileToString(npy_path));
   ASSIGN_OR_RETURN(NpyArray array, ParseNpy(bytes, label));
   if (array.shape.size() != 2 || array.shape[1] != kLidarColumns) {
     return absl::InvalidArgumentError(absl::StrCat(label, ": expected N x 6 points"));
   }
+  return std::optional<NpyArray>(std::move(array));
+}
+
+// PandaSet's lidar/poses.json is not where the Pandar64's head is (on
+// sequence 002 the head is 1.86 m above it and 0.7 m along its y axis:
+// docs/IMPORTERS.md). Finds the head from the Pandar64's points (d = 0) of up
+// to kHeadFrames frames spread over the range, in the pose's frame
+// (EstimateSpinningLidarOrigin); the sweeps are then written with the head
+// as their sensor's origin.
+constexpr size_t kHeadFrames = 6;
+absl::Status PandasetImport::LocateLidarHead(const std::string& pickles, const SensorTrack& lidar) {
+  const std::vector<int> frames(frames_.begin(), frames_.end());
+  const size_t count = std::min(kHeadFrames, frames.size());
+  std::vector<std::vector<FiredPoint>> sweeps;
+  for (size_t k = 0; k < count; ++k) {
+    const int frame = frames[k * frames.size() / count];
+    ASSIGN_OR_RETURN(std::optional<NpyArray> array, ReadSweep(pickles, dir_, frame));
+    if (!array.has_value()) continue;
+    ASSIGN_OR_RETURN(const Rigid world_from_pose, lidar.Pose(frame));
+    const Rigid pose_from_world = world_from_pose.Inverse();
+    std::vector<FiredPoint>& sweep = sweeps.emplace_back();
+    for (int64_t i = 0; i < array->shape[0]; ++i) {
+      const double* row = &array->data[i * kLidarColumns];
+      if (row[5] != 0) continue;  // The PandarGT.
+      sweep.push_back({pose_from_world * Vec3{row[0], row[1], row[2]}, row[4]});
+    }
+  }
+  lidar_head_ = EstimateSpinningLidarOrigin(sweeps);
+  return absl::OkStatus();
+}
+
+absl::Status PandasetImport::AddLidar(const std::string& pickles, int frame,
+                                      const SensorTrack& lidar) {
+  ASSIGN_OR_RETURN(std::optional<NpyArray> sweep, ReadSweep(pickles, dir_, frame));
+  if (!sweep.has_value()) {
+    frames_without_lidar_.push_back(frame);
+    return absl::OkStatus();
+  }
+  const NpyArray& array = *sweep;
   ASSIGN_OR_RETURN(Rigid world_from_sensor, lidar.Pose(frame));
+  // The sensor's origin at the head (the pose's axes kept).
+  world_from_sensor.translation =
+      world_from_sensor.translation + world_from_sensor.rotation * lidar_head_.centre;
   ASSIGN_OR_RETURN(int64_t timestamp, lidar.TimestampUs(frame));
   const Rigid sensor_from_world = world_from_sensor.Inverse();
   const int64_t n = array.shape[0];
@@ -426,6 +471,7 @@ absl::StatusOr<ImportResult> PandasetImport::Run() {
   RETURN_IF_ERROR(images);
   RETURN_IF_ERROR(CheckPickleReader(reader));
 
+  RETURN_IF_ERROR(LocateLidarHead(pickles, lidar));
   for (int frame : frames_) {
     RETURN_IF_ERROR(AddLidar(pickles, frame, lidar));
     RETURN_IF_ERROR(AddCuboids(pickles, frame, lidar));
@@ -445,6 +491,18 @@ absl::StatusOr<ImportResult> PandasetImport::Run() {
     result.warnings.push_back(absl::StrCat("no annotations/cuboids/NN.pkl.gz for frames ",
                                            FrameList(frames_without_cuboids_),
                                            ": no boxes imported for them"));
+  }
+  if (lidar_head_.reliable) {
+    result.warnings.push_back(absl::StrFormat(
+        "LiDAR sweeps placed at the Pandar64's head, (%.2f, %.2f, %.2f) m in the frame of "
+        "lidar/poses.json, where its points put it (%d point pairs); the poses file's origin is "
+        "not the sensor's",
+        lidar_head_.centre.x, lidar_head_.centre.y, lidar_head_.centre.z, lidar_head_.pairs));
+  } else if (clip_.lidar_size() > 0) {
+    result.warnings.push_back(absl::StrCat(
+        "the Pandar64's head could not be located from its points (", lidar_head_.pairs,
+        " point pairs): the sweeps keep lidar/poses.json's origin, which on PandaSet lies about "
+        "1.9 m below the head, so LiDAR rendered from them starts too low"));
   }
   if (!stationary_tracks_.empty()) {
     result.warnings.push_back(absl::StrCat(stationary_tracks_.size(),

@@ -7,8 +7,11 @@
 //   OpenCV axes), timestamps.json (per frame, seconds).
 // - lidar/NN.pkl.gz: points in the world frame from both LiDARs (d = 0 the
 //   360-degree Pandar64, d = 1 the forward PandarGT); one sweep per frame,
-//   written in the sensor frame of lidar/poses.json with that pose as
-//   worldFromSensor, at lidar/timestamps.json.
+//   at lidar/timestamps.json, written in a sensor frame with the axes of
+//   lidar/poses.json and the Pandar64's head as its origin: the poses are
+//   not where the head is, so it is found from the Pandar64's own points
+//   (spinning_lidar_origin.h; ImportResult::warnings says where, or that
+//   the pose was kept).
 // - annotations/cuboids/NN.pkl.gz: boxes in the world at the LiDAR's time;
 //   tracks with `stationary` false become instances (id = uuid, category =
 //   label). A box seen by both LiDARs is listed twice (cuboids.sensor_id 0

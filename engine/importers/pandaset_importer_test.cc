@@ -131,8 +131,8 @@ TEST_F(PandasetSequence, ImportsSixCamerasTwoFramesLidarAndMovingTracks) {
   int boxes = 0;
   for (const v1::Instance& instance : clip.instances()) boxes += instance.boxes_size();
   EXPECT_EQ(boxes, 66);
-  ASSERT_EQ(result_->warnings.size(), 1u);
-  EXPECT_EQ(result_->warnings[0],
+  ASSERT_EQ(result_->warnings.size(), 2u);  // And where the LiDAR's head is (below).
+  EXPECT_EQ(result_->warnings[1],
             "61 stationary tracks (parked cars, signs, cones, ...) are not imported as instances");
 
   // front_camera: intrinsics +0.5 (integer pixel centres), timestamps to the
@@ -167,8 +167,9 @@ TEST_F(PandasetSequence, ImportsSixCamerasTwoFramesLidarAndMovingTracks) {
   EXPECT_EQ(clip.frames(0).role(), v1::Frame::CONTEXT);
 }
 
-// The sweeps are stored in the sensor frame of lidar/poses.json; taken back
-// to the world they are the pickle's points (both LiDARs, every point).
+// The sweeps are stored in the frame of the Pandar64's head (the axes of
+// lidar/poses.json); taken back to the world they are the pickle's points
+// (both LiDARs, every point).
 TEST_F(PandasetSequence, SweepsRoundTripToThePicklesWorldPoints) {
   PF_REQUIRE_DATA(dir, kSequence);
   const std::string converted = testing::MakeTempDir("pandaset_npy");
@@ -203,6 +204,43 @@ TEST_F(PandasetSequence, SweepsRoundTripToThePicklesWorldPoints) {
     sum_y += s.y;
   }
   EXPECT_LT(std::hypot(sum_x, sum_y) / (world.size() - gt_points), 10.0);
+}
+
+// lidar/poses.json puts the Pandar64 near the road; the sweeps start at its
+// head, which its own points place 1.86 m above that pose and 0.75 m along
+// its y axis (measured with the whole sequence 002 too: 0.6-0.8 m and
+// 1.86 m frame by frame), above the cameras; the axes are the pose's.
+TEST_F(PandasetSequence, SweepsStartAtThePandar64sHead) {
+  PF_REQUIRE_DATA(dir, kSequence);
+  const nlohmann::json poses = PandasetJson(dir + "/lidar/poses.json");
+  const nlohmann::json& pose = poses[kFirstFrame];
+  const Vec3 position{pose["position"]["x"].get<double>(), pose["position"]["y"].get<double>(),
+                      pose["position"]["z"].get<double>()};
+  const Quat heading =
+      QuatNormalized({pose["heading"]["w"].get<double>(), pose["heading"]["x"].get<double>(),
+                      pose["heading"]["y"].get<double>(), pose["heading"]["z"].get<double>()});
+  const Rigid world_from_sensor =
+      Rigid::FromRowMajor(result_->clip.lidar(0).world_from_sensor().data());
+  const Mat3 rotation = ToMatrix(heading);
+  const Vec3 head = Transpose(rotation) * (world_from_sensor.translation - position);
+  std::printf("pandaset: Pandar64 head at (%.3f, %.3f, %.3f) m in the pose's frame\n", head.x,
+              head.y, head.z);
+  EXPECT_NEAR(head.x, 0.0, 0.1);
+  EXPECT_NEAR(head.y, 0.75, 0.15);
+  EXPECT_NEAR(head.z, 1.86, 0.05);
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c)
+      EXPECT_NEAR(world_from_sensor.rotation.m[r][c], rotation.m[r][c], 1e-9);
+  // Above every camera of the frame (they are 1.6-1.8 m above the pose).
+  for (const v1::Frame& frame : result_->clip.frames()) {
+    if (frame.timestamp_us() > result_->clip.lidar(0).timestamp_us() + 50'000) continue;
+    const Rigid camera = Rigid::FromRowMajor(frame.world_from_camera().data());
+    EXPECT_GT(world_from_sensor.translation.z, camera.translation.z) << frame.camera();
+  }
+  bool said = false;
+  for (const std::string& warning : result_->warnings)
+    said |= warning.find("Pandar64's head") != std::string::npos;
+  EXPECT_TRUE(said);
 }
 
 // A box seen by both LiDARs is one instance: no two instances have boxes at
