@@ -38,7 +38,7 @@ memcheck() {
 }
 if command -v compute-sanitizer >/dev/null; then
   memcheck memcheck cuda_rasterizer_test '*EveryCameraModel*:*OneUpload*'
-  memcheck memcheck_colour_fit cuda_colour_fit_test '*SolveNeedsAStart*'
+  memcheck memcheck_colour_fit cuda_colour_fit_test '*SolveNeedsAStart*:*MatchesTheCpuSolve*'
 fi
 bench() { "$PACK/pf_raster_bench" "$@" | tee -a "$OUT_DIR/bench.jsonl" || rc=1; }
 bench --device cuda:0 --gaussians 100000 --width 768 --height 576 --repeat 50 --compare-cpu

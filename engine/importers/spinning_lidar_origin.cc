@@ -12,6 +12,8 @@ namespace {
 
 constexpr double kMaxPairSeconds = 25e-6;
 constexpr double kMaxPairAzimuthDeg = 0.5;
+// The search box: +-kMaxAcross across the spin axis, [kMinUp, kMaxUp] along it.
+constexpr double kMaxAcross = 1.5, kMinUp = -1.0, kMaxUp = 3.0;
 constexpr double kMinRange = 3.0;
 constexpr double kMinRangeRatio = 1.5;
 // The histogram of elevation differences: 0.01 degree bins over +-10 degrees.
@@ -69,9 +71,12 @@ Vec3 BestOnGrid(const std::vector<PointPair>& pairs, const Vec3& middle, int ste
   for (int i = -steps; i <= steps; ++i)
     for (int j = -steps; j <= steps; ++j)
       for (int k = -steps_z; k <= steps_z; ++k) {
-        const double z = middle.z + k * step_z;
-        if (z < z_min - 1e-9 || z > z_max + 1e-9) continue;
-        centres.push_back({middle.x + i * step, middle.y + j * step, z});
+        const Vec3 c{middle.x + i * step, middle.y + j * step, middle.z + k * step_z};
+        if (c.z < z_min - 1e-9 || c.z > z_max + 1e-9 || std::abs(c.x) > kMaxAcross + 1e-9 ||
+            std::abs(c.y) > kMaxAcross + 1e-9) {
+          continue;
+        }
+        centres.push_back(c);
       }
   std::vector<double> scores(centres.size());
   DefaultThreadPool().ParallelFor(0, static_cast<int64_t>(centres.size()), 16,
@@ -98,11 +103,16 @@ LidarOriginEstimate EstimateSpinningLidarOrigin(
       const double rp = HorizontalRange(p.position), rq = HorizontalRange(q.position);
       if (rp < kMinRange || rq < kMinRange) continue;
       if (std::max(rp, rq) < kMinRangeRatio * std::min(rp, rq)) continue;
+      // Column-mates share an azimuth seen from the head; seen from the
+      // frame's origin, a head up to kMaxAcross away parts them by up to
+      // kMaxAcross |1/rp - 1/rq| radians.
       double azimuth = std::abs(std::atan2(p.position.y, p.position.x) -
                                 std::atan2(q.position.y, q.position.x)) *
                        kRadToDeg;
       if (azimuth > 180) azimuth = 360 - azimuth;
-      if (azimuth > kMaxPairAzimuthDeg) continue;
+      if (azimuth > kMaxPairAzimuthDeg + kMaxAcross * std::abs(1 / rp - 1 / rq) * kRadToDeg) {
+        continue;
+      }
       pairs.push_back({p.position, q.position});
     }
   }
@@ -111,11 +121,12 @@ LidarOriginEstimate EstimateSpinningLidarOrigin(
   if (pairs.empty()) return out;
   out.concentration_at_origin = Concentration(pairs, Vec3{0, 0, 0});
   double score = 0;
-  Vec3 centre = BestOnGrid(pairs, {0, 0, 1}, 10, 0.15, 20, 0.1, -1, 3, &score);
-  centre = BestOnGrid(pairs, centre, 5, 0.03, 5, 0.02, -1, 3, &score);
-  centre = BestOnGrid(pairs, centre, 3, 0.01, 3, 0.01, -1, 3, &score);
+  Vec3 centre = BestOnGrid(pairs, {0, 0, 1}, 10, 0.15, 20, 0.1, kMinUp, kMaxUp, &score);
+  centre = BestOnGrid(pairs, centre, 5, 0.03, 5, 0.02, kMinUp, kMaxUp, &score);
+  centre = BestOnGrid(pairs, centre, 3, 0.01, 3, 0.01, kMinUp, kMaxUp, &score);
   out.concentration = score;
-  out.reliable = out.pairs >= kMinLidarOriginPairs && score >= 2 * out.concentration_at_origin;
+  out.reliable = out.pairs >= kMinLidarOriginPairs && out.concentration_at_origin > 0 &&
+                 score >= 2 * out.concentration_at_origin;
   if (out.reliable) out.centre = centre;
   return out;
 }

@@ -44,10 +44,11 @@ inline constexpr int64_t kMinLidarOriginPairs = 200;
 
 // Estimates the head's centre from `sweeps`, each a list of returns in firing
 // order (the order the sensor recorded them) in the points' frame. Pairs are
-// consecutive returns less than 25 microseconds and 0.5 degrees of azimuth
-// apart, both over 3 m away horizontally, one at least 1.5 times as far as
-// the other. The search covers +-1.5 m across the spin axis and -1 to 3 m
-// along it (coarse to fine, to 1 cm).
+// consecutive returns less than 25 microseconds apart, both over 3 m away
+// horizontally, one at least 1.5 times as far as the other, and within 0.5
+// degrees of azimuth of each other as seen from some centre in the search
+// box: +-1.5 m across the spin axis and -1 to 3 m along it (searched coarse
+// to fine, to 1 cm).
 LidarOriginEstimate EstimateSpinningLidarOrigin(const std::vector<std::vector<FiredPoint>>& sweeps);
 
 }  // namespace pf

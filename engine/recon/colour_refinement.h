@@ -127,7 +127,7 @@ struct RefinementStats {
 // `views`. INVALID_ARGUMENT when the scene has fewer than 3 feature channels
 // or options are out of range; errors of ComputeCompositingWeights, and of
 // the GPU (CudaColourFit: no CUDA in the build, no such GPU, out of its
-// memory) for a cuda device, otherwise.
+// memory) for a cuda device, otherwise. `scene` is unchanged on error.
 absl::StatusOr<RefinementStats> RefineColours(const std::vector<ContextView>& views,
                                               const RefinementOptions& options,
                                               GaussianScene* scene);

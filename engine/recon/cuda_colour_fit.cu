@@ -308,7 +308,8 @@ absl::StatusOr<std::unique_ptr<CudaColourFit>> CudaColourFit::Upload(
     const CompositingWeights& a = *views[v].weights;
     const size_t size = static_cast<size_t>(a.width) * a.height;
     if (a.pixel_begin.size() != size || a.pixel_count.size() != size ||
-        a.local.size() != a.weights.size() || (textured && !a.has_local_coords()) ||
+        a.local.size() != a.weights.size() ||
+        (textured && a.local_frames.size() != 6 * a.gaussians.size()) ||
         views[v].fitted == nullptr || views[v].image == nullptr) {
       return absl::InvalidArgumentError(
           absl::StrCat("CudaColourFit: view ", v, "'s weights, mask or image are incomplete",
@@ -328,6 +329,14 @@ absl::StatusOr<std::unique_ptr<CudaColourFit>> CudaColourFit::Upload(
     return absl::InvalidArgumentError("CudaColourFit: more than 2^32 Gaussians in views");
   }
   if (absl::Status s = CheckCudaDevice(device); !s.ok()) return s;
+  int major = 0;
+  PF_CUDA_RETURN_IF_ERROR(
+      cudaDeviceGetAttribute(&major, cudaDevAttrComputeCapabilityMajor, device));
+  if (major < 8) {
+    return absl::FailedPreconditionError(
+        absl::StrCat("GPU cuda:", device, " has compute capability ", major,
+                     ".x; the colour fit's kernels need 8.0 or newer"));
+  }
   PF_CUDA_RETURN_IF_ERROR(cudaSetDevice(device));
   auto impl = std::make_unique<Impl>();
   impl->device = device;
@@ -403,6 +412,7 @@ absl::StatusOr<std::unique_ptr<CudaColourFit>> CudaColourFit::Upload(
 absl::StatusOr<ChannelSums> CudaColourFit::Residual(const std::vector<float>& x, bool start) {
   Impl& m = *impl_;
   std::lock_guard<std::mutex> lock(m.mutex);
+  m.started = false;  // Set again once this residual is whole.
   if (absl::Status s = m.CheckVector(x, m.per(), "x"); !s.ok()) return s;
   PF_CUDA_RETURN_IF_ERROR(cudaSetDevice(m.device));
   PF_CUDA_RETURN_IF_ERROR(
@@ -420,8 +430,9 @@ absl::StatusOr<ChannelSums> CudaColourFit::Residual(const std::vector<float>& x,
     }
     PF_CUDA_RETURN_IF_ERROR(cudaGetLastError());
   }
-  m.started = start;
-  return m.ReadSums();
+  absl::StatusOr<ChannelSums> sums = m.ReadSums();
+  m.started = start && sums.ok();
+  return sums;
 }
 
 absl::StatusOr<std::vector<float>> CudaColourFit::Sums() {
@@ -510,11 +521,11 @@ absl::Status CudaColourFit::Solve(const std::vector<float>& prior,
   PF_CUDA_RETURN_IF_ERROR(cudaMemcpy(m.inverse.data, inverse.data(), inverse.size() * sizeof(float),
                                      cudaMemcpyHostToDevice));
   auto read_sums = [&m] { return m.ReadSums(); };
+  m.started = false;  // x and r move on from here, whatever happens.
   absl::Status status =
       m.textured ? Iterate<3>(m.system(), m.vectors(), m.sums.data, iterations, read_sums)
                  : Iterate<1>(m.system(), m.vectors(), m.sums.data, iterations, read_sums);
   if (!status.ok()) return status;
-  m.started = false;  // x and r have moved on.
   x->resize(m.per() * m.n);
   PF_CUDA_RETURN_IF_ERROR(
       cudaMemcpy(x->data(), m.x.data, x->size() * sizeof(float), cudaMemcpyDeviceToHost));

@@ -169,7 +169,8 @@ absl::Status Pipeline::FitColours() {
   RefinementOptions refinement = options_.refinement;
   refinement.colour_gradients = ColourGradientsFor(options_);
   // The solve goes where fusion went when this build has the GPU colour fit;
-  // a GPU without room for it leaves it to the CPU.
+  // a GPU that cannot take it (no room, too old, a failed kernel) leaves it to
+  // the CPU: the scene is only written once the GPU's solve is done.
   std::string device_note;
   if (options_.device.kind == ComputeDevice::Kind::kCuda) {
     if (HaveCudaColourFit()) {
@@ -179,8 +180,7 @@ absl::Status Pipeline::FitColours() {
     }
   }
   absl::StatusOr<RefinementStats> fitted = RefineColours(inputs_.views, refinement, &result_.scene);
-  if (!fitted.ok() && absl::IsResourceExhausted(fitted.status()) &&
-      refinement.device.kind == ComputeDevice::Kind::kCuda) {
+  if (!fitted.ok() && refinement.device.kind == ComputeDevice::Kind::kCuda) {
     device_note = absl::StrCat("; solved on the cpu: ", fitted.status().message());
     refinement.device = ComputeDevice{};
     fitted = RefineColours(inputs_.views, refinement, &result_.scene);
