@@ -245,9 +245,10 @@ absl::Status EvalCommand(const CommandLine& cl) {
     const LidarSweepFigures mean = MeanLidarFigures(report.lidar_render);
     std::printf(
         "  LiDAR rendered at %zu TARGET times: Chamfer %.3f m, range error median %.3f m "
-        "(90th percentile %.3f m), %.1f %% of the recorded returns returned\n",
+        "(90th percentile %.3f m; %.1f %% early, %.1f %% late by over max(0.5 m, 5 %%)), "
+        "%.1f %% of the recorded returns returned\n",
         report.lidar_render.size(), mean.chamfer, mean.range_error_median, mean.range_error_p90,
-        100 * mean.hit_share);
+        100 * mean.early_share, 100 * mean.late_share, 100 * mean.hit_share);
   }
   std::printf("  report: %s/report.json\n", out_dir.c_str());
   return absl::OkStatus();

@@ -158,6 +158,7 @@ TEST_F(ReconCli, EvalReportHasEveryTargetFrameWithFigures) {
   }
   EXPECT_GT(lidar["hitShare"].get<double>(), 0.95);
   EXPECT_LT(lidar["rangeErrorMedian"].get<double>(), 0.3);
+  EXPECT_LT(lidar["earlyShare"].get<double>() + lidar["lateShare"].get<double>(), 0.5);
   EXPECT_LT(lidar["chamfer"].get<double>(), 0.5);
 }
 

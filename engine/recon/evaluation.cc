@@ -537,6 +537,8 @@ std::string EvalReportJson(const EvalReport& report) {
                         {"hitShare", f.hit_share},
                         {"rangeErrorMedian", f.range_error_median},
                         {"rangeErrorP90", f.range_error_p90},
+                        {"earlyShare", f.early_share},
+                        {"lateShare", f.late_share},
                         {"chamfer", f.chamfer},
                         {"renderSeconds", f.render_seconds}});
     }
@@ -546,6 +548,8 @@ std::string EvalReportJson(const EvalReport& report) {
                         {"hitShare", mean.hit_share},
                         {"rangeErrorMedian", mean.range_error_median},
                         {"rangeErrorP90", mean.range_error_p90},
+                        {"earlyShare", mean.early_share},
+                        {"lateShare", mean.late_share},
                         {"chamfer", mean.chamfer},
                         {"seconds", report.lidar_render_seconds},
                         {"renderSeconds", mean.render_seconds},

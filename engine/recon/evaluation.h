@@ -85,14 +85,16 @@
 // CONTEXT camera had in its image, from the sweep's sensor at the sweep's
 // time (render/lidar_render.h), and report.json has
 //    "lidarRender": {"sweeps": n, "points": n, "hitShare": x,
-//                    "rangeErrorMedian": m, "rangeErrorP90": m, "chamfer": m,
+//                    "rangeErrorMedian": m, "rangeErrorP90": m,
+//                    "earlyShare": x, "lateShare": x, "chamfer": m,
 //                    "seconds": s (loading, rendering, measuring),
 //                    "renderSeconds": s (RenderLidarRays alone),
 //                    "perSweep": [{"timestampUs": t, "sweepPoints": n,
 //                                  "points": n, "hitShare": x, ...}, ...]}
 // (null without such a sweep): the means over the sweeps of the share of the
 // recorded returns the render returns too, the median and 90th percentile
-// of |rendered - recorded| range over those, and the Chamfer distance (the
+// of |rendered - recorded| range over those, the shares of those returned
+// early and late (LidarSweepFigures), and the Chamfer distance (the
 // mean of both directions' mean nearest-point distances, each capped at
 // 5 m). The summary line of `pf eval` gives them.
 #ifndef POINTFORWARD_ENGINE_RECON_EVALUATION_H_

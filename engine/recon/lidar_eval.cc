@@ -82,6 +82,8 @@ LidarSweepFigures MeanLidarFigures(const std::vector<LidarSweepFigures>& sweeps)
     mean.hit_share += f.hit_share;
     mean.range_error_median += f.range_error_median;
     mean.range_error_p90 += f.range_error_p90;
+    mean.early_share += f.early_share;
+    mean.late_share += f.late_share;
     mean.chamfer += f.chamfer;
     mean.render_seconds += f.render_seconds;
   }
@@ -90,6 +92,8 @@ LidarSweepFigures MeanLidarFigures(const std::vector<LidarSweepFigures>& sweeps)
   mean.hit_share /= n;
   mean.range_error_median /= n;
   mean.range_error_p90 /= n;
+  mean.early_share /= n;
+  mean.late_share /= n;
   mean.chamfer /= n;
   return mean;
 }
@@ -157,13 +161,21 @@ absl::StatusOr<LidarSweepFigures> EvaluateLidarRender(const GaussianScene& scene
   figures.points = static_cast<int64_t>(rays.size());
   std::vector<double> errors;
   std::vector<Vec3> rendered;
+  int64_t early = 0, late = 0;
   for (size_t i = 0; i < rays.size(); ++i) {
     if (!returns[i].hit) continue;
-    errors.push_back(std::abs(returns[i].range - recorded_range[i]));
+    const double signed_error = returns[i].range - recorded_range[i];
+    errors.push_back(std::abs(signed_error));
+    early += signed_error < -SignedTolerance(recorded_range[i]);
+    late += signed_error > SignedTolerance(recorded_range[i]);
     rendered.push_back(sweep.sensor_origin + (returns[i].range / recorded_range[i]) *
                                                  (recorded[i] - sweep.sensor_origin));
   }
   figures.hit_share = static_cast<double>(errors.size()) / static_cast<double>(rays.size());
+  if (!errors.empty()) {
+    figures.early_share = static_cast<double>(early) / static_cast<double>(errors.size());
+    figures.late_share = static_cast<double>(late) / static_cast<double>(errors.size());
+  }
   figures.range_error_median = Quantile(errors, 0.5);
   figures.range_error_p90 = Quantile(errors, 0.9);
   const NearestPoints to_recorded(recorded), to_rendered(rendered);

@@ -31,6 +31,11 @@ struct LidarSweepFigures {
   double hit_share = 0;  // Share of them the render also returns.
   // |rendered - recorded| range (m) over the rays both return.
   double range_error_median = 0, range_error_p90 = 0;
+  // Shares of the rays both return whose rendered return is nearer (early)
+  // or farther (late) than the recorded one by more than kSignedTolerance:
+  // early returns are surfaces the scene has where the LiDAR saw through
+  // (or rays cast from the wrong place), late ones surfaces it lacks.
+  double early_share = 0, late_share = 0;
   // Chamfer distance (m): the mean of the two directions' mean distances
   // from each point to the other cloud's nearest (rendered returns against
   // recorded ones; each distance capped at kChamferCap).
@@ -40,7 +45,14 @@ struct LidarSweepFigures {
 
 inline constexpr double kChamferCap = 5.0;
 
-// The means over `sweeps` of hit_share, the range errors and chamfer;
+// The tolerance of early_share and late_share: the larger of 0.5 m and 5 % of
+// the recorded range.
+inline double SignedTolerance(double recorded_range) {
+  return recorded_range * 0.05 > 0.5 ? recorded_range * 0.05 : 0.5;
+}
+
+// The means over `sweeps` of hit_share, the range errors, the early and late
+// shares and chamfer;
 // points, sweep_points and render_seconds summed; timestamp_us 0. All zero
 // for none.
 LidarSweepFigures MeanLidarFigures(const std::vector<LidarSweepFigures>& sweeps);

@@ -76,12 +76,25 @@ TEST(LidarEval, TheWallTheCamerasSawIsMeasuredAndTheRestLeftOut) {
   EXPECT_LT(figures->range_error_median, 0.02);
   EXPECT_LT(figures->range_error_p90, 0.04);
   EXPECT_LT(figures->chamfer, 0.03);
+  EXPECT_EQ(figures->early_share, 0.0);
+  EXPECT_EQ(figures->late_share, 0.0);
 
   // The recorded returns 0.5 m behind the wall: every figure says so.
   figures = EvaluateLidarRender(wall, Sweep(0.5), {ForwardCamera()});
   ASSERT_TRUE(figures.ok()) << figures.status();
   EXPECT_NEAR(figures->range_error_median, 0.5, 0.03);
   EXPECT_GT(figures->chamfer, 0.3);
+
+  // 2 m behind it (the wall stands where the LiDAR saw through): every ray
+  // returns early; 2 m before it (the scene lacks a surface): late.
+  figures = EvaluateLidarRender(wall, Sweep(2.0), {ForwardCamera()});
+  ASSERT_TRUE(figures.ok()) << figures.status();
+  EXPECT_DOUBLE_EQ(figures->early_share, 1.0);
+  EXPECT_EQ(figures->late_share, 0.0);
+  figures = EvaluateLidarRender(wall, Sweep(-2.0), {ForwardCamera()});
+  ASSERT_TRUE(figures.ok()) << figures.status();
+  EXPECT_EQ(figures->early_share, 0.0);
+  EXPECT_DOUBLE_EQ(figures->late_share, 1.0);
 
   // No camera: nothing to measure.
   EXPECT_TRUE(absl::IsFailedPrecondition(EvaluateLidarRender(wall, Sweep(0), {}).status()));
