@@ -10,7 +10,6 @@
 // products into three doubles (block sums, then one atomic add per block).
 #include <cuda_runtime.h>
 
-#include <functional>
 #include <mutex>
 
 #include "absl/strings/str_cat.h"
@@ -278,15 +277,21 @@ struct CudaColourFit::Impl {
            ids.bytes() + count.bytes() + begin.bytes() + centre.bytes() + x.bytes() + r.bytes() +
            p.bytes() + q.bytes() + prior.bytes() + inverse.bytes() + sums.bytes();
   }
-  absl::Status ZeroSums() {
-    return CudaError(cudaMemset(sums.data, 0, 3 * sizeof(double)), "cudaMemset");
-  }
-  absl::StatusOr<ChannelSums> ReadSums() {
+  // Zeroes the three sums, runs launch(sums.data) (kernels that add into
+  // them) and returns them.
+  template <typename Launch>
+  absl::StatusOr<ChannelSums> Summed(const Launch& launch) {
+    PF_CUDA_RETURN_IF_ERROR(cudaMemset(sums.data, 0, 3 * sizeof(double)));
+    launch(sums.data);
+    PF_CUDA_RETURN_IF_ERROR(cudaGetLastError());
     ChannelSums out;
     PF_CUDA_RETURN_IF_ERROR(
         cudaMemcpy(out.data(), sums.data, 3 * sizeof(double), cudaMemcpyDeviceToHost));
     return out;
   }
+  // The iterations of CudaColourFit::Solve for K unknowns per channel.
+  template <int K>
+  absl::Status Iterate(int iterations);
   absl::Status CheckVector(const std::vector<float>& v, size_t width, const char* what) const {
     if (v.size() == width * n) return absl::OkStatus();
     return absl::InvalidArgumentError(absl::StrCat("CudaColourFit: ", what, " has ", v.size(),
@@ -418,19 +423,16 @@ absl::StatusOr<ChannelSums> CudaColourFit::Residual(const std::vector<float>& x,
   PF_CUDA_RETURN_IF_ERROR(
       cudaMemcpy(m.x.data, x.data(), x.size() * sizeof(float), cudaMemcpyHostToDevice));
   if (start) PF_CUDA_RETURN_IF_ERROR(cudaMemset(m.r.data, 0, x.size() * sizeof(float)));
-  if (absl::Status s = m.ZeroSums(); !s.ok()) return s;
   float* out = start ? m.r.data : nullptr;
-  if (m.pixels > 0) {
+  absl::StatusOr<ChannelSums> sums = m.Summed([&](double* device_sums) {
+    if (m.pixels == 0) return;
+    const int blocks = CeilDiv(m.pixels, kThreads);
     if (m.textured) {
-      ResidualKernel<true>
-          <<<CeilDiv(m.pixels, kThreads), kThreads>>>(m.system(), m.x.data, out, m.sums.data);
+      ResidualKernel<true><<<blocks, kThreads>>>(m.system(), m.x.data, out, device_sums);
     } else {
-      ResidualKernel<false>
-          <<<CeilDiv(m.pixels, kThreads), kThreads>>>(m.system(), m.x.data, out, m.sums.data);
+      ResidualKernel<false><<<blocks, kThreads>>>(m.system(), m.x.data, out, device_sums);
     }
-    PF_CUDA_RETURN_IF_ERROR(cudaGetLastError());
-  }
-  absl::StatusOr<ChannelSums> sums = m.ReadSums();
+  });
   m.started = start && sums.ok();
   return sums;
 }
@@ -456,39 +458,29 @@ absl::StatusOr<std::vector<float>> CudaColourFit::Sums() {
   return out;
 }
 
-namespace {
-
-// The iterations of CudaColourFit::Solve for K unknowns per channel.
 template <int K>
-absl::Status Iterate(const System& system, const Vectors& v, double* device_sums, int iterations,
-                     const std::function<absl::StatusOr<ChannelSums>()>& read_sums) {
-  const int gaussian_blocks = CeilDiv(v.n, kThreads);
-  const int pixel_blocks = CeilDiv(system.pixels, kThreads);
-  auto zero_sums = [&] {
-    return CudaError(cudaMemset(device_sums, 0, 3 * sizeof(double)), "cudaMemset");
-  };
-  if (absl::Status s = zero_sums(); !s.ok()) return s;
-  StartKernel<K><<<gaussian_blocks, kThreads>>>(v, device_sums);
-  PF_CUDA_RETURN_IF_ERROR(cudaGetLastError());
-  absl::StatusOr<ChannelSums> rz = read_sums();
+absl::Status CudaColourFit::Impl::Iterate(int iterations) {
+  const Vectors v = vectors();
+  const System sys = system();
+  const int gaussian_blocks = CeilDiv(n, kThreads);
+  absl::StatusOr<ChannelSums> rz =
+      Summed([&](double* d) { StartKernel<K><<<gaussian_blocks, kThreads>>>(v, d); });
   if (!rz.ok()) return rz.status();
   for (int iteration = 0; iteration < iterations; ++iteration) {
     // q = (A^T M A + Lambda) p.
-    PF_CUDA_RETURN_IF_ERROR(cudaMemset(v.q, 0, 3 * K * v.n * sizeof(float)));
-    if (system.pixels > 0) NormalKernel<K == 3><<<pixel_blocks, kThreads>>>(system, v.p, v.q);
-    if (absl::Status s = zero_sums(); !s.ok()) return s;
-    PriorKernel<K><<<gaussian_blocks, kThreads>>>(v, device_sums);
-    PF_CUDA_RETURN_IF_ERROR(cudaGetLastError());
-    absl::StatusOr<ChannelSums> pq = read_sums();
+    PF_CUDA_RETURN_IF_ERROR(cudaMemset(v.q, 0, 3 * K * n * sizeof(float)));
+    if (pixels > 0) {
+      NormalKernel<K == 3><<<CeilDiv(pixels, kThreads), kThreads>>>(sys, v.p, v.q);
+    }
+    absl::StatusOr<ChannelSums> pq =
+        Summed([&](double* d) { PriorKernel<K><<<gaussian_blocks, kThreads>>>(v, d); });
     if (!pq.ok()) return pq.status();
     float step[3];
     for (int c = 0; c < 3; ++c)
       step[c] = (*pq)[c] > 0 ? static_cast<float>((*rz)[c] / (*pq)[c]) : 0.f;
-    if (absl::Status s = zero_sums(); !s.ok()) return s;
-    UpdateKernel<K>
-        <<<gaussian_blocks, kThreads>>>(v, make_float3(step[0], step[1], step[2]), device_sums);
-    PF_CUDA_RETURN_IF_ERROR(cudaGetLastError());
-    absl::StatusOr<ChannelSums> rz_next = read_sums();
+    absl::StatusOr<ChannelSums> rz_next = Summed([&](double* d) {
+      UpdateKernel<K><<<gaussian_blocks, kThreads>>>(v, make_float3(step[0], step[1], step[2]), d);
+    });
     if (!rz_next.ok()) return rz_next.status();
     float beta[3];
     for (int c = 0; c < 3; ++c)
@@ -499,8 +491,6 @@ absl::Status Iterate(const System& system, const Vectors& v, double* device_sums
   }
   return absl::OkStatus();
 }
-
-}  // namespace
 
 absl::Status CudaColourFit::Solve(const std::vector<float>& prior,
                                   const std::vector<float>& inverse, int iterations,
@@ -520,11 +510,8 @@ absl::Status CudaColourFit::Solve(const std::vector<float>& prior,
       cudaMemcpy(m.prior.data, prior.data(), prior.size() * sizeof(float), cudaMemcpyHostToDevice));
   PF_CUDA_RETURN_IF_ERROR(cudaMemcpy(m.inverse.data, inverse.data(), inverse.size() * sizeof(float),
                                      cudaMemcpyHostToDevice));
-  auto read_sums = [&m] { return m.ReadSums(); };
   m.started = false;  // x and r move on from here, whatever happens.
-  absl::Status status =
-      m.textured ? Iterate<3>(m.system(), m.vectors(), m.sums.data, iterations, read_sums)
-                 : Iterate<1>(m.system(), m.vectors(), m.sums.data, iterations, read_sums);
+  absl::Status status = m.textured ? m.Iterate<3>(iterations) : m.Iterate<1>(iterations);
   if (!status.ok()) return status;
   x->resize(m.per() * m.n);
   PF_CUDA_RETURN_IF_ERROR(

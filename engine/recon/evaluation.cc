@@ -529,31 +529,29 @@ std::string EvalReportJson(const EvalReport& report) {
   if (report.lidar_render.empty()) {
     j["lidarRender"] = nullptr;
   } else {
+    // The figures a sweep and the mean share, after `head`.
+    auto with_figures = [](nlohmann::ordered_json head, const LidarSweepFigures& f) {
+      head.update(nlohmann::ordered_json{{"points", f.points},
+                                         {"hitShare", f.hit_share},
+                                         {"rangeErrorMedian", f.range_error_median},
+                                         {"rangeErrorP90", f.range_error_p90},
+                                         {"earlyShare", f.early_share},
+                                         {"lateShare", f.late_share},
+                                         {"chamfer", f.chamfer}});
+      return head;
+    };
     nlohmann::ordered_json sweeps = nlohmann::ordered_json::array();
     for (const LidarSweepFigures& f : report.lidar_render) {
-      sweeps.push_back({{"timestampUs", f.timestamp_us},
-                        {"sweepPoints", f.sweep_points},
-                        {"points", f.points},
-                        {"hitShare", f.hit_share},
-                        {"rangeErrorMedian", f.range_error_median},
-                        {"rangeErrorP90", f.range_error_p90},
-                        {"earlyShare", f.early_share},
-                        {"lateShare", f.late_share},
-                        {"chamfer", f.chamfer},
-                        {"renderSeconds", f.render_seconds}});
+      nlohmann::ordered_json sweep =
+          with_figures({{"timestampUs", f.timestamp_us}, {"sweepPoints", f.sweep_points}}, f);
+      sweep["renderSeconds"] = f.render_seconds;
+      sweeps.push_back(std::move(sweep));
     }
     const LidarSweepFigures mean = MeanLidarFigures(report.lidar_render);
-    j["lidarRender"] = {{"sweeps", report.lidar_render.size()},
-                        {"points", mean.points},
-                        {"hitShare", mean.hit_share},
-                        {"rangeErrorMedian", mean.range_error_median},
-                        {"rangeErrorP90", mean.range_error_p90},
-                        {"earlyShare", mean.early_share},
-                        {"lateShare", mean.late_share},
-                        {"chamfer", mean.chamfer},
-                        {"seconds", report.lidar_render_seconds},
-                        {"renderSeconds", mean.render_seconds},
-                        {"perSweep", sweeps}};
+    j["lidarRender"] = with_figures({{"sweeps", report.lidar_render.size()}}, mean);
+    j["lidarRender"]["seconds"] = report.lidar_render_seconds;
+    j["lidarRender"]["renderSeconds"] = mean.render_seconds;
+    j["lidarRender"]["perSweep"] = std::move(sweeps);
   }
   nlohmann::ordered_json frames = nlohmann::ordered_json::array();
   for (size_t i = 0; i < report.frames.size(); ++i) {
