@@ -47,8 +47,8 @@ commands:
         [--device cpu|cuda:N]
         render EXR files and PNG previews of a scene (on the CPU or a GPU)
   bench raster [--gaussians N] [--width W --height H] [--channels C] [--repeat R] [--seed S]
-        [--device cpu|cuda:N] [--compare-cpu]
-        time the rasterizer; prints JSON
+        [--device cpu|cuda:N] [--compare-cpu] [--backward]
+        time the rasterizer (and, with --backward, its backward pass on the CPU); prints JSON
   bench reconstruct CLIP.json [--repeat N] [the flags of reconstruct but --out]
         reconstruct the clip N times (default 3); prints the median time of each stage,
         the Gaussians and the peak memory as JSON

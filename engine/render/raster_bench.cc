@@ -20,6 +20,7 @@
 #include "common/thread_pool.h"
 #include "engine/render/bench_scene.h"
 #include "engine/render/cuda_rasterizer.h"
+#include "engine/render/raster_backward.h"
 #include "engine/render/raster_tile.h"
 #include "engine/render/rasterizer.h"
 
@@ -90,7 +91,7 @@ absl::Status RunRasterBench(const std::vector<std::string>& args) {
   ASSIGN_OR_RETURN(CommandLine cl, CommandLine::Parse(args,
                                                       {"gaussians", "width", "height", "channels",
                                                        "repeat", "seed", "device"},
-                                                      {"compare-cpu"}));
+                                                      {"compare-cpu", "backward"}));
   if (!cl.positional().empty()) {
     return absl::InvalidArgumentError("unexpected argument '" + cl.positional()[0] + "'");
   }
@@ -110,6 +111,11 @@ absl::Status RunRasterBench(const std::vector<std::string>& args) {
   ASSIGN_OR_RETURN(const ComputeDevice device,
                    ParseComputeDevice(cl.Get("device", "cpu"), "--device"));
   const bool gpu = device.kind == ComputeDevice::Kind::kCuda;
+  const bool backward = cl.Has("backward");
+  if (gpu && backward) {
+    return absl::UnimplementedError(
+        "--backward: the backward pass runs on the CPU only so far; drop --device or --backward");
+  }
   if (gpu) {
     if (absl::Status s = CheckCudaDevice(device.index); !s.ok()) {
       return absl::FailedPreconditionError(
@@ -201,6 +207,47 @@ absl::Status RunRasterBench(const std::vector<std::string>& args) {
                           peak.pairs_per_ms,
                           peak.pairs_per_ms > 0 ? pairs_per_ms / peak.pairs_per_ms : 0.0);
   }
+  // The backward pass of the same view, for a loss that reads every output.
+  std::string backward_json;
+  if (backward) {
+    RenderOutputGradients grads;
+    std::mt19937 rng(static_cast<uint32_t>(seed));
+    std::uniform_real_distribution<float> u(-1.f, 1.f);
+    grads.rgb.resize(buffers.rgb.size());
+    grads.alpha.resize(buffers.alpha.size());
+    grads.depth.resize(buffers.depth.size());
+    grads.features.resize(buffers.features.size());
+    for (std::vector<float>* v : {&grads.rgb, &grads.alpha, &grads.depth, &grads.features}) {
+      for (float& x : *v) x = u(rng);
+    }
+    BackwardStats bstats;
+    auto run = [&]() -> absl::Status {
+      return RenderBackward(bench.scene, bench.camera, bench.timestamp_us, {}, grads, options,
+                            &bstats)
+          .status();
+    };
+    RETURN_IF_ERROR(run());  // Warm.
+    std::vector<double> bms, bcpu;
+    for (int64_t r = 0; r < repeat; ++r) {
+      const std::clock_t cpu_start = std::clock();
+      const auto start = std::chrono::steady_clock::now();
+      RETURN_IF_ERROR(run());
+      bms.push_back(MsSince(start));
+      bcpu.push_back(1000.0 * static_cast<double>(std::clock() - cpu_start) / CLOCKS_PER_SEC);
+    }
+    const double bmedian = Median(bms);
+    absl::StrAppendFormat(
+        &backward_json,
+        ",\"backward_ms_median\":%.3f,\"backward_ms_min\":%.3f,\"backward_cpu_ms_median\":%.3f,"
+        "\"backward_over_forward\":%.2f,\"backward_tile_pairs\":%d,"
+        "\"backward_pairs_contributing\":%d,\"backward_contributing_pairs_per_ms\":%.0f,"
+        "\"forward_contributing_pairs_per_ms\":%.0f,\"backward_working_bytes\":%d",
+        bmedian, *std::min_element(bms.begin(), bms.end()), Median(bcpu),
+        median > 0 ? bmedian / median : 0.0, bstats.pairs, bstats.pairs_contributing,
+        bmedian > 0 ? static_cast<double>(bstats.pairs_contributing) / bmedian : 0.0,
+        median > 0 ? static_cast<double>(stats.pairs_contributing) / median : 0.0,
+        bstats.working_bytes);
+  }
   std::printf(
       "{\"benchmark\":\"raster\",\"device\":\"%s\",\"cpu\":\"%s\",\"gaussians\":%lld,\"width\":%"
       "lld,\"height\":%"
@@ -209,7 +256,7 @@ absl::Status RunRasterBench(const std::vector<std::string>& args) {
       "\"ms_min\":%.3f,\"ms_max\":%.3f,\"cpu_ms_median\":%.3f,\"gaussians_visible\":%lld,\"pairs_"
       "tested\":%lld,"
       "\"pairs_contributing\":%lld,\"pairs_ratio\":%.3f,\"pairs_per_ms\":%.0f,"
-      "\"mean_alpha\":%.4f,\"scene_build_ms\":%.1f%s%s,\"scene\":%s}\n",
+      "\"mean_alpha\":%.4f,\"scene_build_ms\":%.1f%s%s%s,\"scene\":%s}\n",
       device.ToString().c_str(), CpuModel().c_str(), static_cast<long long>(gaussians),
       static_cast<long long>(width), static_cast<long long>(height),
       static_cast<long long>(channels), WorkingThreads(), gpu ? "cuda" : raster::TileKernelName(),
@@ -219,7 +266,7 @@ absl::Status RunRasterBench(const std::vector<std::string>& args) {
       stats.pairs_contributing > 0
           ? static_cast<double>(stats.pairs_tested) / static_cast<double>(stats.pairs_contributing)
           : 0.0,
-      pairs_per_ms, coverage, build_ms, peak_json.c_str(), gpu_json.c_str(),
+      pairs_per_ms, coverage, build_ms, peak_json.c_str(), gpu_json.c_str(), backward_json.c_str(),
       bench.description.c_str());
   return absl::OkStatus();
 }

@@ -1,0 +1,331 @@
+// Tests of the rasterizer's backward pass: its forward half against the
+// reference renderer, its gradients against central differences in double
+// for every parameter kind and camera model, the float pass against the
+// double one, and bad input.
+#include "engine/render/raster_backward.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <functional>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "engine/render/random_scene_testing.h"
+#include "engine/render/reference_renderer.h"
+
+namespace pf {
+namespace {
+
+using testing_scenes::MovedCameraOfModel;
+using testing_scenes::RandomScene;
+using testing_scenes::RandomSceneSpec;
+
+constexpr int64_t kTime = 1'600'000;  // 0.6 s after RandomScene's time origin.
+
+// Random output gradients (rgb, alpha, depth, features) for `camera`.
+OutputGradients<double> RandomOutputGradients(const RenderCamera& camera, int channels,
+                                              uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(-1, 1);
+  const size_t pixels = static_cast<size_t>(camera.model.width()) * camera.model.height();
+  OutputGradients<double> g;
+  g.rgb.resize(3 * pixels);
+  g.alpha.resize(pixels);
+  g.depth.resize(pixels);
+  g.features.resize(pixels * channels);
+  for (auto* v : {&g.rgb, &g.alpha, &g.depth, &g.features}) {
+    for (double& x : *v) x = u(rng);
+  }
+  for (double& x : g.depth) x *= 0.1;  // Depth is in metres, colours in [0, 1].
+  return g;
+}
+
+// sum of grads . outputs of a double render.
+double Loss(const testing::DoubleRender& r, const OutputGradients<double>& g) {
+  double sum = 0;
+  for (size_t k = 0; k < g.rgb.size(); ++k) sum += g.rgb[k] * r.rgb[k];
+  for (size_t k = 0; k < g.alpha.size(); ++k) sum += g.alpha[k] * r.alpha[k];
+  for (size_t k = 0; k < g.depth.size(); ++k) sum += g.depth[k] * r.depth[k];
+  for (size_t k = 0; k < g.features.size(); ++k) sum += g.features[k] * r.features[k];
+  return sum;
+}
+
+// A small scene of overlapping Gaussians, some nearly transparent, a few
+// pixels to a few tiles across, some moving with an actor.
+GaussianScene SmallScene(const RenderCamera& camera, uint32_t seed, bool gradients) {
+  RandomSceneSpec spec;
+  spec.seed = seed;
+  spec.count = 40;
+  spec.channels = 4;
+  spec.instances = true;  // A quarter of them in two actors' canonical frames.
+  spec.colour_gradients = gradients;
+  GaussianScene scene = RandomScene(spec, camera);
+  std::mt19937 rng(seed + 100);
+  std::uniform_real_distribution<double> u(0, 1);
+  for (size_t i = 0; i < scene.size(); ++i) {
+    // Opacities from nearly transparent (0.02) to 0.95, none at the 0.99
+    // clamp; larger splats, so that most overlap.
+    scene.opacity_logits[i] = static_cast<float>(u(rng) < 0.3 ? -3.9 + u(rng) : 2.9 * u(rng) - 1);
+    for (int c = 0; c < 3; ++c) scene.log_scales[3 * i + c] += 1.2f;
+    scene.lifespans[i] = std::numeric_limits<float>::infinity();
+  }
+  return scene;
+}
+
+struct KindError {
+  double max_error = 0;  // Largest |analytic - numeric|.
+  double scale = 0;      // Largest |numeric|.
+  int checked = 0;
+  int skipped = 0;  // Where a threshold was crossed: not smooth.
+};
+
+// Compares the analytic gradients of up to 24 parameters of each kind
+// (spread over the scene) with central differences. Two steps tell where a
+// pixel crosses the 1/255 cut-off within the step (the loss steps there):
+// such a parameter is counted as skipped.
+std::vector<std::pair<std::string, KindError>> CompareWithDifferences(
+    const GaussianScene& scene, const RenderCamera& camera, const OutputGradients<double>& g) {
+  const GaussianParams<double> base = testing::ParamsInDouble(scene);
+  absl::StatusOr<testing::DoubleRender> at =
+      testing::RenderBackwardInDouble(scene, base, camera, kTime, g);
+  EXPECT_TRUE(at.ok()) << at.status();
+  if (!at.ok()) return {};
+  using Member = std::vector<double> GaussianParams<double>::*;
+  const std::vector<std::pair<std::string, Member>> kinds = {
+      {"means", &GaussianParams<double>::means},
+      {"rotations", &GaussianParams<double>::rotations},
+      {"log_scales", &GaussianParams<double>::log_scales},
+      {"opacity_logits", &GaussianParams<double>::opacity_logits},
+      {"features", &GaussianParams<double>::features},
+      {"colour_gradients", &GaussianParams<double>::colour_gradients}};
+  auto difference = [&](Member member, size_t k, double h) {
+    GaussianParams<double> p = base;
+    (p.*member)[k] += h;
+    const double up = Loss(*testing::RenderBackwardInDouble(scene, p, camera, kTime, {}), g);
+    (p.*member)[k] -= 2 * h;
+    const double down = Loss(*testing::RenderBackwardInDouble(scene, p, camera, kTime, {}), g);
+    return (up - down) / (2 * h);
+  };
+  std::vector<std::pair<std::string, KindError>> errors;
+  for (const auto& [name, member] : kinds) {
+    KindError e;
+    const std::vector<double>& analytic = at->grads.*member;
+    const size_t size = (base.*member).size();
+    constexpr size_t kPerKind = 16;
+    for (size_t j = 0; j < std::min(size, kPerKind); ++j) {
+      const size_t k = j * size / std::min(size, kPerKind) + (j % 3);
+      if (k >= size) continue;
+      const double numeric = difference(member, k, 1e-5);
+      if (std::abs(numeric - difference(member, k, 2e-6)) > 1e-3 * (std::abs(numeric) + 1e-2)) {
+        ++e.skipped;
+        continue;
+      }
+      e.max_error = std::max(e.max_error, std::abs(analytic[k] - numeric));
+      e.scale = std::max(e.scale, std::abs(numeric));
+      ++e.checked;
+    }
+    errors.push_back({name, e});
+  }
+  return errors;
+}
+
+TEST(RasterBackward, ForwardHalfMatchesTheReferenceRenderer) {
+  for (int model = 0; model < testing_scenes::kCameraModels; ++model) {
+    for (bool gradients : {false, true}) {
+      SCOPED_TRACE(::testing::Message() << "camera model " << model << " gradients " << gradients);
+      const RenderCamera camera = MovedCameraOfModel(model);
+      RandomSceneSpec spec;
+      spec.seed = 7 + model;
+      spec.colour_gradients = gradients;
+      const GaussianScene scene = RandomScene(spec, camera);
+      absl::StatusOr<testing::DoubleRender> ours =
+          testing::RenderBackwardInDouble(scene, testing::ParamsInDouble(scene), camera, kTime, {});
+      ASSERT_TRUE(ours.ok()) << ours.status();
+      std::vector<uint8_t> ambiguous;
+      const RenderBuffers ref = testing::ReferenceRender(scene, camera, kTime, {}, {}, &ambiguous);
+      double worst = 0, alpha_sum = 0;
+      for (size_t p = 0; p < ref.alpha.size(); ++p) {
+        if (ambiguous[p]) continue;
+        alpha_sum += ref.alpha[p];
+        worst = std::max(worst, std::abs(ours->alpha[p] - ref.alpha[p]));
+        for (int c = 0; c < 3; ++c) {
+          worst = std::max(worst, std::abs(ours->rgb[3 * p + c] - ref.rgb[3 * p + c]));
+        }
+        for (int c = 0; c < scene.num_channels; ++c) {
+          const size_t k = p * scene.num_channels + c;
+          worst = std::max(worst, std::abs(ours->features[k] - ref.features[k]));
+        }
+        worst = std::max(worst, 0.01 * std::abs(ours->depth[p] - ref.depth[p]));
+      }
+      EXPECT_GT(alpha_sum, 0.3 * ref.alpha.size());  // The scene covers the image.
+      EXPECT_LT(worst, 2e-4);
+    }
+  }
+}
+
+// Every parameter kind and camera model, flat and textured colours.
+TEST(RasterBackward, GradientsMatchCentralDifferences) {
+  for (int model = 0; model < testing_scenes::kCameraModels; ++model) {
+    for (bool gradients : {false, true}) {
+      SCOPED_TRACE(::testing::Message() << "camera model " << model << " gradients " << gradients);
+      RenderCamera camera = MovedCameraOfModel(model);
+      const GaussianScene scene = SmallScene(camera, 3 + model, gradients);
+      const OutputGradients<double> g = RandomOutputGradients(camera, scene.num_channels, model);
+      for (const auto& [name, e] : CompareWithDifferences(scene, camera, g)) {
+        if (name == "colour_gradients" && !gradients) {
+          EXPECT_EQ(e.checked, 0);
+          continue;
+        }
+        EXPECT_LE(e.skipped, 1) << name;
+        std::printf("model %d gradients %d %-16s relative error %.2e (%d checked)\n", model,
+                    gradients, name.c_str(), e.max_error / e.scale, e.checked);
+        EXPECT_GT(e.scale, 1e-3) << name;  // The loss does depend on the parameter.
+        // The distortion Jacobian's own derivative is a central difference
+        // (raster_backward.h): a little less exact than the pinhole's.
+        const double tolerance = model == 0 ? 1e-6 : 1e-4;
+        EXPECT_LT(e.max_error, tolerance * e.scale + 1e-7)
+            << name << ": " << e.checked << " parameters, largest gradient " << e.scale;
+      }
+    }
+  }
+}
+
+TEST(RasterBackward, FloatPassMatchesTheDoublePass) {
+  for (int model = 0; model < testing_scenes::kCameraModels; ++model) {
+    SCOPED_TRACE(::testing::Message() << "camera model " << model);
+    const RenderCamera camera = MovedCameraOfModel(model);
+    RandomSceneSpec spec;
+    spec.seed = 11 + model;
+    spec.colour_gradients = model % 2 == 1;
+    const GaussianScene scene = RandomScene(spec, camera);
+    const OutputGradients<double> g = RandomOutputGradients(camera, scene.num_channels, 5);
+    absl::StatusOr<testing::DoubleRender> exact =
+        testing::RenderBackwardInDouble(scene, testing::ParamsInDouble(scene), camera, kTime, g);
+    ASSERT_TRUE(exact.ok()) << exact.status();
+    RenderOutputGradients gf;
+    gf.rgb.assign(g.rgb.begin(), g.rgb.end());
+    gf.alpha.assign(g.alpha.begin(), g.alpha.end());
+    gf.depth.assign(g.depth.begin(), g.depth.end());
+    gf.features.assign(g.features.begin(), g.features.end());
+    BackwardStats stats;
+    absl::StatusOr<SceneGradients> fast = RenderBackward(scene, camera, kTime, {}, gf, {}, &stats);
+    ASSERT_TRUE(fast.ok()) << fast.status();
+    // The same pairs as Render() blends (its exp is a polynomial: a pair at
+    // the 1/255 cut-off may rarely go the other way).
+    absl::StatusOr<RenderBuffers> render = Render(scene, camera, kTime, {});
+    ASSERT_TRUE(render.ok());
+    EXPECT_GT(stats.pairs_contributing, 1000);
+    EXPECT_NEAR(stats.pairs_contributing, render->stats.pairs_contributing,
+                1e-4 * render->stats.pairs_contributing + 2);
+    auto compare = [](const std::vector<float>& f, const std::vector<double>& d, const char* name) {
+      ASSERT_EQ(f.size(), d.size()) << name;
+      double diff = 0, norm = 0;
+      for (size_t k = 0; k < f.size(); ++k) {
+        diff += (f[k] - d[k]) * (f[k] - d[k]);
+        norm += d[k] * d[k];
+      }
+      EXPECT_GT(norm, 0) << name;
+      EXPECT_LT(std::sqrt(diff), 2e-3 * std::sqrt(norm)) << name;
+    };
+    compare(fast->means, exact->grads.means, "means");
+    compare(fast->rotations, exact->grads.rotations, "rotations");
+    compare(fast->log_scales, exact->grads.log_scales, "log_scales");
+    compare(fast->opacity_logits, exact->grads.opacity_logits, "opacity_logits");
+    compare(fast->features, exact->grads.features, "features");
+    if (spec.colour_gradients) {
+      compare(fast->colour_gradients, exact->grads.colour_gradients, "colour_gradients");
+    }
+    // Repeated, the same bits.
+    absl::StatusOr<SceneGradients> again = RenderBackward(scene, camera, kTime, {}, gf);
+    ASSERT_TRUE(again.ok());
+    EXPECT_EQ(again->means, fast->means);
+    EXPECT_EQ(again->features, fast->features);
+  }
+}
+
+// A gradient step on colours, opacities and geometry towards a target render
+// lowers the squared error: the gradient points the right way on a scene
+// where every term acts at once.
+TEST(RasterBackward, AStepAgainstTheGradientLowersTheError) {
+  const RenderCamera camera = MovedCameraOfModel(1);
+  const GaussianScene target_scene = SmallScene(camera, 21, false);
+  absl::StatusOr<RenderBuffers> target = Render(target_scene, camera, kTime, {});
+  ASSERT_TRUE(target.ok());
+  GaussianScene scene = target_scene;
+  std::mt19937 rng(4);
+  std::normal_distribution<float> noise(0, 0.05f);
+  for (float& m : scene.means) m += noise(rng);
+  for (float& f : scene.features) f += 4 * noise(rng);
+  auto error = [&](const GaussianScene& s, RenderOutputGradients* g) {
+    absl::StatusOr<RenderBuffers> r = Render(s, camera, kTime, {});
+    double sum = 0;
+    if (g != nullptr) g->rgb.resize(r->rgb.size());
+    for (size_t k = 0; k < r->rgb.size(); ++k) {
+      const double d = r->rgb[k] - target->rgb[k];
+      sum += 0.5 * d * d;
+      if (g != nullptr) g->rgb[k] = static_cast<float>(d);
+    }
+    return sum;
+  };
+  RenderOutputGradients g;
+  const double before = error(scene, &g);
+  RenderOptions options;
+  options.features = false;
+  absl::StatusOr<SceneGradients> grad = RenderBackward(scene, camera, kTime, {}, g, options);
+  ASSERT_TRUE(grad.ok()) << grad.status();
+  // A step of eps against the gradient lowers the error by about
+  // eps |gradient|^2 (first order).
+  double norm2 = 0, largest = 0;
+  for (const std::vector<float>* v : {&grad->means, &grad->features, &grad->log_scales,
+                                      &grad->rotations, &grad->opacity_logits}) {
+    for (float x : *v) {
+      norm2 += double{x} * x;
+      largest = std::max(largest, std::abs(double{x}));
+    }
+  }
+  const double eps = 2e-4 / largest;
+  auto step = [eps](std::vector<float>* p, const std::vector<float>& d) {
+    for (size_t k = 0; k < p->size(); ++k) (*p)[k] -= static_cast<float>(eps * d[k]);
+  };
+  step(&scene.means, grad->means);
+  step(&scene.features, grad->features);
+  step(&scene.log_scales, grad->log_scales);
+  step(&scene.rotations, grad->rotations);
+  step(&scene.opacity_logits, grad->opacity_logits);
+  const double after = error(scene, nullptr);
+  const double predicted = eps * norm2;
+  EXPECT_NEAR(before - after, predicted, 0.2 * predicted) << before << " -> " << after;
+}
+
+TEST(RasterBackward, RejectsWhatItCannotDifferentiate) {
+  const RenderCamera camera = MovedCameraOfModel(0);
+  RandomSceneSpec spec;
+  spec.sh_degree = 1;
+  GaussianScene sh = RandomScene(spec, camera);
+  absl::StatusOr<SceneGradients> r = RenderBackward(sh, camera, kTime, {}, {});
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.status().message().find("scene.sh_degree"), std::string::npos) << r.status();
+
+  spec.sh_degree = -1;
+  const GaussianScene scene = RandomScene(spec, camera);
+  RenderOutputGradients g;
+  g.rgb.resize(10);
+  r = RenderBackward(scene, camera, kTime, {}, g);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.status().message().find("grads.rgb: has 10 values"), std::string::npos) << r.status();
+
+  g = {};
+  g.features.resize(static_cast<size_t>(96 * 72) * scene.num_channels);
+  RenderOptions no_features;
+  no_features.features = false;
+  r = RenderBackward(scene, camera, kTime, {}, g, no_features);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.status().message().find("grads.features"), std::string::npos) << r.status();
+}
+
+}  // namespace
+}  // namespace pf
