@@ -38,7 +38,8 @@ constexpr char kEvalUsage[] =
     "usage: pf eval CLIP.json --out DIR [--model analytic|pixel-aligned] [--ns N --nd N] "
     "[--fusion softmax|average|no-depth] [--lifespan] [--refine N] [--splat-sigma S] "
     "[--low-pass PX2] [--hidden-band PX] [--no-ground-fill] [--no-facades] "
-    "[--device cpu|cuda[:N]] [--allow-outside-paths] [--views VIEWS.json --truth TRUTH_DIR] "
+    "[--device cpu|cuda[:N]] [--optimize-steps N [--optimize-seconds S]] "
+    "[--allow-outside-paths] [--views VIEWS.json --truth TRUTH_DIR] "
     "[--lane-shift D1,D2,... --lane-shift-time-us T] (pf eval --help for more)";
 
 constexpr char kHelp[] = R"(usage: pf eval CLIP.json --out DIR [reconstruction flags]

@@ -3,7 +3,8 @@
 //                [--lifespan] [--refine N] [--splat-sigma S] [--low-pass PX2]
 //                [--hidden-band PX] [--no-ground-fill] [--no-facades]
 //                [--device cpu|cuda[:N]] [--colour gradients|flat]
-//                [--working-space srgb|linear] [--allow-outside-paths]
+//                [--working-space srgb|linear]
+//                [--optimize-steps N [--optimize-seconds S]] [--allow-outside-paths]
 // Checks the clip as pf validate does, then builds a Gaussian scene from the
 // clip's CONTEXT frames (engine/recon/reconstruction.h) and writes it
 // with SaveScene. Progress per stage goes to stderr, a summary to stdout.
@@ -32,7 +33,8 @@ constexpr char kReconstructUsage[] =
     "[--ns N --nd N] [--fusion softmax|average|no-depth] [--lifespan] [--refine N] "
     "[--splat-sigma S] [--low-pass PX2] [--hidden-band PX] [--no-ground-fill] [--no-facades] "
     "[--device cpu|cuda[:N]] [--colour gradients|flat] [--working-space srgb|linear] "
-    "[--completion nearest|ip-basic] [--allow-outside-paths]";
+    "[--completion nearest|ip-basic] [--optimize-steps N [--optimize-seconds S]] "
+    "[--allow-outside-paths]";
 
 absl::Status ReconstructCommand(const CommandLine& cl) {
   if (cl.positional().size() != 1) return absl::InvalidArgumentError(kReconstructUsage);

@@ -423,6 +423,37 @@ TEST_F(ReconCli, AblationFlagsAreRecordedInTheReport) {
 // fades, --lifespan gives a few finite lifespans (15 of 13,842 here: views
 // that disagree in time), --no-lifespan is the default, and plain averaging
 // gives other colours.
+// --optimize-steps: the stage runs after the colour fit, says so on stderr,
+// and report.json has its loss and context PSNR per step beside the loss
+// curve's PNG.
+TEST_F(ReconCli, OptimisationStepsAreReportedWithTheirLossCurve) {
+  const std::string out = *dir_ + "/eval_optimize";
+  const CommandResult result = RunCommand(
+      {Pf(), "eval", Clip(), "--out", out, "--ns", "4000", "--nd", "500", "--optimize-steps", "8"});
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_NE(result.err.find("optimize done in"), std::string::npos) << result.err;
+  EXPECT_NE(result.err.find("optimize: step 8/8"), std::string::npos) << result.err;
+  const nlohmann::json report = ReadJsonFile(out + "/report.json");
+  ASSERT_TRUE(report["optimize"].is_object()) << report;
+  EXPECT_EQ(report["optimize"]["steps"], 8);
+  ASSERT_EQ(report["optimize"]["loss"].size(), 8u);
+  ASSERT_EQ(report["optimize"]["contextPsnr"].size(), 8u);
+  for (const nlohmann::json& psnr : report["optimize"]["contextPsnr"]) {
+    EXPECT_GT(psnr.get<double>(), 15) << report["optimize"];  // A rendered view, not noise.
+  }
+  EXPECT_TRUE(report["stageSeconds"].contains("optimize"));
+  absl::StatusOr<ImageInfo> curve = ReadImageInfo(out + "/optimize_loss.png");
+  ASSERT_TRUE(curve.ok()) << curve.status();
+  EXPECT_EQ(curve->width, 640);
+  // Without the flag there is no optimisation.
+  EXPECT_TRUE(Report("analytic")["optimize"].is_null());
+
+  const CommandResult bad =
+      RunCommand({Pf(), "reconstruct", Clip(), "--out", *dir_ + "/x", "--optimize-steps", "-1"});
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_NE(bad.err.find("--optimize-steps"), std::string::npos) << bad.err;
+}
+
 TEST_F(ReconCli, AblationFlagsChangeTheScene) {
   auto finite_lifespans = [](const GaussianScene& s) {
     return std::count_if(s.lifespans.begin(), s.lifespans.end(),

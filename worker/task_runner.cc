@@ -31,14 +31,18 @@ double SecondsSince(std::chrono::steady_clock::time_point start) {
 }
 
 // The stages of a reconstruction task in order: the download, the engine's
-// stages (recon_stages.h; refine only with the colour fit on), the save;
+// stages (recon_stages.h; refine only with the colour fit on, optimize only
+// with optimisation steps), the save;
 // Begin() reports the stage starting and the share of the work before it.
 class ReconProgressReporter {
  public:
-  ReconProgressReporter(const StageProgressFn& report, bool refine) : report_(report) {
+  ReconProgressReporter(const StageProgressFn& report, bool refine, bool optimize)
+      : report_(report) {
     stages_.push_back({"download", 0.05});
     for (const ReconStageInfo& info : ReconStages()) {
-      if (info.stage != ReconStage::kRefine || refine) stages_.push_back({info.name, info.weight});
+      if (info.stage == ReconStage::kRefine && !refine) continue;
+      if (info.stage == ReconStage::kOptimize && !optimize) continue;
+      stages_.push_back({info.name, info.weight});
     }
     stages_.push_back({"save", 0.05});
     for (const auto& stage : stages_) total_ += stage.second;
@@ -211,7 +215,8 @@ absl::StatusOr<ReconstructOutput> RunReconstruction(
   }
   ASSIGN_OR_RETURN(ReconOptions options, ReconOptionsFromProto(work.options()));
   options.device = device;
-  ReconProgressReporter stages(progress, options.refinement.iterations > 0);
+  ReconProgressReporter stages(progress, options.refinement.iterations > 0,
+                               options.optimize.steps > 0);
   options.progress = [&stages](const ReconProgress& p) { stages.Engine(p); };
 
   stages.Begin("download");

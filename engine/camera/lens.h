@@ -67,6 +67,23 @@ PF_HD inline void LensDistort(const Lens& lens, double xn, double yn, double* xd
   *yd = yn;
 }
 
+// The 2x2 Jacobian of the pixel with respect to undistorted normalised
+// coordinates at (xn, yn), row-major (d[0] = du/dxn, d[1] = du/dyn, d[2] =
+// dv/dxn, d[3] = dv/dyn), by central differences of LensDistort (step 1e-6):
+// what the rasterizer linearises a Gaussian's footprint with.
+PF_HD inline void LensJacobian(const Lens& lens, double xn, double yn, double d[4]) {
+  constexpr double h = 1e-6;
+  double ax, ay, bx, by, cx, cy, dx, dy;
+  LensDistort(lens, xn + h, yn, &ax, &ay);
+  LensDistort(lens, xn - h, yn, &bx, &by);
+  LensDistort(lens, xn, yn + h, &cx, &cy);
+  LensDistort(lens, xn, yn - h, &dx, &dy);
+  d[0] = lens.fx * (ax - bx) / (2 * h);
+  d[1] = lens.fx * (cx - dx) / (2 * h);
+  d[2] = lens.fy * (ay - by) / (2 * h);
+  d[3] = lens.fy * (cy - dy) / (2 * h);
+}
+
 // Projects the camera-frame point (x, y, z) to continuous pixel coordinates;
 // false when z <= 1e-6 or the point lies beyond max_radius (distorted
 // lenses only). CameraModel::Project.

@@ -502,6 +502,16 @@ std::string EvalReportJson(const EvalReport& report) {
   j["contextViews"] = report.stats.views;
   j["ns"] = report.stats.static_per_view;
   j["nd"] = report.stats.dynamic_per_instance;
+  // The per-scene optimisation: its loss and the stepped views' PSNR per
+  // step (optimize_loss.png plots the loss).
+  if (report.stats.optimize_steps > 0) {
+    j["optimize"] = {{"steps", report.stats.optimize_steps},
+                     {"lossCurve", "optimize_loss.png"},
+                     {"loss", report.stats.optimize_loss},
+                     {"contextPsnr", report.stats.optimize_psnr}};
+  } else {
+    j["optimize"] = nullptr;
+  }
   nlohmann::ordered_json stages = nlohmann::ordered_json::object();
   for (const auto& [name, seconds] : report.stats.stage_seconds) stages[name] = seconds;
   j["stageSeconds"] = stages;
@@ -735,6 +745,10 @@ absl::StatusOr<EvalReport> EvaluateClip(const LoadedClip& loaded, const ReconOpt
   if (extra_views.has_value()) {
     RETURN_IF_ERROR(EvaluateExtraViews(scene, *renderer, *extra_views, extra->lane_shift, options,
                                        out_dir, &report));
+  }
+  if (report.stats.optimize_steps > 0) {
+    RETURN_IF_ERROR(WritePng(absl::StrCat(out_dir, "/optimize_loss.png"),
+                             LineChart(report.stats.optimize_loss, report.stats.views)));
   }
   RETURN_IF_ERROR(WriteFileAtomic(absl::StrCat(out_dir, "/report.json"), EvalReportJson(report)));
   return report;

@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "common/thread_pool.h"
+#include "engine/recon/photometric_loss.h"
 
 namespace pf {
 
@@ -29,71 +30,10 @@ std::optional<double> Psnr(const ImageF& truth, const ImageF& test,
 
 std::optional<double> Ssim(const ImageF& truth, const ImageF& test,
                            const std::vector<uint8_t>& mask) {
-  constexpr int kRadius = 5;  // 11 x 11 window.
-  constexpr double kSigma = 1.5, kC1 = 0.01 * 0.01, kC2 = 0.03 * 0.03;
-  const int w = truth.width, h = truth.height;
-  if (w < 2 * kRadius + 1 || h < 2 * kRadius + 1) return std::nullopt;
-  double kernel[2 * kRadius + 1];
-  double total = 0;
-  for (int k = -kRadius; k <= kRadius; ++k) {
-    kernel[k + kRadius] = std::exp(-0.5 * k * k / (kSigma * kSigma));
-    total += kernel[k + kRadius];
-  }
-  for (double& k : kernel) k /= total;
-  const int out_w = w - 2 * kRadius, out_h = h - 2 * kRadius;
-  // Window (x, y) is centred on pixel (x + kRadius, y + kRadius).
-  auto counted = [&](int x, int y) {
-    return mask.empty() || mask[static_cast<size_t>(y + kRadius) * w + x + kRadius] != 0;
-  };
-  int64_t windows = 0;
-  for (int y = 0; y < out_h; ++y)
-    for (int x = 0; x < out_w; ++x) windows += counted(x, y);
-  if (windows == 0) return std::nullopt;
-  double ssim_sum = 0;
-  for (int c = 0; c < 3; ++c) {
-    // Separable blur of x, y, x^2, y^2, xy: horizontal pass then vertical.
-    std::vector<double> row(static_cast<size_t>(out_w) * h * 5);
-    DefaultThreadPool().ParallelFor(0, h, 16, [&](int64_t y0, int64_t y1) {
-      for (int64_t y = y0; y < y1; ++y) {
-        for (int x = 0; x < out_w; ++x) {
-          double acc[5] = {0, 0, 0, 0, 0};
-          for (int k = 0; k <= 2 * kRadius; ++k) {
-            const double a = truth.at(x + k, y, c), b = test.at(x + k, y, c);
-            const double g = kernel[k];
-            acc[0] += g * a;
-            acc[1] += g * b;
-            acc[2] += g * a * a;
-            acc[3] += g * b * b;
-            acc[4] += g * a * b;
-          }
-          for (int m = 0; m < 5; ++m) row[(static_cast<size_t>(y) * out_w + x) * 5 + m] = acc[m];
-        }
-      }
-    });
-    std::vector<double> per_row(out_h, 0.0);
-    DefaultThreadPool().ParallelFor(0, out_h, 16, [&](int64_t y0, int64_t y1) {
-      for (int64_t y = y0; y < y1; ++y) {
-        double sum = 0;
-        for (int x = 0; x < out_w; ++x) {
-          if (!counted(x, int(y))) continue;
-          double acc[5] = {0, 0, 0, 0, 0};
-          for (int k = 0; k <= 2 * kRadius; ++k)
-            for (int m = 0; m < 5; ++m)
-              acc[m] += kernel[k] * row[(static_cast<size_t>(y + k) * out_w + x) * 5 + m];
-          const double mu_a = acc[0], mu_b = acc[1];
-          const double var_a = acc[2] - mu_a * mu_a, var_b = acc[3] - mu_b * mu_b;
-          const double cov = acc[4] - mu_a * mu_b;
-          sum += ((2 * mu_a * mu_b + kC1) * (2 * cov + kC2)) /
-                 ((mu_a * mu_a + mu_b * mu_b + kC1) * (var_a + var_b + kC2));
-        }
-        per_row[y] = sum;
-      }
-    });
-    double channel = 0;
-    for (double s : per_row) channel += s;
-    ssim_sum += channel / double(windows);
-  }
-  return ssim_sum / 3.0;
+  const PhotometricLoss loss =
+      PhotometricLossAndGradient(test.pixels.data(), truth, mask, 1.0, nullptr);
+  if (loss.ssim_windows == 0) return std::nullopt;
+  return loss.ssim;
 }
 
 std::optional<double> DepthRmse(const ImageF& truth, const ImageF& test, int64_t* pixels) {
@@ -132,6 +72,60 @@ ImageF ContactSheet(const ImageF& truth, const ImageF& test, double max_error) {
     }
   }
   return sheet;
+}
+
+ImageF LineChart(const std::vector<float>& values, int window, int width, int height) {
+  ImageF chart(width, height, 3);
+  std::fill(chart.pixels.begin(), chart.pixels.end(), 1.f);
+  constexpr int kMargin = 8;
+  const int x0 = kMargin, x1 = width - 1 - kMargin, y0 = kMargin, y1 = height - 1 - kMargin;
+  auto put = [&](int x, int y, float r, float g, float b) {
+    if (x < 0 || y < 0 || x >= width || y >= height) return;
+    chart.at(x, y, 0) = r;
+    chart.at(x, y, 1) = g;
+    chart.at(x, y, 2) = b;
+  };
+  for (int x = x0; x <= x1; ++x) put(x, y0, 0.6f, 0.6f, 0.6f), put(x, y1, 0.6f, 0.6f, 0.6f);
+  for (int y = y0; y <= y1; ++y) put(x0, y, 0.6f, 0.6f, 0.6f), put(x1, y, 0.6f, 0.6f, 0.6f);
+  double lo = INFINITY, hi = -INFINITY;
+  for (float v : values) {
+    if (!std::isfinite(v)) continue;
+    lo = std::min(lo, double{v});
+    hi = std::max(hi, double{v});
+  }
+  if (values.empty() || !(lo <= hi)) return chart;
+  if (hi == lo) hi = lo + 1;
+  std::vector<double> mean(values.size());
+  double sum = 0;
+  for (size_t k = 0; k < values.size(); ++k) {
+    sum += std::isfinite(values[k]) ? values[k] : 0.0;
+    if (k >= static_cast<size_t>(std::max(window, 1))) {
+      const float old = values[k - std::max(window, 1)];
+      sum -= std::isfinite(old) ? old : 0.0;
+    }
+    mean[k] = sum / double(std::min(k + 1, static_cast<size_t>(std::max(window, 1))));
+  }
+  auto to_x = [&](size_t k) {
+    return values.size() == 1 ? double(x0) : x0 + (x1 - x0) * double(k) / double(values.size() - 1);
+  };
+  auto to_y = [&](double v) { return y1 - (y1 - y0) * (v - lo) / (hi - lo); };
+  // Lines from step to step, drawn as dense dots.
+  auto line = [&](const auto& value_at, float r, float g, float b) {
+    for (size_t k = 0; k + 1 < values.size(); ++k) {
+      const double ax = to_x(k), ay = to_y(value_at(k)), bx = to_x(k + 1),
+                   by = to_y(value_at(k + 1));
+      const int n = 1 + static_cast<int>(std::max(std::abs(bx - ax), std::abs(by - ay)));
+      for (int s = 0; s <= n; ++s) {
+        const double t = double(s) / n;
+        put(static_cast<int>(std::lround(ax + t * (bx - ax))),
+            static_cast<int>(std::lround(ay + t * (by - ay))), r, g, b);
+      }
+    }
+  };
+  line([&](size_t k) { return std::isfinite(values[k]) ? double{values[k]} : lo; }, 0.55f, 0.7f,
+       0.95f);
+  line([&](size_t k) { return mean[k]; }, 0.6f, 0.f, 0.f);
+  return chart;
 }
 
 }  // namespace pf

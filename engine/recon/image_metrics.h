@@ -41,6 +41,13 @@ std::optional<double> DepthRmse(const ImageF& truth, const ImageF& test, int64_t
 // yellow, white at `max_error`) side by side, [H, 3W, 3].
 ImageF ContactSheet(const ImageF& truth, const ImageF& test, double max_error = 0.25);
 
+// Returns a line chart of `values` (one per step, left to right) on white,
+// [height, width, 3]: the values in light blue, their running mean over
+// `window` steps in dark red, scaled so the smallest and largest finite
+// value span the plot (a frame marks its edges). No text: the numbers are
+// in the report beside it.
+ImageF LineChart(const std::vector<float>& values, int window, int width = 640, int height = 240);
+
 }  // namespace pf
 
 #endif  // POINTFORWARD_ENGINE_RECON_IMAGE_METRICS_H_

@@ -2,6 +2,7 @@
 #include "engine/recon/pipeline.h"
 
 // The generated protobuf header first (see image_io.h).
+#include <algorithm>
 #include <chrono>
 #include <utility>
 
@@ -222,6 +223,46 @@ absl::Status Pipeline::FitColours() {
                       refined.rmse_after, "; weights ", absl::SixDigits(refined.record_seconds),
                       " s, fit ", absl::SixDigits(refined.solve_seconds), " s", detail, ")"));
   }
+  return absl::OkStatus();
+}
+
+absl::Status Pipeline::Optimize() {
+  if (options_.optimize.steps <= 0) return absl::OkStatus();
+  OptimizeOptions optimize = options_.optimize;
+  std::vector<uint8_t> fixed(result_.scene.size(), 0);
+  for (size_t i = 0; i < fixed.size() && i < queries_.far.size(); ++i) fixed[i] = queries_.far[i];
+  // A progress line about every 10 % of the steps, and at least every 30 s
+  // (a run bounded by seconds may never reach 10 % of its steps).
+  const int every = std::max(1, optimize.steps / 10);
+  double reported = 0;
+  optimize.progress = [&](const OptimizeProgress& p) {
+    if (p.step % every != 0 && p.step != p.steps && p.seconds - reported < 30) return;
+    reported = p.seconds;
+    ReportNote(options_.progress, ReconStage::kOptimize,
+               absl::StrCat("optimize: step ", p.step, "/", p.steps, ", ",
+                            absl::SixDigits(p.seconds), " s, loss ", absl::SixDigits(p.loss),
+                            ", context PSNR ", absl::SixDigits(p.psnr), " dB (this epoch)"));
+  };
+  ASSIGN_OR_RETURN(const OptimizeStats stats,
+                   OptimizeScene(inputs_.views, fixed, optimize, &result_.scene));
+  result_.stats.optimize_steps = stats.steps;
+  result_.stats.optimize_loss = stats.loss;
+  result_.stats.optimize_psnr = stats.psnr;
+  const size_t views = inputs_.views.size();
+  auto mean_psnr = [&](size_t begin, size_t end) {
+    double sum = 0;
+    for (size_t k = begin; k < end; ++k) sum += stats.psnr[k];
+    return end > begin ? sum / double(end - begin) : 0.0;
+  };
+  const size_t first = std::min(views, stats.psnr.size());
+  const size_t last_begin = stats.psnr.size() > views ? stats.psnr.size() - views : 0;
+  Done(ReconStage::kOptimize,
+       absl::StrCat(" (", stats.steps, " steps; context PSNR ",
+                    absl::SixDigits(mean_psnr(0, first)), " dB in the first epoch, ",
+                    absl::SixDigits(mean_psnr(last_begin, stats.psnr.size())),
+                    " dB in the last; render ", absl::SixDigits(stats.render_seconds),
+                    " s, backward ", absl::SixDigits(stats.backward_seconds), " s, update ",
+                    absl::SixDigits(stats.update_seconds), " s)"));
   return absl::OkStatus();
 }
 

@@ -11,6 +11,7 @@
 //   RETURN_IF_ERROR(p.Fuse());
 //   p.Decode();
 //   RETURN_IF_ERROR(p.FitColours());
+//   RETURN_IF_ERROR(p.Optimize());
 //   return p.Finish();
 #ifndef POINTFORWARD_ENGINE_RECON_PIPELINE_H_
 #define POINTFORWARD_ENGINE_RECON_PIPELINE_H_
@@ -50,6 +51,9 @@ class Pipeline {
   // 7. The colour fit against the context images (when iterations > 0), with
   // colour gradients as ColourGradientsFor(options) says.
   absl::Status FitColours();
+  // 8. Per-scene optimisation against the context views (when
+  // options.optimize.steps > 0), the far layer's geometry fixed.
+  absl::Status Optimize();
   // The scene and its statistics.
   ReconResult Finish();
 

@@ -111,6 +111,7 @@ TEST_F(ReconModelTest, AModelAddedByOneLineIsChosenByName) {
 TEST_F(ReconModelTest, ProgressReportsEachStageInTheListedOrder) {
   ReconOptions options = Options("analytic");
   options.refinement.iterations = 2;
+  options.optimize.steps = 2;
   std::vector<ReconProgress> reports;
   options.progress = [&](const ReconProgress& p) { reports.push_back(p); };
   absl::StatusOr<ReconResult> result = ReconstructInputs(*inputs_, options);
@@ -130,6 +131,8 @@ TEST_F(ReconModelTest, ProgressReportsEachStageInTheListedOrder) {
   }
   EXPECT_EQ(done, expected);
   ASSERT_EQ(result->stats.stage_seconds.size(), expected.size());
+  EXPECT_EQ(result->stats.optimize_steps, 2);
+  EXPECT_EQ(result->stats.optimize_loss.size(), 2u);
   for (size_t i = 0; i < expected.size(); ++i) {
     EXPECT_EQ(result->stats.stage_seconds[i].first, expected[i]);
   }

@@ -78,6 +78,9 @@ std::vector<Spec> MakeTable() {
       Choice("working_space", "working space", {"srgb", "linear"}, Key::kTextWhenSet);
   working_space.clear_default = true;
   table.push_back(working_space);
+  table.push_back(Number("optimize_steps", Kind::kInt, 0, false, 1e6, " steps", Key::kTextWhenSet));
+  table.push_back(
+      Number("optimize_seconds", Kind::kReal, 0, false, 604800, " seconds", Key::kHexWhenSet));
   Spec device{"device", Kind::kDevice};
   device.choices = {"cpu"};
   device.fills_default = true;

@@ -27,6 +27,10 @@
 //   --working-space srgb|linear      the colour encoding the context images are
 //                                    decoded to and the scene's colours are fitted
 //                                    in (default srgb; docs/SCENE_FORMAT.md, "Colour")
+//   --optimize-steps N               per-scene optimisation: N context views rendered
+//                                    and stepped after the colour fit (scene_optimizer.h;
+//                                    default 0: none)
+//   --optimize-seconds S             stop the optimisation after S seconds
 //   --device cpu|cuda[:N]            where fusion and the colour fit's solve run (compute_device.h)
 //   --allow-outside-paths            accept manifest paths that are absolute or leave
 //                                    the clip's directory (as pf validate does)

@@ -9,10 +9,11 @@ namespace pf {
 
 const std::vector<ReconStageInfo>& ReconStages() {
   static const std::vector<ReconStageInfo> stages = {
-      {ReconStage::kLoad, "load", 0.05},     {ReconStage::kDepth, "depth", 0.03},
-      {ReconStage::kLift, "lift", 0.05},     {ReconStage::kSceneGraph, "scene_graph", 0.07},
-      {ReconStage::kSample, "sample", 0.07}, {ReconStage::kFuse, "fuse", 0.05},
-      {ReconStage::kDecode, "decode", 0.03}, {ReconStage::kRefine, "refine", 0.55},
+      {ReconStage::kLoad, "load", 0.05},        {ReconStage::kDepth, "depth", 0.03},
+      {ReconStage::kLift, "lift", 0.05},        {ReconStage::kSceneGraph, "scene_graph", 0.07},
+      {ReconStage::kSample, "sample", 0.07},    {ReconStage::kFuse, "fuse", 0.05},
+      {ReconStage::kDecode, "decode", 0.03},    {ReconStage::kRefine, "refine", 0.55},
+      {ReconStage::kOptimize, "optimize", 1.0},
   };
   return stages;
 }

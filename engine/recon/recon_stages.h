@@ -13,7 +13,17 @@
 
 namespace pf {
 
-enum class ReconStage { kLoad, kDepth, kLift, kSceneGraph, kSample, kFuse, kDecode, kRefine };
+enum class ReconStage {
+  kLoad,
+  kDepth,
+  kLift,
+  kSceneGraph,
+  kSample,
+  kFuse,
+  kDecode,
+  kRefine,
+  kOptimize
+};
 
 struct ReconStageInfo {
   ReconStage stage;
@@ -24,7 +34,9 @@ struct ReconStageInfo {
 };
 
 // Every stage in the order they run; kRefine runs only when the colour fit
-// is on (RefinementOptions::iterations > 0).
+// is on (RefinementOptions::iterations > 0), kOptimize only with
+// optimisation steps (OptimizeOptions::steps > 0; its weight is for a
+// default-sized run, and it reports a note about every 10 % of its steps).
 const std::vector<ReconStageInfo>& ReconStages();
 
 const char* ReconStageName(ReconStage stage);

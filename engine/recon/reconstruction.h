@@ -24,6 +24,7 @@
 #include "engine/recon/fusion.h"
 #include "engine/recon/gaussian_decoder.h"
 #include "engine/recon/recon_stages.h"
+#include "engine/recon/scene_optimizer.h"
 #include "engine/recon/sparse_sampling.h"
 #include "engine/recon/view_depth.h"
 #include "engine/render/gaussian_scene.h"
@@ -59,6 +60,9 @@ struct ReconOptions {
   // the build only the CPU, with the C++ kernel. A cuda device also takes
   // the colour fit's solve where the build has CUDA (cuda_colour_fit.h).
   ComputeDevice device;
+  // Per-scene optimisation after the colour fit (scene_optimizer.h; steps 0:
+  // none, the default). Its progress callback is set by the pipeline.
+  OptimizeOptions optimize;
   // Called after each stage and with notes (recon_stages.h); may be null.
   ReconProgressFn progress;
 };
@@ -88,6 +92,11 @@ struct ReconStats {
   double colour_fit_record_seconds = 0;
   double colour_fit_solve_seconds = 0;
   double colour_fit_upload_seconds = 0;  // Of the solve: the weights to the GPU.
+  // The optimisation (scene_optimizer.h): steps taken (0: none ran), its
+  // loss per step, and the context views' PSNR per step.
+  int optimize_steps = 0;
+  std::vector<float> optimize_loss;
+  std::vector<float> optimize_psnr;
   std::vector<std::pair<std::string, double>> stage_seconds;  // In order.
   double total_seconds = 0;
 };

@@ -47,21 +47,6 @@ struct ParamView {
 // derivative (the Jacobian itself uses the forward's 1e-6).
 constexpr double kJacobianStep = 1e-4;
 
-// The distortion Jacobian of pixel w.r.t. normalised coordinates at (tx, ty),
-// row-major, as ProjectSplat takes it.
-void DistortionJacobian(const Lens& lens, double tx, double ty, double d[4]) {
-  constexpr double h = 1e-6;
-  double ax, ay, bx, by, cxp, cyp, dx, dy;
-  LensDistort(lens, tx + h, ty, &ax, &ay);
-  LensDistort(lens, tx - h, ty, &bx, &by);
-  LensDistort(lens, tx, ty + h, &cxp, &cyp);
-  LensDistort(lens, tx, ty - h, &dx, &dy);
-  d[0] = lens.fx * (ax - bx) / (2 * h);
-  d[2] = lens.fy * (ay - by) / (2 * h);
-  d[1] = lens.fx * (cxp - dx) / (2 * h);
-  d[3] = lens.fy * (cyp - dy) / (2 * h);
-}
-
 // One Gaussian's projection, and what its derivative needs.
 template <typename T>
 struct Tape {
@@ -86,7 +71,7 @@ struct Tape {
 
 // The screen-space record of a Gaussian kept between the passes.
 template <typename T>
-struct Splat {
+struct ScreenSplat {
   T mx, my, ca, cb, cc, opacity, depth, ux, uy, vx, vy;
   float span_d2, ext_x, ext_y;
 };
@@ -139,7 +124,7 @@ bool ProjectWithTape(const GaussianScene& scene, const ParamView<T>& p, size_t i
     t->mx = u;
     t->my = v;
     double d[4];
-    DistortionJacobian(lens, t->tx, t->ty, d);
+    LensJacobian(lens, t->tx, t->ty, d);
     for (int k = 0; k < 4; ++k) t->d[k] = d[k];
   }
   const T* d = t->d;
@@ -229,7 +214,7 @@ struct TilePass {
   const GaussianScene* scene;
   ParamView<T> params;
   const RenderFrame* frame;
-  const Splat<T>* splats;  // [N]
+  const ScreenSplat<T>* splats;  // [N]
   const OutputGradients<T>* grads;
   SlotLayout layout;
   bool features_out;  // RenderOptions::features.
@@ -244,7 +229,7 @@ T ValueAt(const TilePass<T>& pass, size_t i, int c, T dx, T dy) {
   const int nc = pass.scene->num_channels;
   T value = pass.params.features[i * nc + c];
   if (c < 3 && pass.params.colour_gradients != nullptr) {
-    const Splat<T>& s = pass.splats[i];
+    const ScreenSplat<T>& s = pass.splats[i];
     const T* g = &pass.params.colour_gradients[6 * i + 2 * c];
     value += g[0] * (s.ux * dx + s.uy * dy) + g[1] * (s.vx * dx + s.vy * dy);
   }
@@ -278,7 +263,7 @@ void BackwardTile(const TilePass<T>& pass, int tx, int ty, const uint32_t* list,
       const bool fill = pass.rgb_out != nullptr;
       if (fill) std::fill(out_value.begin(), out_value.end(), T(0));
       for (size_t k = 0; k < size; ++k) {
-        const Splat<T>& s = pass.splats[list[k]];
+        const ScreenSplat<T>& s = pass.splats[list[k]];
         const T dx = px - s.mx, dy = py - s.my;
         const T d2 = s.ca * dx * dx + T(2) * s.cb * dx * dy + s.cc * dy * dy;
         if (!(d2 <= T(s.span_d2))) continue;
@@ -331,7 +316,7 @@ void BackwardTile(const TilePass<T>& pass, int tx, int ty, const uint32_t* list,
       for (size_t r = contributions.size(); r-- > 0;) {
         const Contribution<T>& con = contributions[r];
         const uint32_t i = list[con.k];
-        const Splat<T>& s = pass.splats[i];
+        const ScreenSplat<T>& s = pass.splats[i];
         const T dx = px - s.mx, dy = py - s.my;
         const T w = con.alpha * con.trans;
         T own = g_depth_sum * s.depth;
@@ -454,11 +439,11 @@ void BackwardProjection(const GaussianScene& scene, const ParamView<T>& params, 
     // The Jacobian moves with the point it is taken at.
     const double h = kJacobianStep;
     double dp[4], dm[4];
-    DistortionJacobian(lens, t.tx + h, t.ty, dp);
-    DistortionJacobian(lens, t.tx - h, t.ty, dm);
+    LensJacobian(lens, t.tx + h, t.ty, dp);
+    LensJacobian(lens, t.tx - h, t.ty, dm);
     for (int k = 0; k < 4; ++k) g_tx += gd[k] * T((dp[k] - dm[k]) / (2 * h));
-    DistortionJacobian(lens, t.tx, t.ty + h, dp);
-    DistortionJacobian(lens, t.tx, t.ty - h, dm);
+    LensJacobian(lens, t.tx, t.ty + h, dp);
+    LensJacobian(lens, t.tx, t.ty - h, dm);
     for (int k = 0; k < 4; ++k) g_ty += gd[k] * T((dp[k] - dm[k]) / (2 * h));
   }
   if (t.free_x) g_xn += g_tx;
@@ -535,7 +520,7 @@ absl::StatusOr<GaussianParams<T>> Backward(const GaussianScene& scene, const Par
 
   // 1. Project.
   const size_t n = scene.size();
-  std::vector<Splat<T>> splats(n);
+  std::vector<ScreenSplat<T>> splats(n);
   std::vector<uint8_t> visible(n, 0);
   ThreadPool& pool = DefaultThreadPool();
   constexpr int64_t kChunk = 4096;
@@ -564,7 +549,7 @@ absl::StatusOr<GaussianParams<T>> Backward(const GaussianScene& scene, const Par
   const int num_tiles = frame.tiles_x * frame.tiles_y;
   std::vector<uint64_t> tile_begin(num_tiles + 1, 0);
   auto visit = [&](uint32_t i, auto&& emit) {
-    const Splat<T>& s = splats[i];
+    const ScreenSplat<T>& s = splats[i];
     raster::VisitTiles(static_cast<float>(s.mx), static_cast<float>(s.my), static_cast<float>(s.ca),
                        static_cast<float>(s.cb), static_cast<float>(s.cc), s.span_d2, s.ext_x,
                        s.ext_y, frame.width, frame.height, frame.tiles_x, emit);
@@ -639,7 +624,7 @@ absl::StatusOr<GaussianParams<T>> Backward(const GaussianScene& scene, const Par
                        T g_frame[4] = {0, 0, 0, 0};
                        if (layout.textured) {
                          // value_c = f_c + gu_c u + gv_c v, u = ux dx + uy dy, v = vx dx + vy dy.
-                         const Splat<T>& s = splats[i];
+                         const ScreenSplat<T>& s = splats[i];
                          const T* cg = &params.colour_gradients[6 * i];
                          const T* mo = sc + layout.moments();
                          for (int c = 0; c < 3; ++c) {
@@ -668,7 +653,7 @@ absl::StatusOr<GaussianParams<T>> Backward(const GaussianScene& scene, const Par
          out.opacity_logits.size() + out.features.size() + out.colour_gradients.size()) *
         sizeof(T);
     stats->working_bytes = static_cast<int64_t>(
-        splats.size() * sizeof(Splat<T>) + n + keys.size() * 8 + tile_begin.size() * 8 +
+        splats.size() * sizeof(ScreenSplat<T>) + n + keys.size() * 8 + tile_begin.size() * 8 +
         lists.size() * 4 + (slots.size() + screen.size()) * sizeof(T) + result);
   }
   return out;

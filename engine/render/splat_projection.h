@@ -176,16 +176,12 @@ PF_HD inline bool ProjectSplat(const SplatArrays& scene, size_t i, const Project
     mx = static_cast<float>(u);
     my = static_cast<float>(v);
     // Central differences of the distortion at the (clamped) point.
-    constexpr double h = 1e-6;
-    double ax, ay, bx, by, cxp, cyp, dx, dy;
-    LensDistort(lens, tx + h, ty, &ax, &ay);
-    LensDistort(lens, tx - h, ty, &bx, &by);
-    LensDistort(lens, tx, ty + h, &cxp, &cyp);
-    LensDistort(lens, tx, ty - h, &dx, &dy);
-    d00 = static_cast<float>(lens.fx * (ax - bx) / (2 * h));
-    d10 = static_cast<float>(lens.fy * (ay - by) / (2 * h));
-    d01 = static_cast<float>(lens.fx * (cxp - dx) / (2 * h));
-    d11 = static_cast<float>(lens.fy * (cyp - dy) / (2 * h));
+    double d[4];
+    LensJacobian(lens, tx, ty, d);
+    d00 = static_cast<float>(d[0]);
+    d01 = static_cast<float>(d[1]);
+    d10 = static_cast<float>(d[2]);
+    d11 = static_cast<float>(d[3]);
   }
   // J = D * [1/z 0 -tx/z; 0 1/z -ty/z], 2x3.
   const float j00 = d00 * inv_z, j01 = d01 * inv_z, j02 = -(d00 * tx + d01 * ty) * inv_z;

@@ -22,6 +22,7 @@ class AnalyticModel : public ReconModel {
     RETURN_IF_ERROR(p.Fuse());
     p.Decode();
     RETURN_IF_ERROR(p.FitColours());
+    RETURN_IF_ERROR(p.Optimize());
     return p.Finish();
   }
 };

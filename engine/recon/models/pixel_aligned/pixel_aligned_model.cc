@@ -24,6 +24,7 @@ class PixelAlignedModel : public ReconModel {
     p.KeepQueriesUnfused();
     p.Decode();
     RETURN_IF_ERROR(p.FitColours());
+    RETURN_IF_ERROR(p.Optimize());
     return p.Finish();
   }
 };
