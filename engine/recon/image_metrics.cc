@@ -4,7 +4,6 @@
 #include <algorithm>
 #include <cmath>
 
-#include "common/thread_pool.h"
 #include "engine/recon/photometric_loss.h"
 
 namespace pf {
@@ -95,15 +94,14 @@ ImageF LineChart(const std::vector<float>& values, int window, int width, int he
   }
   if (values.empty() || !(lo <= hi)) return chart;
   if (hi == lo) hi = lo + 1;
+  const size_t span = static_cast<size_t>(std::max(window, 1));
+  auto finite = [](float v) { return std::isfinite(v) ? double{v} : 0.0; };
   std::vector<double> mean(values.size());
   double sum = 0;
   for (size_t k = 0; k < values.size(); ++k) {
-    sum += std::isfinite(values[k]) ? values[k] : 0.0;
-    if (k >= static_cast<size_t>(std::max(window, 1))) {
-      const float old = values[k - std::max(window, 1)];
-      sum -= std::isfinite(old) ? old : 0.0;
-    }
-    mean[k] = sum / double(std::min(k + 1, static_cast<size_t>(std::max(window, 1))));
+    sum += finite(values[k]);
+    if (k >= span) sum -= finite(values[k - span]);
+    mean[k] = sum / double(std::min(k + 1, span));
   }
   auto to_x = [&](size_t k) {
     return values.size() == 1 ? double(x0) : x0 + (x1 - x0) * double(k) / double(values.size() - 1);

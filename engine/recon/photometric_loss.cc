@@ -91,10 +91,11 @@ PhotometricLoss PhotometricLossAndGradient(const float* render, const ImageF& tr
   double ssim_sum = 0;
   // Per channel: moments (5 blurred maps), the SSIM map and its three
   // derivative maps, then their transposed blurs.
-  std::vector<double> row(static_cast<size_t>(out_w) * h * 5), moments(out * 5);
+  std::vector<double> row(static_cast<size_t>(out_w) * h * 5);
   std::vector<double> dmaps(out * 3);
-  std::vector<double> spread(pixels * 3);
   std::vector<double> per_row(out_h);
+  const bool ssim_gradient = gradient != nullptr && ssim_weight != 0;
+  std::vector<double> spread(ssim_gradient ? pixels * 3 : 0);
   for (int c = 0; c < 3; ++c) {
     auto x_at = [&](int px, int py) { return double(render[3 * (size_t(py) * w + px) + c]); };
     auto y_at = [&](int px, int py) { return double(truth.pixels[3 * (size_t(py) * w + px) + c]); };
@@ -146,10 +147,9 @@ PhotometricLoss PhotometricLossAndGradient(const float* render, const ImageF& tr
       }
     });
     for (double s : per_row) ssim_sum += s;
-    if (gradient == nullptr || ssim_weight == 0) continue;
+    if (!ssim_gradient) continue;
     // Spread the maps back: vertically into rows of window columns, then
-    // horizontally into pixels.
-    std::fill(spread.begin(), spread.end(), 0.0);
+    // horizontally into pixels (every entry of `spread` written).
     pool.ParallelFor(0, h, 16, [&](int64_t y0, int64_t y1) {
       for (int64_t y = y0; y < y1; ++y) {
         // Windows whose rows reach pixel row y: centre rows y - kSsimRadius ..

@@ -6,9 +6,11 @@
 #include <cmath>
 #include <numeric>
 #include <random>
+#include <span>
 
 #include "absl/strings/str_cat.h"
 #include "common/thread_pool.h"
+#include "engine/recon/image_metrics.h"
 #include "engine/recon/photometric_loss.h"
 #include "engine/render/raster_backward.h"
 #include "engine/render/rasterizer.h"
@@ -20,26 +22,28 @@ double ElapsedSeconds(std::chrono::steady_clock::time_point t) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
 }
 
-// Adam (Kingma and Ba) over one parameter array.
+// Adam (Kingma and Ba) over one parameter array, its step count its own.
 class Adam {
  public:
   void Reset(size_t n) {
     m_.assign(n, 0.f);
     v_.assign(n, 0.f);
+    t_ = 0;
   }
-  // One step of size `lr` at step `t` (1-based) with gradient `g`; entries
-  // whose `keep` row (of `width` values) is set are not moved.
-  void Step(std::vector<float>* params, const std::vector<float>& g, double lr, int t,
+  // One step of size `lr` with gradient `g`; entries whose `keep` row (of
+  // `width` values) is set are not moved.
+  void Step(std::span<float> params, std::span<const float> g, double lr,
             const std::vector<uint8_t>* keep = nullptr, int width = 1) {
     constexpr double kBeta1 = 0.9, kBeta2 = 0.999, kEps = 1e-15;
-    const double c1 = 1 - std::pow(kBeta1, t), c2 = 1 - std::pow(kBeta2, t);
+    ++t_;
+    const double c1 = 1 - std::pow(kBeta1, t_), c2 = 1 - std::pow(kBeta2, t_);
     const float step = static_cast<float>(lr * std::sqrt(c2) / c1);
     const float eps = static_cast<float>(kEps * std::sqrt(c2));
-    float* p = params->data();
+    float* p = params.data();
     float* m = m_.data();
     float* v = v_.data();
     const float* gr = g.data();
-    const int64_t n = static_cast<int64_t>(params->size());
+    const int64_t n = static_cast<int64_t>(params.size());
     DefaultThreadPool().ParallelFor(0, n, 1 << 16, [&](int64_t b, int64_t e) {
       for (int64_t k = b; k < e; ++k) {
         if (keep != nullptr && (*keep)[k / width]) continue;
@@ -52,6 +56,7 @@ class Adam {
 
  private:
   std::vector<float> m_, v_;
+  int t_ = 0;
 };
 
 // 1.1 times the largest distance of a camera centre from their mean, at
@@ -105,11 +110,19 @@ absl::StatusOr<OptimizeStats> OptimizeScene(const std::vector<ContextView>& view
   gradients.Reset(scene->colour_gradients.size());
   const std::vector<uint8_t>* keep = fixed.empty() ? nullptr : &fixed;
 
-  // Exposures: [M | b] per view, and their Adam moments.
-  stats.exposures.assign(views.size(), {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0});
-  std::vector<std::vector<float>> exposure_m(views.size(), std::vector<float>(12, 0.f));
-  std::vector<std::vector<float>> exposure_v(views.size(), std::vector<float>(12, 0.f));
-  std::vector<int> exposure_t(views.size(), 0);
+  // Exposures: [M | b] per view, and their own Adam each.
+  constexpr std::array<float, 12> kIdentity = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0};
+  stats.exposures.assign(views.size(), kIdentity);
+  std::vector<Adam> exposure_adam(views.size());
+  for (Adam& adam : exposure_adam) adam.Reset(12);
+  // The pixels each view's loss counts: those off the ego vehicle (all
+  // when the camera has no mask).
+  std::vector<std::vector<uint8_t>> counted(views.size());
+  for (size_t v = 0; v < views.size(); ++v) {
+    const std::vector<uint8_t>& ego = views[v].ego;
+    counted[v].resize(ego.size());
+    for (size_t p = 0; p < ego.size(); ++p) counted[v][p] = ego[p] == 0;
+  }
 
   std::mt19937 rng(options.seed);
   std::vector<size_t> order(views.size());
@@ -148,16 +161,11 @@ absl::StatusOr<OptimizeStats> OptimizeScene(const std::vector<ContextView>& view
             e[4 * c] * x[0] + e[4 * c + 1] * x[1] + e[4 * c + 2] * x[2] + e[4 * c + 3];
       }
     }
-    std::vector<uint8_t> counted;
-    if (!view.ego.empty()) {
-      counted.resize(pixels);
-      for (size_t p = 0; p < pixels; ++p) counted[p] = view.ego[p] == 0;
-    }
     std::vector<float> g_exposed;
-    const PhotometricLoss loss = PhotometricLossAndGradient(exposed.data(), view.rgb, counted,
+    const PhotometricLoss loss = PhotometricLossAndGradient(exposed.data(), view.rgb, counted[vi],
                                                             options.ssim_weight, &g_exposed);
     stats.loss.push_back(static_cast<float>(loss.value));
-    const double psnr = loss.mse > 0 ? -10 * std::log10(loss.mse) : 100.0;
+    const double psnr = loss.mse > 0 ? -10 * std::log10(loss.mse) : kMaxPsnr;
     stats.psnr.push_back(static_cast<float>(psnr));
     epoch_loss += loss.value;
     epoch_psnr += psnr;
@@ -186,37 +194,29 @@ absl::StatusOr<OptimizeStats> OptimizeScene(const std::vector<ContextView>& view
 
     // Adam.
     t0 = std::chrono::steady_clock::now();
-    const int t = step + 1;
     const double progress = options.steps > 1 ? double(step) / (options.steps - 1) : 0.0;
     const int warmup =
         options.warmup_steps > 0 ? options.warmup_steps : static_cast<int>(views.size());
-    const double ramp = std::min(1.0, double(t) / warmup);
+    const double ramp = std::min(1.0, double(step + 1) / warmup);
     const double lr_mean = options.lr_mean > 0
                                ? stats.spread * options.lr_mean *
                                      std::pow(options.lr_mean_final / options.lr_mean, progress)
                                : 0.0;
-    means.Step(&scene->means, g->means, ramp * lr_mean, t, keep, 3);
-    rotations.Step(&scene->rotations, g->rotations, ramp * options.lr_rotation, t, keep, 4);
-    log_scales.Step(&scene->log_scales, g->log_scales, ramp * options.lr_log_scale, t, keep, 3);
-    opacities.Step(&scene->opacity_logits, g->opacity_logits, ramp * options.lr_opacity, t);
-    colours.Step(&scene->features, g->features, ramp * options.lr_colour, t);
+    means.Step(scene->means, g->means, ramp * lr_mean, keep, 3);
+    rotations.Step(scene->rotations, g->rotations, ramp * options.lr_rotation, keep, 4);
+    log_scales.Step(scene->log_scales, g->log_scales, ramp * options.lr_log_scale, keep, 3);
+    opacities.Step(scene->opacity_logits, g->opacity_logits, ramp * options.lr_opacity);
+    colours.Step(scene->features, g->features, ramp * options.lr_colour);
     if (scene->has_colour_gradients()) {
-      gradients.Step(&scene->colour_gradients, g->colour_gradients, ramp * options.lr_colour, t);
+      gradients.Step(scene->colour_gradients, g->colour_gradients, ramp * options.lr_colour);
     }
     if (options.exposure) {
       // The prior pulls [M | b] towards [I | 0].
-      const int te = ++exposure_t[vi];
-      constexpr double kBeta1 = 0.9, kBeta2 = 0.999, kEps = 1e-15;
+      std::array<float, 12> grad;
       for (int k = 0; k < 12; ++k) {
-        const double identity = (k == 0 || k == 5 || k == 10) ? 1.0 : 0.0;
-        const double grad = g_e[k] + 2 * options.exposure_prior * (e[k] - identity);
-        float& m = exposure_m[vi][k];
-        float& v = exposure_v[vi][k];
-        m = static_cast<float>(kBeta1 * m + (1 - kBeta1) * grad);
-        v = static_cast<float>(kBeta2 * v + (1 - kBeta2) * grad * grad);
-        const double mh = m / (1 - std::pow(kBeta1, te)), vh = v / (1 - std::pow(kBeta2, te));
-        e[k] -= static_cast<float>(options.lr_exposure * mh / (std::sqrt(vh) + kEps));
+        grad[k] = static_cast<float>(g_e[k] + 2 * options.exposure_prior * (e[k] - kIdentity[k]));
       }
+      exposure_adam[vi].Step(e, grad, options.lr_exposure);
     }
     stats.update_seconds += ElapsedSeconds(t0);
     stats.steps = step + 1;

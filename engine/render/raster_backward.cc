@@ -8,7 +8,9 @@
 //  3. Per tile (in parallel), per pixel: front to back, then back to front,
 //     adding each pair's screen-space gradient into the pair's slot.
 //  4. Sum the slots per Gaussian in tile order, then differentiate each
-//     Gaussian's projection (in parallel).
+//     Gaussian's projection (in parallel). The projection is run again
+//     there rather than kept from pass 1: its tape is some 60 numbers a
+//     Gaussian, and pass 1 keeps only the screen-space record.
 #include "engine/render/raster_backward.h"
 
 #include <algorithm>
@@ -43,6 +45,14 @@ struct ParamView {
   const T* colour_gradients;  // Null for flat colours.
 };
 
+// The view of arrays named as GaussianScene's (a scene, or GaussianParams).
+template <typename T, typename Arrays>
+ParamView<T> ViewOf(const Arrays& a) {
+  return {a.means.data(),      a.rotations.data(),
+          a.log_scales.data(), a.opacity_logits.data(),
+          a.features.data(),   a.colour_gradients.empty() ? nullptr : a.colour_gradients.data()};
+}
+
 // Step of the central differences that give the distortion Jacobian's own
 // derivative (the Jacobian itself uses the forward's 1e-6).
 constexpr double kJacobianStep = 1e-4;
@@ -55,9 +65,11 @@ struct Tape {
   float span_d2, ext_x, ext_y;
   // Intermediates.
   T sig, fade;
+  T r[9];  // Camera-from-owner rotation (row-major).
   T xn, yn, tx, ty, inv_z;
   bool free_x, free_y;  // The Jacobian's point is not clamped.
   T d[4];               // Distortion Jacobian (row-major 2x2).
+  T j[6];               // EWA Jacobian D [1/z 0 -tx/z; 0 1/z -ty/z] (2x3).
   T a[6];               // J R (2x3).
   T g[9];               // Rotation of the normalised quaternion.
   T q[4];               // Normalised quaternion.
@@ -84,7 +96,8 @@ bool ProjectWithTape(const GaussianScene& scene, const ParamView<T>& p, size_t i
   const uint32_t owner = scene.owners[i];
   if (!frame.owner_live[owner]) return false;
   const raster::Transform& cam = frame.camera_from_owner[owner];
-  T r[9], tr[3];
+  T* r = t->r;
+  T tr[3];
   for (int k = 0; k < 9; ++k) r[k] = cam.r[k];
   for (int k = 0; k < 3; ++k) tr[k] = cam.t[k];
 
@@ -129,8 +142,9 @@ bool ProjectWithTape(const GaussianScene& scene, const ParamView<T>& p, size_t i
   }
   const T* d = t->d;
   const T iz = t->inv_z;
-  const T j[6] = {d[0] * iz, d[1] * iz, -(d[0] * t->tx + d[1] * t->ty) * iz,
-                  d[2] * iz, d[3] * iz, -(d[2] * t->tx + d[3] * t->ty) * iz};
+  T* j = t->j;
+  j[0] = d[0] * iz, j[1] = d[1] * iz, j[2] = -(d[0] * t->tx + d[1] * t->ty) * iz;
+  j[3] = d[2] * iz, j[4] = d[3] * iz, j[5] = -(d[2] * t->tx + d[3] * t->ty) * iz;
   for (int row = 0; row < 2; ++row) {
     for (int col = 0; col < 3; ++col) {
       t->a[3 * row + col] =
@@ -217,10 +231,9 @@ struct TilePass {
   const ScreenSplat<T>* splats;  // [N]
   const OutputGradients<T>* grads;
   SlotLayout layout;
-  bool features_out;  // RenderOptions::features.
-  bool depth_out;
-  // Forward outputs to fill (double checks), or null.
-  std::vector<T>*rgb_out, *alpha_out, *depth_out_buf, *features_out_buf;
+  // Forward outputs to fill (the double checks), or null; depth and
+  // features only where sized (as RenderOptions asks).
+  std::vector<T>*rgb_out, *alpha_out, *depth_out, *features_out;
 };
 
 // The value of channel c of Gaussian `i` at offset (dx, dy) from its centre.
@@ -250,7 +263,7 @@ void BackwardTile(const TilePass<T>& pass, int tx, int ty, const uint32_t* list,
   const int channels = layout.channels;
   const OutputGradients<T>& grads = *pass.grads;
   thread_local std::vector<Contribution<T>> contributions;
-  std::vector<T> g_value(channels), value(channels), out_value(nc);
+  std::vector<T> g_value(channels), out_value(nc);
   const int x_end = std::min(frame.width, (tx + 1) * kTile);
   const int y_end = std::min(frame.height, (ty + 1) * kTile);
   for (int y = ty * kTile; y < y_end; ++y) {
@@ -286,11 +299,11 @@ void BackwardTile(const TilePass<T>& pass, int tx, int ty, const uint32_t* list,
       if (fill) {
         (*pass.alpha_out)[pixel] = alpha_out;
         for (int c = 0; c < 3; ++c) (*pass.rgb_out)[3 * pixel + c] = out_value[c];
-        if (pass.features_out) {
-          for (int c = 0; c < nc; ++c) (*pass.features_out_buf)[pixel * nc + c] = out_value[c];
+        if (!pass.features_out->empty()) {
+          for (int c = 0; c < nc; ++c) (*pass.features_out)[pixel * nc + c] = out_value[c];
         }
-        if (pass.depth_out) {
-          (*pass.depth_out_buf)[pixel] = alpha_out > 0 ? depth_sum / alpha_out : T(0);
+        if (!pass.depth_out->empty()) {
+          (*pass.depth_out)[pixel] = alpha_out > 0 ? depth_sum / alpha_out : T(0);
         }
       }
       if (contributions.empty()) continue;
@@ -320,10 +333,7 @@ void BackwardTile(const TilePass<T>& pass, int tx, int ty, const uint32_t* list,
         const T dx = px - s.mx, dy = py - s.my;
         const T w = con.alpha * con.trans;
         T own = g_depth_sum * s.depth;
-        for (int c = 0; c < channels; ++c) {
-          value[c] = ValueAt(pass, i, c, dx, dy);
-          own += g_value[c] * value[c];
-        }
+        for (int c = 0; c < channels; ++c) own += g_value[c] * ValueAt(pass, i, c, dx, dy);
         T* slot = slots + static_cast<size_t>(con.k) * stride;
         for (int c = 0; c < channels; ++c) slot[layout.values() + c] += g_value[c] * w;
         if (layout.textured) {
@@ -360,9 +370,7 @@ void BackwardProjection(const GaussianScene& scene, const ParamView<T>& params, 
                         GaussianParams<T>* out) {
   Tape<T> t;
   if (!ProjectWithTape(scene, params, i, frame, &t)) return;
-  const raster::Transform& cam = frame.camera_from_owner[scene.owners[i]];
-  T r[9];
-  for (int k = 0; k < 9; ++k) r[k] = cam.r[k];
+  const T* r = t.r;
 
   // Frame (ux, uy, vx, vy) = B^T conic, and the conic itself.
   T gb[6] = {0, 0, 0, 0, 0, 0};
@@ -424,9 +432,8 @@ void BackwardProjection(const GaussianScene& scene, const ParamView<T>& params, 
     }
   }
   const T* d = t.d;
+  const T* j = t.j;
   const T iz = t.inv_z;
-  const T j[6] = {d[0] * iz, d[1] * iz, -(d[0] * t.tx + d[1] * t.ty) * iz,
-                  d[2] * iz, d[3] * iz, -(d[2] * t.tx + d[3] * t.ty) * iz};
   T g_z = screen[kDepth];
   for (int k = 0; k < 6; ++k) g_z -= gj[k] * j[k] * iz;
   T gd[4] = {(gj[0] - gj[2] * t.tx) * iz, (gj[1] - gj[2] * t.ty) * iz, (gj[3] - gj[5] * t.tx) * iz,
@@ -576,9 +583,7 @@ absl::StatusOr<GaussianParams<T>> Backward(const GaussianScene& scene, const Par
   pass.grads = &grads;
   pass.layout.channels = grads.features.empty() ? 3 : nc;
   pass.layout.textured = params.colour_gradients != nullptr;
-  pass.features_out = options.features;
-  pass.depth_out = options.depth;
-  pass.rgb_out = pass.alpha_out = pass.depth_out_buf = pass.features_out_buf = nullptr;
+  pass.rgb_out = pass.alpha_out = pass.depth_out = pass.features_out = nullptr;
   if (forward != nullptr) {
     forward->rgb.assign(3 * pixels, 0.0);
     forward->alpha.assign(pixels, 0.0);
@@ -587,8 +592,8 @@ absl::StatusOr<GaussianParams<T>> Backward(const GaussianScene& scene, const Par
     if constexpr (std::is_same_v<T, double>) {
       pass.rgb_out = &forward->rgb;
       pass.alpha_out = &forward->alpha;
-      pass.depth_out_buf = &forward->depth;
-      pass.features_out_buf = &forward->features;
+      pass.depth_out = &forward->depth;
+      pass.features_out = &forward->features;
     }
   }
   const int stride = pass.layout.size();
@@ -666,16 +671,8 @@ absl::StatusOr<SceneGradients> RenderBackward(const GaussianScene& scene,
                                               const std::vector<ActorEdit>& edits,
                                               const RenderOutputGradients& grads,
                                               const RenderOptions& options, BackwardStats* stats) {
-  if (absl::Status status = CheckRenderable(scene); !status.ok()) return status;
-  const ParamView<float> params{
-      scene.means.data(),
-      scene.rotations.data(),
-      scene.log_scales.data(),
-      scene.opacity_logits.data(),
-      scene.features.data(),
-      scene.has_colour_gradients() ? scene.colour_gradients.data() : nullptr};
-  return Backward<float>(scene, params, camera, timestamp_us, edits, grads, options, stats,
-                         nullptr);
+  return Backward<float>(scene, ViewOf<float>(scene), camera, timestamp_us, edits, grads, options,
+                         stats, nullptr);
 }
 
 namespace testing {
@@ -697,16 +694,9 @@ absl::StatusOr<DoubleRender> RenderBackwardInDouble(
       params.colour_gradients.size() != scene.colour_gradients.size()) {
     return absl::InvalidArgumentError("params: sizes differ from the scene's");
   }
-  const ParamView<double> view{
-      params.means.data(),
-      params.rotations.data(),
-      params.log_scales.data(),
-      params.opacity_logits.data(),
-      params.features.data(),
-      params.colour_gradients.empty() ? nullptr : params.colour_gradients.data()};
   DoubleRender result;
-  absl::StatusOr<GaussianParams<double>> g =
-      Backward<double>(scene, view, camera, timestamp_us, {}, grads, options, nullptr, &result);
+  absl::StatusOr<GaussianParams<double>> g = Backward<double>(
+      scene, ViewOf<double>(params), camera, timestamp_us, {}, grads, options, nullptr, &result);
   if (!g.ok()) return g.status();
   result.grads = *std::move(g);
   return result;
