@@ -35,6 +35,7 @@ int RunBench(const std::vector<std::string>& args);        // pf bench raster|re
 int RunReconstruct(const std::vector<std::string>& args);  // pf reconstruct
 int RunEval(const std::vector<std::string>& args);         // pf eval
 int RunDepthEval(const std::vector<std::string>& args);    // pf depth-eval
+int RunLidar(const std::vector<std::string>& args);        // pf lidar spec
 
 }  // namespace pf
 

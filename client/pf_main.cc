@@ -45,7 +45,10 @@ commands:
         inspect or export a Gaussian scene
   render SCENE --cameras VIEWS.json --out DIR [--outputs rgb,alpha,depth,features,instance,filled]
         [--device cpu|cuda:N]
-        render EXR files and PNG previews of a scene (on the CPU or a GPU)
+        render EXR files and PNG previews of a scene (on the CPU or a GPU), and the
+        LiDAR sweeps VIEWS.json lists (lidars: range image EXR and point record)
+  lidar spec SWEEP.bin [--origin X,Y,Z] [--min-range M] [--max-range M]
+        estimate a spinning LiDAR's beams from a recorded sweep; prints a LidarSpec
   bench raster [--gaussians N] [--width W --height H] [--channels C] [--repeat R] [--seed S]
         [--device cpu|cuda:N] [--compare-cpu] [--backward]
         time the rasterizer (and, with --backward, its backward pass on the CPU); prints JSON
@@ -172,6 +175,7 @@ int main(int argc, char** argv) {
   if (command == "reconstruct") return pf::RunReconstruct(args);
   if (command == "eval") return pf::RunEval(args);
   if (command == "depth-eval") return pf::RunDepthEval(args);
+  if (command == "lidar") return pf::RunLidar(args);
   if (command == "jobs") {
     std::fputs("pf jobs: talks to a server: give --server HOST:PORT first or set PF_SERVER\n",
                stderr);

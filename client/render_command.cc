@@ -1,8 +1,9 @@
 // pf render SCENE --cameras VIEWS.json --out DIR
 //           [--outputs rgb,alpha,depth,features,instance,filled] [--device cpu|cuda:N]
 // Renders every view of VIEWS.json (pointforward.v1.RenderViews) of SCENE
-// (our scene file or a 3DGS .ply) into DIR: <view>.exr, <view>.png and a
-// manifest.json. Progress per view goes to stderr, a summary to stdout.
+// (our scene file or a 3DGS .ply) into DIR: <view>.exr, <view>.png, for each
+// LiDAR sweep <lidar>.range.exr and <lidar>.lidar.bin, and a manifest.json. Progress per view goes
+// to stderr, a summary to stdout.
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -65,12 +66,29 @@ absl::Status RenderCommand(const CommandLine& cl) {
                  static_cast<long long>(view.timestamp_us), entry->render_ms, entry->exr.c_str());
     entries.push_back(*std::move(entry));
   }
-  RETURN_IF_ERROR(WriteManifest(absl::StrCat(out_dir, "/manifest.json"), label, entries));
+  std::vector<LidarManifestEntry> lidars;
+  for (size_t i = 0; i < request.lidars.size(); ++i) {
+    const LidarRenderView& lidar = request.lidars[i];
+    absl::StatusOr<LidarManifestEntry> entry =
+        RenderLidarToFiles(opened.scene, lidar, request.edits, out_dir);
+    if (!entry.ok()) return StatusWithContext(entry.status(), absl::StrCat("lidars[", i, "]"));
+    std::fprintf(
+        stderr,
+        "[lidar %zu/%zu] %s: %d beams x %d columns at %lld us, %lld returns, %.1f ms -> %s\n",
+        i + 1, request.lidars.size(), lidar.name.c_str(), entry->beams, entry->columns,
+        static_cast<long long>(entry->timestamp_us), static_cast<long long>(entry->returns),
+        entry->render_ms, entry->range_exr.c_str());
+    render_ms_total += entry->render_ms;
+    lidars.push_back(*std::move(entry));
+  }
+  RETURN_IF_ERROR(WriteManifest(absl::StrCat(out_dir, "/manifest.json"), label, entries, lidars));
   const double total_ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-  std::printf("rendered %zu views of %s to %s (manifest.json): render %.1f ms, total %.1f ms\n",
-              entries.size(), cl.positional()[0].c_str(), out_dir.c_str(), render_ms_total,
-              total_ms);
+  std::printf(
+      "rendered %zu views and %zu LiDAR sweeps of %s to %s (manifest.json): render %.1f ms, "
+      "total %.1f ms\n",
+      entries.size(), lidars.size(), cl.positional()[0].c_str(), out_dir.c_str(), render_ms_total,
+      total_ms);
   return absl::OkStatus();
 }
 

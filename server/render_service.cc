@@ -79,6 +79,12 @@ grpc::Status RenderServiceImpl::CreateRenderJob(grpc::ServerContext* context,
         absl::StrCat("chunk_frames: must be >= 0, got ", request->chunk_frames())));
   }
 
+  if (request->views().lidars_size() > 0) {
+    return ToGrpc(absl::InvalidArgumentError(
+        "views.lidars: LiDAR sweeps are rendered by `pf render SCENE --cameras VIEWS.json` "
+        "(the scene from ExportScene), not yet by render jobs; send the camera views alone"));
+  }
+
   // Limits first: nothing is created for a request that exceeds them.
   if (absl::Status limits = CheckViewLimits(request->views(), *channels, kMinSceneChannels,
                                             core_->options().max_views, core_->render_limits());

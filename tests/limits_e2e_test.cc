@@ -547,6 +547,26 @@ TEST_F(LimitsE2e, OutputNamesThatAreNotPlainFileNamesAreRefused) {
   }
 }
 
+// Render jobs do not render LiDAR sweeps yet: a request with some is refused
+// before anything exists, naming the command that renders them.
+TEST_F(LimitsE2e, LidarSweepsInARenderJobAreRefusedNamingPfRender) {
+  ServerProcess server(test_dir_);
+  ASSERT_TRUE(server.Start({"--trusted-root", *dir_})) << server.Log();
+  v1::CreateRenderJobRequest request;
+  request.mutable_create_scene()->mutable_clip()->set_uri("file://" + ClipPath());
+  *request.mutable_views() = Views();
+  v1::LidarView* lidar = request.mutable_views()->add_lidars();
+  lidar->mutable_spec()->add_beam_elevations_deg(0);
+  for (double v : {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1}) lidar->add_world_from_sensor(v);
+  Operation op;
+  const grpc::Status status = CreateRender(server, request, &op);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_TRUE(
+      Contains(status.error_message(), "views.lidars: LiDAR sweeps are rendered by `pf render"))
+      << status.error_message();
+  EXPECT_TRUE(testing::ListOperations(server.address(), "", 10).empty());
+}
+
 // -- Integrity ------------------------------------------------------------------
 
 // A scene file corrupted on disk is never rendered: the server finds it

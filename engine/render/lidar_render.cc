@@ -14,18 +14,6 @@ namespace {
 constexpr double kLidarPi = 3.14159265358979323846;
 constexpr double kLidarDegree = kLidarPi / 180;
 
-// The sensor pose at `fraction` of the sweep.
-Rigid SensorPoseAt(const LidarSweepPose& pose, double fraction) {
-  const Quat a = FromMatrix(pose.world_from_sensor_start.rotation);
-  const Quat b = FromMatrix(pose.world_from_sensor_end.rotation);
-  Rigid out;
-  out.rotation = ToMatrix(Slerp(a, b, fraction));
-  out.translation = pose.world_from_sensor_start.translation +
-                    fraction * (pose.world_from_sensor_end.translation -
-                                pose.world_from_sensor_start.translation);
-  return out;
-}
-
 // sensor_from_camera of a view looking along azimuth `azimuth` and
 // elevation `elevation` (radians), OpenCV camera axes.
 Mat3 SectorRotation(double azimuth, double elevation) {
@@ -67,10 +55,22 @@ double SmoothDepth(const RenderBuffers& b, double u, double v, double min_alpha,
 
 }  // namespace
 
+Rigid SweepPoseAt(const LidarSweepPose& pose, double fraction) {
+  const Quat a = FromMatrix(pose.world_from_sensor_start.rotation);
+  const Quat b = FromMatrix(pose.world_from_sensor_end.rotation);
+  Rigid out;
+  out.rotation = ToMatrix(Slerp(a, b, fraction));
+  out.translation = pose.world_from_sensor_start.translation +
+                    fraction * (pose.world_from_sensor_end.translation -
+                                pose.world_from_sensor_start.translation);
+  return out;
+}
+
 absl::StatusOr<std::vector<LidarReturn>> RenderLidarRays(const GaussianScene& scene,
                                                          const std::vector<LidarRay>& rays,
                                                          const LidarSweepPose& pose,
-                                                         const LidarRenderOptions& options) {
+                                                         const LidarRenderOptions& options,
+                                                         const std::vector<ActorEdit>& edits) {
   if (options.sectors < 4 || options.sectors > 720) {
     return absl::InvalidArgumentError(
         absl::StrCat("sectors: must be in [4, 720], got ", options.sectors));
@@ -138,12 +138,12 @@ absl::StatusOr<std::vector<LidarReturn>> RenderLidarRays(const GaussianScene& sc
     const int height = 2 * static_cast<int>(std::ceil(tan_y * focal)) + 4;
     RenderCamera camera;
     camera.model = CameraModel(width, height, focal, focal, 0.5 * width, 0.5 * height);
-    const Rigid world_from_sensor = SensorPoseAt(pose, fraction);
+    const Rigid world_from_sensor = SweepPoseAt(pose, fraction);
     camera.world_from_camera = world_from_sensor * Rigid{sensor_from_camera, {}};
     const int64_t time_us =
         pose.start_us + static_cast<int64_t>(std::llround(
                             fraction * static_cast<double>(pose.end_us - pose.start_us)));
-    absl::StatusOr<RenderBuffers> buffers = Render(scene, camera, time_us, {}, render_options);
+    absl::StatusOr<RenderBuffers> buffers = Render(scene, camera, time_us, edits, render_options);
     if (!buffers.ok()) return buffers.status();
     for (size_t i : members[s]) {
       const Vec3 d = camera_from_sensor * unit[i];

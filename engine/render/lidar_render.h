@@ -22,6 +22,7 @@
 #include "absl/status/statusor.h"
 #include "common/geometry.h"
 #include "engine/render/gaussian_scene.h"
+#include "engine/render/rasterizer.h"
 
 namespace pf {
 
@@ -49,12 +50,18 @@ struct LidarReturn {
   float range = 0;  // Metres along the ray (0 without a return).
 };
 
-// The return of each ray of `rays`. INVALID_ARGUMENT for a zero direction,
-// a sweep fraction outside [0, 1], or options out of range.
+// The sensor's pose at `fraction` of the sweep: centre linear, rotation
+// slerped between the start and the end.
+Rigid SweepPoseAt(const LidarSweepPose& pose, double fraction);
+
+// The return of each ray of `rays`, actors moved or removed by `edits`.
+// INVALID_ARGUMENT for a zero direction, a sweep fraction outside [0, 1],
+// or options out of range.
 absl::StatusOr<std::vector<LidarReturn>> RenderLidarRays(const GaussianScene& scene,
                                                          const std::vector<LidarRay>& rays,
                                                          const LidarSweepPose& pose,
-                                                         const LidarRenderOptions& options = {});
+                                                         const LidarRenderOptions& options = {},
+                                                         const std::vector<ActorEdit>& edits = {});
 
 }  // namespace pf
 

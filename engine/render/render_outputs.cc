@@ -362,12 +362,50 @@ std::string ManifestViewsJson(const std::vector<ManifestEntry>& entries) {
   return ManifestViews(entries).dump();
 }
 
-std::string ManifestJson(const SceneLabel& scene, const std::vector<ManifestEntry>& entries) {
+std::string ManifestJson(const SceneLabel& scene, const std::vector<ManifestEntry>& entries,
+                         const std::vector<LidarManifestEntry>& lidars) {
   Json root;
   root["scene"] = {{"id", scene.scene_id}, {"model", scene.model}};
   root["software"] = absl::StrCat("PointForward ", SoftwareVersion());
   root["views"] = ManifestViews(entries);
+  if (!lidars.empty()) {
+    Json array = Json::array();
+    for (const LidarManifestEntry& l : lidars) {
+      array.push_back({{"name", l.name},
+                       {"rangeExr", l.range_exr},
+                       {"points", l.points},
+                       {"timestampUs", l.timestamp_us},
+                       {"beams", l.beams},
+                       {"columns", l.columns},
+                       {"returns", l.returns},
+                       {"worldFromSensor", l.world_from_sensor},
+                       {"renderMs", l.render_ms}});
+    }
+    root["lidars"] = std::move(array);
+  }
   return root.dump(2) + "\n";
+}
+
+absl::StatusOr<LidarManifestEntry> RenderLidarToFiles(const GaussianScene& scene,
+                                                      const LidarRenderView& lidar,
+                                                      const std::vector<ActorEdit>& edits,
+                                                      const std::string& out_dir) {
+  ASSIGN_OR_RETURN(const RenderedSweep sweep,
+                   RenderLidarSweep(scene, lidar.spec, lidar.pose, edits));
+  LidarManifestEntry entry;
+  entry.name = lidar.name;
+  entry.range_exr = lidar.name + ".range.exr";
+  entry.points = lidar.name + ".lidar.bin";
+  RETURN_IF_ERROR(WriteRangeImageExr(absl::StrCat(out_dir, "/", entry.range_exr), sweep));
+  RETURN_IF_ERROR(WriteSweepPoints(absl::StrCat(out_dir, "/", entry.points), sweep));
+  entry.timestamp_us = lidar.pose.start_us;
+  entry.beams = static_cast<int>(lidar.spec.beam_elevations_deg.size());
+  entry.columns = LidarColumns(lidar.spec);
+  entry.returns = sweep.hits;
+  const std::array<double, 16> pose = lidar.pose.world_from_sensor_start.ToRowMajor();
+  entry.world_from_sensor.assign(pose.begin(), pose.end());
+  entry.render_ms = sweep.render_seconds * 1e3;
+  return entry;
 }
 
 absl::StatusOr<ManifestEntry> RenderViewToFiles(
@@ -397,8 +435,9 @@ absl::StatusOr<ManifestEntry> RenderViewToFiles(
 }
 
 absl::Status WriteManifest(const std::string& path, const SceneLabel& scene,
-                           const std::vector<ManifestEntry>& entries) {
-  return WriteFileAtomic(path, ManifestJson(scene, entries));
+                           const std::vector<ManifestEntry>& entries,
+                           const std::vector<LidarManifestEntry>& lidars) {
+  return WriteFileAtomic(path, ManifestJson(scene, entries, lidars));
 }
 
 }  // namespace pf

@@ -146,10 +146,25 @@ struct ManifestEntry {
   double render_ms = 0;
 };
 
+// One rendered LiDAR sweep in the manifest.
+struct LidarManifestEntry {
+  std::string name;
+  std::string range_exr;  // <name>.range.exr (WriteRangeImageExr).
+  std::string points;     // <name>.lidar.bin (WriteSweepPoints).
+  int64_t timestamp_us = 0;
+  int beams = 0, columns = 0;
+  int64_t returns = 0;
+  std::vector<double> world_from_sensor;  // 16 numbers at the sweep's start.
+  double render_ms = 0;
+};
+
 // Returns the manifest JSON: {"scene": {...}, "views": [{"name", "exr", "png",
 // "camera", "cameraModel", "timestampUs", "worldFromCamera", "intrinsics",
-// "width", "height", "channels", "renderMs"}]}.
-std::string ManifestJson(const SceneLabel& scene, const std::vector<ManifestEntry>& entries);
+// "width", "height", "channels", "renderMs"}]}, and with `lidars` a
+// "lidars" array of {"name", "rangeExr", "points", "timestampUs", "beams",
+// "columns", "returns", "worldFromSensor", "renderMs"}.
+std::string ManifestJson(const SceneLabel& scene, const std::vector<ManifestEntry>& entries,
+                         const std::vector<LidarManifestEntry>& lidars = {});
 
 // The manifest's "views" array alone, as JSON text (a render chunk's part of
 // the job's manifest).
@@ -164,9 +179,18 @@ absl::StatusOr<ManifestEntry> RenderViewToFiles(
     const DeviceRenderer& renderer, const RenderView& view, const std::vector<ActorEdit>& edits,
     const OutputChannels& channels, const SceneLabel& label, const std::string& out_dir);
 
+// Renders the sweep `lidar` of `scene` with `edits` and writes
+// <lidar.name>.range.exr and <lidar.name>.lidar.bin into `out_dir`; returns
+// its manifest entry.
+absl::StatusOr<LidarManifestEntry> RenderLidarToFiles(const GaussianScene& scene,
+                                                      const LidarRenderView& lidar,
+                                                      const std::vector<ActorEdit>& edits,
+                                                      const std::string& out_dir);
+
 // Writes ManifestJson(...) to `path` atomically.
 absl::Status WriteManifest(const std::string& path, const SceneLabel& scene,
-                           const std::vector<ManifestEntry>& entries);
+                           const std::vector<ManifestEntry>& entries,
+                           const std::vector<LidarManifestEntry>& lidars = {});
 
 }  // namespace pf
 

@@ -168,7 +168,9 @@ absl::StatusOr<RenderRequest> RenderRequestFromProto(
   }
 
   RenderRequest request;
-  if (message.views_size() == 0) return Invalid("views", "no views to render");
+  if (message.views_size() == 0 && message.lidars_size() == 0) {
+    return Invalid("views", "no views or lidars to render");
+  }
   std::set<std::string> names;
   for (int i = 0; i < message.views_size(); ++i) {
     const v1::View& view = message.views(i);
@@ -196,6 +198,42 @@ absl::StatusOr<RenderRequest> RenderRequestFromProto(
       return Invalid(field + ".name", absl::StrCat("duplicate output name '", out.name, "'"));
     }
     request.views.push_back(std::move(out));
+  }
+
+  for (int i = 0; i < message.lidars_size(); ++i) {
+    const v1::LidarView& lidar = message.lidars(i);
+    const std::string field = absl::StrCat("lidars[", i, "]");
+    LidarRenderView out;
+    out.name = lidar.name().empty() ? absl::StrCat("lidar_", lidar.timestamp_us()) : lidar.name();
+    if (!IsSafeFileStem(out.name)) {
+      return Invalid(field + ".name",
+                     absl::StrCat("'", out.name,
+                                  "' is not a usable file name (letters, digits, '_', '-', '.')"));
+    }
+    if (!names.insert(out.name).second) {
+      return Invalid(field + ".name", absl::StrCat("duplicate output name '", out.name, "'"));
+    }
+    const v1::LidarSpec& spec = lidar.spec();
+    out.spec.beam_elevations_deg.assign(spec.beam_elevations_deg().begin(),
+                                        spec.beam_elevations_deg().end());
+    if (spec.azimuth_resolution_deg() != 0) {
+      out.spec.azimuth_resolution_deg = spec.azimuth_resolution_deg();
+    }
+    if (spec.rotation_hz() != 0) out.spec.rotation_hz = spec.rotation_hz();
+    if (spec.max_range_m() != 0) out.spec.max_range_m = spec.max_range_m();
+    RETURN_IF_ERROR(CheckLidarSpec(out.spec, field + ".spec"));
+    ASSIGN_OR_RETURN(out.pose.world_from_sensor_start,
+                     PoseFromNumbers(lidar.world_from_sensor(), field + ".worldFromSensor"));
+    out.pose.world_from_sensor_end = out.pose.world_from_sensor_start;
+    if (lidar.world_from_sensor_end_size() > 0) {
+      ASSIGN_OR_RETURN(
+          out.pose.world_from_sensor_end,
+          PoseFromNumbers(lidar.world_from_sensor_end(), field + ".worldFromSensorEnd"));
+    }
+    out.pose.start_us = lidar.timestamp_us();
+    out.pose.end_us =
+        lidar.timestamp_us() + static_cast<int64_t>(std::llround(1e6 / out.spec.rotation_hz));
+    request.lidars.push_back(std::move(out));
   }
 
   std::set<std::string> edited;

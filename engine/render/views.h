@@ -18,6 +18,7 @@
 
 #include "absl/status/statusor.h"
 #include "engine/render/gaussian_scene.h"
+#include "engine/render/lidar_spec.h"
 #include "engine/render/rasterizer.h"
 #include "pointforward/v1/views.pb.h"
 
@@ -38,9 +39,17 @@ struct RenderView {
   std::vector<double> distortion;
 };
 
+// One LiDAR sweep to render.
+struct LidarRenderView {
+  std::string name;  // Output file stem: the LidarView's name or "lidar_<timestamp_us>".
+  LidarSpec spec;    // Defaults filled in.
+  LidarSweepPose pose;
+};
+
 struct RenderRequest {
   std::vector<RenderView> views;
   std::vector<ActorEdit> edits;
+  std::vector<LidarRenderView> lidars;
 };
 
 // Returns the output file stem of `view` as ParseRenderViews names it: its
@@ -49,7 +58,9 @@ std::string RenderViewName(const pointforward::v1::View& view);
 
 // Checks `views` and turns it into what the rasterizer takes: cameras valid
 // and with unique ids, each view's camera known and its pose a rigid 4x4
-// (16 numbers), view names unique and usable as file names, edits naming an
+// (16 numbers), view names unique and usable as file names, LiDAR sweeps
+// with a valid spec (CheckLidarSpec, zeros taken as the defaults) and rigid
+// poses, their names unique among the views' too, edits naming an
 // instance once each, with a kind, and (for TRAJECTORY) at least one box with
 // a 3-number centre and a non-zero 4-number rotation. Trajectory boxes are
 // sorted by time; equal timestamps are an error. An edit must name one of

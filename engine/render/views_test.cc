@@ -226,7 +226,7 @@ TEST(RenderViews, CarriesFThetaPolynomialsAndNamesTheirFaults) {
 TEST(RenderViews, RejectsAnEmptyViewList) {
   absl::StatusOr<RenderRequest> request = ParseRenderViews("{}", SceneWithInstances());
   EXPECT_EQ(request.status().code(), absl::StatusCode::kInvalidArgument);
-  EXPECT_EQ(request.status().message(), "views: no views to render");
+  EXPECT_EQ(request.status().message(), "views: no views or lidars to render");
 }
 
 TEST(RenderViews, LoadPrefixesErrorsWithThePath) {
@@ -242,6 +242,34 @@ TEST(RenderViews, LoadPrefixesErrorsWithThePath) {
   absl::StatusOr<RenderRequest> request = LoadRenderViews(path, SceneWithInstances());
   ASSERT_TRUE(request.ok()) << request.status();
   EXPECT_EQ(request->views.size(), 2u);
+}
+
+TEST(RenderViews, LidarsTakeDefaultsAndNameBadFields) {
+  GaussianScene scene;
+  absl::StatusOr<RenderRequest> request = ParseRenderViews(R"({
+    "lidars": [{"spec": {"beamElevationsDeg": [0, -5]}, "timestampUs": 1000,
+                "worldFromSensor": [1,0,0,0, 0,1,0,0, 0,0,1,1.8, 0,0,0,1]}]})",
+                                                           scene);
+  ASSERT_TRUE(request.ok()) << request.status();
+  ASSERT_EQ(request->lidars.size(), 1u);
+  const LidarRenderView& lidar = request->lidars[0];
+  EXPECT_EQ(lidar.name, "lidar_1000");
+  EXPECT_EQ(lidar.spec.azimuth_resolution_deg, 0.2);
+  EXPECT_EQ(lidar.spec.rotation_hz, 10);
+  EXPECT_EQ(lidar.pose.start_us, 1000);
+  EXPECT_EQ(lidar.pose.end_us, 101000);
+  EXPECT_EQ(lidar.pose.world_from_sensor_end.translation.z, 1.8);  // At rest.
+
+  absl::StatusOr<RenderRequest> bad = ParseRenderViews(R"({
+    "lidars": [{"spec": {"beamElevationsDeg": [0], "rotationHz": -1},
+                "worldFromSensor": [1,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,0,1]}]})",
+                                                       scene);
+  EXPECT_EQ(bad.status().message(), "lidars[0].spec.rotationHz: must be in (0, 100], got -1");
+  bad = ParseRenderViews(R"({"lidars": [{"spec": {"beamElevationsDeg": [0]},
+                                          "worldFromSensor": [1, 0]}]})",
+                         scene);
+  EXPECT_NE(bad.status().message().find("lidars[0].worldFromSensor: expected 16 numbers"),
+            std::string::npos);
 }
 
 }  // namespace
