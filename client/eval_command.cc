@@ -37,7 +37,7 @@ namespace {
 constexpr char kEvalUsage[] =
     "usage: pf eval CLIP.json --out DIR [--model analytic|pixel-aligned] [--ns N --nd N] "
     "[--fusion softmax|average|no-depth] [--lifespan] [--refine N] [--splat-sigma S] "
-    "[--low-pass PX2] [--hidden-band PX] [--no-ground-fill] [--no-facades] "
+    "[--low-pass PX2] [--order-band B] [--hidden-band PX] [--no-ground-fill] [--no-facades] "
     "[--device cpu|cuda[:N]] [--optimize-steps N [--optimize-seconds S]] "
     "[--allow-outside-paths] [--views VIEWS.json --truth TRUTH_DIR] "
     "[--lane-shift D1,D2,... --lane-shift-time-us T] (pf eval --help for more)";
@@ -70,7 +70,7 @@ the nearest pixel. Moving actors are warped as if they stood still.
 
 reconstruction flags (as pf reconstruct):
   --model analytic|pixel-aligned  --ns N --nd N  --fusion softmax|average|no-depth
-  --lifespan  --refine N  --splat-sigma S  --low-pass PX2  --hidden-band PX
+  --lifespan  --refine N  --splat-sigma S  --low-pass PX2  --order-band B  --hidden-band PX
   --no-ground-fill  --no-facades  --colour gradients|flat  --working-space srgb|linear
   --completion nearest|ip-basic
   --device cpu|cuda[:N]  --allow-outside-paths

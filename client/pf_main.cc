@@ -57,7 +57,8 @@ commands:
         the Gaussians and the peak memory as JSON
   reconstruct CLIP.json --out SCENE [--model analytic|pixel-aligned] [--ns N --nd N]
         [--fusion softmax|average|no-depth] [--lifespan] [--refine N] [--splat-sigma S]
-        [--low-pass PX2] [--hidden-band PX] [--no-ground-fill] [--no-facades] [--device cpu|cuda[:N]]
+        [--low-pass PX2] [--order-band B] [--hidden-band PX] [--no-ground-fill] [--no-facades]
+        [--device cpu|cuda[:N]]
         [--colour gradients|flat] [--working-space srgb|linear] [--completion nearest|ip-basic]
         [--optimize-steps N [--optimize-seconds S]] [--allow-outside-paths]
         check the clip as validate does, build a Gaussian scene from its CONTEXT frames
@@ -89,7 +90,7 @@ the token in PF_TOKEN):
   render --clip CLIP.json [--model M] [--ns N] [--nd N] [--fusion F] [--lifespan]
          [--device D] [TUNING] --cameras VIEWS.json [--out DIR --wait] [--outputs LIST]
         submit a render job (of a clip: reconstructed first unless cached);
-        TUNING: [--refine N] [--splat-sigma S] [--low-pass PX2] [--hidden-band PX]
+        TUNING: [--refine N] [--splat-sigma S] [--low-pass PX2] [--order-band B] [--hidden-band PX]
         [--no-ground-fill] [--no-facades] [--colour gradients|flat] [--completion M]
         [--working-space srgb|linear], as pf reconstruct's (unset: the worker's
         defaults; a scene made with other values is another scene);

@@ -1,6 +1,6 @@
 // pf reconstruct CLIP.json --out SCENE [--model analytic|pixel-aligned]
 //                [--ns N --nd N] [--fusion softmax|average|no-depth]
-//                [--lifespan] [--refine N] [--splat-sigma S] [--low-pass PX2]
+//                [--lifespan] [--refine N] [--splat-sigma S] [--low-pass PX2] [--order-band B]
 //                [--hidden-band PX] [--no-ground-fill] [--no-facades]
 //                [--device cpu|cuda[:N]] [--colour gradients|flat]
 //                [--working-space srgb|linear]
@@ -31,7 +31,8 @@ namespace {
 constexpr char kReconstructUsage[] =
     "usage: pf reconstruct CLIP.json --out SCENE [--model analytic|pixel-aligned] "
     "[--ns N --nd N] [--fusion softmax|average|no-depth] [--lifespan] [--refine N] "
-    "[--splat-sigma S] [--low-pass PX2] [--hidden-band PX] [--no-ground-fill] [--no-facades] "
+    "[--splat-sigma S] [--low-pass PX2] [--order-band B] [--hidden-band PX] [--no-ground-fill] "
+    "[--no-facades] "
     "[--device cpu|cuda[:N]] [--colour gradients|flat] [--working-space srgb|linear] "
     "[--completion nearest|ip-basic] [--optimize-steps N [--optimize-seconds S]] "
     "[--allow-outside-paths]";

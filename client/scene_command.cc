@@ -80,6 +80,7 @@ int Info(const std::string& path) {
   std::printf("sh degree:    %s\n",
               scene.sh_degree < 0 ? "none" : absl::StrCat(scene.sh_degree).c_str());
   std::printf("low-pass:     %g px^2\n", scene.low_pass);
+  std::printf("order band:   %g of depth\n", scene.order_band);
   std::printf("colour:       %s\n", scene.has_colour_gradients() ? "gradients" : "flat");
   std::printf("time origin:  %lld us\n", static_cast<long long>(scene.time_origin_us));
   std::printf("lifespans:    %zu finite, %zu never fade\n", finite_lifespans,

@@ -481,6 +481,7 @@ std::string EvalReportJson(const EvalReport& report) {
   j["facadePixels"] = report.stats.facade_pixels;
   j["splatSigma"] = report.options.decoder.tangent_sigma;
   j["lowPass"] = report.options.decoder.low_pass;
+  j["orderBand"] = report.options.decoder.order_band;
   j["refineIterations"] = report.options.refinement.iterations;
   // What the scene has, not what was asked: --refine 0, or a fit over the
   // memory bound, leaves it flat.

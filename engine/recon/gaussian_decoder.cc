@@ -38,6 +38,7 @@ GaussianScene DecodeGaussians(const QuerySet& queries, const FusedQueries& fused
   scene.sh_degree = -1;
   scene.time_origin_us = time_origin_us;
   scene.low_pass = options.low_pass;
+  scene.order_band = options.order_band;
   scene.instances = tracks;
   const size_t n = queries.size();
   scene.Resize(n);

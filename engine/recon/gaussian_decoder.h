@@ -24,6 +24,11 @@
 //   integrate over, where the 3DGS default 0.3 blurs every render by more
 //   than that (docs/QUALITY.md: +0.4-0.7 dB on synth, chosen with
 //   tangent_sigma 0.65 on CONTEXT self-renders and on seed 7).
+// - The scene's order band (GaussianScene::order_band) is options.order_band,
+//   0.0005: discs within 0.05 % of each other's depth (1 cm at 20 m: the
+//   overlapping discs of several views on one surface) stack in one fixed
+//   order in every view, so a new view, or the same one a millimetre away,
+//   sees them as the colour fit did (docs/QUALITY.md, "Order band").
 #ifndef POINTFORWARD_ENGINE_RECON_GAUSSIAN_DECODER_H_
 #define POINTFORWARD_ENGINE_RECON_GAUSSIAN_DECODER_H_
 
@@ -48,7 +53,8 @@ struct DecoderOptions {
   double max_stretch = 4.0;     // Cap of 1 / |cos theta|.
   double min_opacity = 0.5;
   double max_opacity = 0.98;
-  float low_pass = 0.1f;  // The scene's screen-space low-pass, pixels^2.
+  float low_pass = 0.1f;       // The scene's screen-space low-pass, pixels^2.
+  float order_band = 0.0005f;  // The scene's order band (GaussianScene::order_band).
 };
 
 // Returns the scene of `queries` fused as `fused`. `view_times_us[v]` is the

@@ -81,6 +81,8 @@ std::vector<Spec> MakeTable() {
   table.push_back(Number("optimize_steps", Kind::kInt, 0, false, 1e6, " steps", Key::kTextWhenSet));
   table.push_back(
       Number("optimize_seconds", Kind::kReal, 0, false, 604800, " seconds", Key::kHexWhenSet));
+  table.push_back(
+      Number("order_band", Kind::kReal, 0, false, kMaxOrderBand, "", Key::kHexFloatWhenSet));
   Spec device{"device", Kind::kDevice};
   device.choices = {"cpu"};
   device.fills_default = true;

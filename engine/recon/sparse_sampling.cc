@@ -52,6 +52,17 @@ double Hash01(uint64_t a, uint64_t b, uint64_t c) {
   return double(h >> 11) * (1.0 / 9007199254740992.0);
 }
 
+// Returns the pixel of grid cell `cell` along an axis of `size` pixels, the
+// cells `stride` >= 1 pixels wide: one of the pixels whose centre lies in
+// the cell, picked by `u` in [0, 1). Cells hold disjoint pixels, so no two
+// cells of a grid pick the same one.
+int CellPixel(int cell, double stride, double u, int size) {
+  const int first = static_cast<int>(std::ceil(cell * stride - 0.5));
+  const int end = static_cast<int>(std::ceil((cell + 1) * stride - 0.5));
+  const int count = std::max(1, end - first);
+  return std::min(size - 1, first + std::min(count - 1, static_cast<int>(u * count)));
+}
+
 // Returns a key of the voxel of side `side` that holds `p`, tagged with
 // `level` so grids of different sides do not collide.
 uint64_t VoxelKey(const Vec3& p, double side, uint32_t level) {
@@ -757,8 +768,8 @@ size_t SampleStatic(const std::vector<SamplingView>& views,
       for (int cx = 0; cx < cells_x; ++cx) {
         int x = cx, y = cy;
         if (!options.dense) {
-          x = std::min(w - 1, static_cast<int>((cx + Hash01(cx, cy, 2 * v)) * stride));
-          y = std::min(h - 1, static_cast<int>((cy + Hash01(cx, cy, 2 * v + 1)) * stride));
+          x = CellPixel(cx, stride, Hash01(cx, cy, 2 * v), w);
+          y = CellPixel(cy, stride, Hash01(cx, cy, 2 * v + 1), h);
         }
         const size_t i = static_cast<size_t>(y) * w + x;
         // The nearest background hidden behind this pixel, if no view sees it.

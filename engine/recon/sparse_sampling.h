@@ -2,9 +2,10 @@
 // per instance, spread to cover the scene without redundancy.
 //
 // Static: each view's image is cut into a grid of cells of side
-// s = sqrt(W H / N_s) pixels and one pixel per cell is taken, jittered inside
-// the cell by a hash of its position (stratified, so every part of the image
-// is covered and no regular pattern aliases); far-layer pixels take one cell
+// s = sqrt(W H / N_s) pixels (at least 1) and one pixel per cell is taken:
+// one of the pixels whose centre lies in the cell, picked by a hash of its
+// position (stratified, so every part of the image is covered, no regular
+// pattern aliases and no two cells take the same pixel); far-layer pixels take one cell
 // in far_stride x far_stride. A point that another view sees (depth
 // consistent within 3 %) with a footprint smaller by more than
 // `finer_view_ratio` is left to that view, so every surface is sampled by

@@ -63,6 +63,29 @@ TEST(SparseSampling, StaticSamplesCoverEveryCellWithoutDuplicates) {
   EXPECT_NEAR(q.footprints[0], 10.0 / 192 * 4, 1e-6);
 }
 
+// Cells under 2 px wide: each still takes a pixel of its own, one whose
+// centre lies in the cell (jittering a point in the cell and taking the pixel
+// under it gave neighbouring cells one pixel, a Gaussian twice over).
+TEST(SparseSampling, CellsNarrowerThanTwoPixelsTakeAPixelEachNeverTheSame) {
+  const PlaneView plane(192, 144, Rigid{});
+  for (const double stride : {1.3, 1.7, 1.95}) {
+    SamplingOptions options;
+    options.static_per_view = static_cast<int64_t>(std::llround(192 * 144 / (stride * stride)));
+    options.fill_static_budget = false;
+    const QuerySet q = SampleQueries({plane.sampling()}, {}, options);
+    const double s = std::sqrt(192.0 * 144.0 / double(options.static_per_view));
+    const int cells_x = static_cast<int>(std::ceil(192 / s));
+    const int cells_y = static_cast<int>(std::ceil(144 / s));
+    EXPECT_EQ(q.size(), static_cast<size_t>(cells_x) * cells_y) << stride;
+    std::set<int> pixels(q.pixels.begin(), q.pixels.end());
+    EXPECT_EQ(pixels.size(), q.size()) << stride;
+    // Each column of cells holds pixels whose centres lie in it.
+    std::vector<int> per_column(cells_x, 0);
+    for (int p : q.pixels) ++per_column[static_cast<int>(((p % 192) + 0.5) / s)];
+    for (int count : per_column) EXPECT_EQ(count, cells_y) << stride;
+  }
+}
+
 TEST(SparseSampling, SecondViewOfTheSameSurfaceAddsLittle) {
   const PlaneView a(192, 144, Rigid{});
   const PlaneView b(192, 144, Rigid{});  // Same view again.

@@ -84,8 +84,8 @@ absl::StatusOr<CompositingWeights> ComputeCompositingWeights(const GaussianScene
   for (size_t i = 0; i < n; ++i) {
     Splat splat;
     if (!ProjectSplat(scene, frame, i, &splat)) continue;
-    uint32_t depth_bits;
-    std::memcpy(&depth_bits, &splat.depth, sizeof(depth_bits));
+    const uint32_t depth_bits =
+        raster::SortDepthBits(splat.depth, static_cast<uint32_t>(i), scene.order_band);
     keys.push_back((static_cast<uint64_t>(depth_bits) << 32) | visible.size());
     visible.push_back(splat);
     visible_index.push_back(static_cast<uint32_t>(i));

@@ -161,6 +161,10 @@ TEST(CompositingWeights, ReproducesRenderOnRandomScenes) {
   GaussianScene sharp = scene;
   sharp.low_pass = 0.1f;
   ExpectMatchesRender(sharp, SimpleCamera(96, 64, 80), 0);
+  // In the order a scene's order band gives.
+  GaussianScene banded = scene;
+  banded.order_band = 0.02f;
+  ExpectMatchesRender(banded, SimpleCamera(96, 64, 80), 0);
 }
 
 // Checks <A x, r> = <x, A^T r> for random x ([x_size]) and r ([r_size]),

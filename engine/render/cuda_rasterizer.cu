@@ -110,14 +110,15 @@ struct EmitArgs {
   const uint64_t* offsets;
   uint64_t* keys;
   uint32_t* values;
+  float order_band;  // GaussianScene::order_band.
 };
 
 __global__ void EmitKernel(EmitArgs a) {
   const size_t i = blockIdx.x * static_cast<size_t>(blockDim.x) + threadIdx.x;
   if (i >= a.n || a.tiles_touched[i] == 0) return;
   const Projected& g = a.projected[i];
-  uint32_t depth_bits;
-  memcpy(&depth_bits, &g.depth, sizeof(depth_bits));
+  const uint32_t depth_bits =
+      raster::SortDepthBits(g.depth, static_cast<uint32_t>(i), a.order_band);
   uint64_t slot = a.offsets[i];
   raster::VisitTiles(g.mx, g.my, g.ca, g.cb, g.cc, g.span_d2, g.ext_x, g.ext_y, a.width, a.height,
                      a.tiles_x, [&](uint32_t tile) {
@@ -274,6 +275,7 @@ struct CudaScene::Impl {
   int64_t time_origin_us = 0;
   std::vector<InstanceTrack> instances;
   float low_pass = 0;
+  float order_band = 0;
   // The scene.
   DeviceBuffer<float> means, rotations, log_scales, opacity_logits, times, lifespans, features, sh,
       colour_gradients;
@@ -366,6 +368,7 @@ absl::StatusOr<std::unique_ptr<CudaScene>> CudaScene::Upload(const GaussianScene
   impl->time_origin_us = scene.time_origin_us;
   impl->instances = scene.instances;
   impl->low_pass = scene.low_pass;
+  impl->order_band = scene.order_band;
   for (absl::Status s :
        {impl->means.Upload(scene.means), impl->rotations.Upload(scene.rotations),
         impl->log_scales.Upload(scene.log_scales),
@@ -488,7 +491,8 @@ absl::StatusOr<RenderBuffers> CudaScene::Impl::Render(const RenderCamera& camera
                tiles_touched.data,
                offsets.data,
                keys.data,
-               values.data};
+               values.data,
+               order_band};
     EmitKernel<<<CeilDiv(n, kThreads), kThreads, 0, st>>>(e);
     PF_CUDA_RETURN_IF_ERROR(cudaGetLastError());
 

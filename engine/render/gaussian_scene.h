@@ -22,6 +22,12 @@
 // what PLY files from them need); our reconstruction uses 0.1 (about the
 // variance of a one-pixel box, 1/12, which is what antialiased camera
 // images integrate over), docs/QUALITY.md has the comparison.
+//
+// `order_band` is a share of depth within which Gaussians keep a fixed order
+// of their own instead of their depth order. A reconstruction's discs that
+// overlap on one surface then stack the same way in every view, as they did
+// in the context views its colours were fitted to; by strict depth order their
+// stacking would turn on micrometres and differ from view to view.
 #ifndef POINTFORWARD_ENGINE_RENDER_GAUSSIAN_SCENE_H_
 #define POINTFORWARD_ENGINE_RENDER_GAUSSIAN_SCENE_H_
 
@@ -54,11 +60,17 @@ struct InstanceTrack {
 inline constexpr float kThreeDgsLowPass = 0.3f;
 // The range ValidateScene accepts for GaussianScene::low_pass.
 inline constexpr float kMaxLowPass = 4.f;
+// The largest GaussianScene::order_band ValidateScene accepts.
+inline constexpr float kMaxOrderBand = 0.05f;
 
 struct GaussianScene {
   int num_channels = 3;               // N_c, 3..256.
   int sh_degree = -1;                 // -1: no SH; 0..3 otherwise.
   float low_pass = kThreeDgsLowPass;  // Screen-space low-pass, pixels^2, in [0, kMaxLowPass].
+  // Gaussians whose depths lie within this share of each other are drawn in
+  // a fixed order of their own (a hash of the index), the same in every view;
+  // in [0, kMaxOrderBand]. 0 (3DGS scenes): strict depth order.
+  float order_band = 0;
   // Scene time of t = 0 for `times`; lifespans are in seconds.
   int64_t time_origin_us = 0;
   // What the colours (SH or the first three feature channels, and their

@@ -370,11 +370,12 @@ class BodyReader {
 };
 
 // Our header comment: "pointforward time_origin_us=T sh_degree=D low_pass=S
-// colour_encoding=E" (low_pass since scene file version 2; files without it
-// keep the 3DGS one; colour_encoding since version 4, else srgb).
+// colour_encoding=E order_band=B" (low_pass since scene file version 2; files
+// without it keep the 3DGS one; colour_encoding since version 4, else srgb;
+// order_band since version 5, else 0).
 void ParseOurComment(const std::vector<std::string>& comments, int64_t* time_origin_us,
                      std::optional<int>* sh_degree, float* low_pass,
-                     ColourEncoding* colour_encoding) {
+                     ColourEncoding* colour_encoding, float* order_band) {
   for (const std::string& comment : comments) {
     std::vector<std::string> words = absl::StrSplit(comment, ' ', absl::SkipWhitespace());
     if (words.empty() || words[0] != kCommentTag) continue;
@@ -383,6 +384,11 @@ void ParseOurComment(const std::vector<std::string>& comments, int64_t* time_ori
       if (kv.first == "low_pass") {
         float s = 0;
         if (absl::SimpleAtof(kv.second, &s)) *low_pass = s;
+        continue;
+      }
+      if (kv.first == "order_band") {
+        float b = 0;
+        if (absl::SimpleAtof(kv.second, &b)) *order_band = b;
         continue;
       }
       if (kv.first == "colour_encoding") {
@@ -412,7 +418,7 @@ absl::StatusOr<std::string> EncodePly(const GaussianScene& scene, const PlyExpor
                                     " time_origin_us=", scene.time_origin_us,
                                     " sh_degree=", scene.sh_degree, " low_pass=", scene.low_pass,
                                     " colour_encoding=", ColourEncodingName(scene.colour_encoding),
-                                    "\nelement vertex ", n, "\n");
+                                    " order_band=", scene.order_band, "\nelement vertex ", n, "\n");
   for (const std::string& name : names) absl::StrAppend(&header, "property float ", name, "\n");
   absl::StrAppend(&header, "end_header\n");
 
@@ -572,7 +578,7 @@ absl::StatusOr<GaussianScene> DecodePly(const std::string& bytes, const std::str
   GaussianScene scene;
   std::optional<int> stored_degree;
   ParseOurComment(header.comments, &scene.time_origin_us, &stored_degree, &scene.low_pass,
-                  &scene.colour_encoding);
+                  &scene.colour_encoding, &scene.order_band);
   // Our export of a scene without SH writes degree-0 f_dc; restore "no SH".
   if (degree == 0 && stored_degree == -1) degree = -1;
   scene.sh_degree = degree;

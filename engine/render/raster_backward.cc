@@ -547,9 +547,8 @@ absl::StatusOr<GaussianParams<T>> Backward(const GaussianScene& scene, const Par
   std::vector<uint64_t> keys;
   for (size_t i = 0; i < n; ++i) {
     if (!visible[i]) continue;
-    const float depth = static_cast<float>(splats[i].depth);
-    uint32_t bits;
-    std::memcpy(&bits, &depth, sizeof(bits));
+    const uint32_t bits = raster::SortDepthBits(static_cast<float>(splats[i].depth),
+                                                static_cast<uint32_t>(i), scene.order_band);
     keys.push_back((static_cast<uint64_t>(bits) << 32) | i);
   }
   std::sort(keys.begin(), keys.end());

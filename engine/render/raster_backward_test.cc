@@ -141,7 +141,8 @@ TEST(RasterBackward, ForwardHalfMatchesTheReferenceRenderer) {
       RandomSceneSpec spec;
       spec.seed = 7 + model;
       spec.colour_gradients = gradients;
-      const GaussianScene scene = RandomScene(spec, camera);
+      GaussianScene scene = RandomScene(spec, camera);
+      scene.order_band = gradients ? 0.02f : 0.f;  // The band's order where it is set.
       absl::StatusOr<testing::DoubleRender> ours =
           testing::RenderBackwardInDouble(scene, testing::ParamsInDouble(scene), camera, kTime, {});
       ASSERT_TRUE(ours.ok()) << ours.status();

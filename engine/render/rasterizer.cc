@@ -375,8 +375,8 @@ absl::StatusOr<RenderBuffers> Render(const GaussianScene& scene, const RenderCam
       keys.reserve(end - begin);
       for (size_t i = begin; i < end; ++i) {
         if (!ProjectGaussian(scene, frame, i, &projected[i], gradients)) continue;
-        uint32_t depth_bits;
-        std::memcpy(&depth_bits, &projected[i].depth, sizeof(depth_bits));
+        const uint32_t depth_bits =
+            raster::SortDepthBits(projected[i].depth, static_cast<uint32_t>(i), scene.order_band);
         keys.push_back((static_cast<uint64_t>(depth_bits) << 32) | i);
       }
     }

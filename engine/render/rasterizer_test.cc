@@ -266,6 +266,48 @@ TEST(Rasterizer, TwoHalfTransparentGaussiansBlendInDepthOrder) {
   }
 }
 
+// Within the scene's order band two Gaussians keep one order (by their
+// indices' hash: Gaussian 0 ranks before Gaussian 1) whichever is nearer;
+// farther apart, depth decides.
+TEST(Rasterizer, AnOrderBandKeepsNearlyCoincidentGaussiansInOneOrder) {
+  const RenderCamera camera = SimpleCamera();
+  auto top_is_red = [&](double red_depth, double green_depth, float band) {
+    GaussianScene scene;
+    scene.order_band = band;
+    AddGaussian(&scene, PointAtPixel(32, 32, red_depth, camera), 0.3, 0.999, {1, 0, 0});
+    AddGaussian(&scene, PointAtPixel(32, 32, green_depth, camera), 0.3, 0.999, {0, 1, 0});
+    absl::StatusOr<RenderBuffers> out = Render(scene, camera, 0, {});
+    EXPECT_TRUE(out.ok()) << out.status();
+    const size_t p = Pixel(*out, 32, 32);
+    EXPECT_NE(out->rgb[3 * p] > 0.5f, out->rgb[3 * p + 1] > 0.5f);
+    return out->rgb[3 * p] > 0.5f;
+  };
+  // 2 mm apart at 4 m (0.05 %): depth order without a band, either way.
+  EXPECT_FALSE(top_is_red(4.002, 4.0, 0));
+  EXPECT_TRUE(top_is_red(4.0, 4.002, 0));
+  // Within a band of 1 % (Gaussian 1 sorts 0.62 % deeper): red on top both ways.
+  EXPECT_TRUE(top_is_red(4.002, 4.0, 0.01f));
+  EXPECT_TRUE(top_is_red(4.0, 4.002, 0.01f));
+  // 10 cm apart (2.5 %): depth order again.
+  EXPECT_FALSE(top_is_red(4.1, 4.0, 0.01f));
+}
+
+TEST(Rasterizer, MatchesReferenceWithAnOrderBand) {
+  const RenderCamera camera = MovedCamera(97, 61);
+  RandomSceneSpec spec;
+  spec.seed = 11;
+  spec.count = 1200;
+  GaussianScene scene = RandomScene(spec, camera);
+  scene.order_band = 0.02f;
+  ExpectMatchesReference(scene, camera, scene.time_origin_us + 1'300'000, {});
+  // The band changes the picture: the same scene without it differs.
+  absl::StatusOr<RenderBuffers> banded = Render(scene, camera, scene.time_origin_us, {});
+  scene.order_band = 0;
+  absl::StatusOr<RenderBuffers> strict = Render(scene, camera, scene.time_origin_us, {});
+  ASSERT_TRUE(banded.ok() && strict.ok());
+  EXPECT_NE(banded->rgb, strict->rgb);
+}
+
 class RasterizerLowPass : public ::testing::TestWithParam<float> {};
 
 TEST_P(RasterizerLowPass, AlphaFollowsEwaFootprintWithTheScenesLowPass) {

@@ -7,6 +7,7 @@
 
 #include "engine/render/instance_pose.h"
 #include "engine/render/raster_sh.h"
+#include "engine/render/splat_projection.h"
 
 namespace pf::testing {
 namespace {
@@ -133,12 +134,15 @@ RenderBuffers ReferenceRender(const GaussianScene& scene, const RenderCamera& ca
     s.visible = true;
   }
 
-  // Depth order, ties by index.
+  // Depth order (within the scene's order band, the band's fixed order),
+  // ties by index.
   std::vector<size_t> order(n);
   std::iota(order.begin(), order.end(), 0);
-  std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) {
-    return static_cast<float>(splats[a].depth) < static_cast<float>(splats[b].depth);
-  });
+  auto key = [&](size_t i) {
+    return raster::SortDepthBits(static_cast<float>(splats[i].depth), static_cast<uint32_t>(i),
+                                 scene.order_band);
+  };
+  std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) { return key(a) < key(b); });
 
   RenderBuffers out;
   out.width = width;

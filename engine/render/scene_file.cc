@@ -143,6 +143,10 @@ absl::Status ValidateScene(const GaussianScene& scene) {
     return absl::InvalidArgumentError(
         absl::StrCat("low_pass: ", scene.low_pass, " pixels^2 is outside [0, ", kMaxLowPass, "]"));
   }
+  if (!(scene.order_band >= 0 && scene.order_band <= kMaxOrderBand)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("order_band: ", scene.order_band, " is outside [0, ", kMaxOrderBand, "]"));
+  }
   const size_t n = scene.size();
   RETURN_IF_ERROR(CheckArraySize("means", scene.means.size(), 3 * n));
   RETURN_IF_ERROR(CheckArraySize("rotations", scene.rotations.size(), 4 * n));
@@ -211,6 +215,7 @@ absl::Status SaveScene(const GaussianScene& scene, const std::string& path,
   header.Put<float>(scene.low_pass);
   header.Put<uint32_t>(scene.has_colour_gradients() ? 1 : 0);
   header.Put<uint32_t>(scene.colour_encoding == ColourEncoding::kLinear ? 1 : 0);
+  header.Put<float>(scene.order_band);
   header.Put<uint32_t>(static_cast<uint32_t>(scene.instances.size()));
   for (const InstanceTrack& track : scene.instances) {
     header.PutString(track.id);
@@ -340,6 +345,11 @@ absl::StatusOr<SceneFile> ReadSceneFile(const std::string& path) {
     return invalid("header colour_encoding ", linear_colours, " is neither 0 nor 1");
   }
   scene.colour_encoding = linear_colours == 1 ? ColourEncoding::kLinear : ColourEncoding::kSrgb;
+  // Version 5 added the order band (0 before: strict depth order).
+  if (version >= 5) RETURN_IF_ERROR(header.Get("order_band", &scene.order_band));
+  if (!(scene.order_band >= 0 && scene.order_band <= kMaxOrderBand)) {
+    return invalid("header order_band ", scene.order_band, " is outside [0, ", kMaxOrderBand, "]");
+  }
   if (num_channels < 1 || num_channels > kMaxChannels) {
     return invalid("header num_channels ", num_channels, " is outside [1, ", kMaxChannels, "]");
   }

@@ -29,7 +29,7 @@ inline constexpr char kSceneFileMagic[8] = {'P', 'F', 'S', 'C', 'E', 'N', 'E', '
 // read with flat colours. Version 4 added the colours' encoding
 // (GaussianScene::colour_encoding, 0 sRGB, 1 linear) after that flag; older
 // files read as sRGB.
-inline constexpr uint32_t kSceneFileVersion = 4;
+inline constexpr uint32_t kSceneFileVersion = 5;
 inline constexpr uint32_t kOldestSceneFileVersion = 1;
 
 // A scene as stored: the Gaussians, free-form metadata (e.g. "model",

@@ -54,6 +54,7 @@ void ExpectScenesEqual(const GaussianScene& a, const GaussianScene& b) {
   EXPECT_EQ(a.sh_degree, b.sh_degree);
   EXPECT_EQ(a.time_origin_us, b.time_origin_us);
   EXPECT_EQ(a.low_pass, b.low_pass);
+  EXPECT_EQ(a.order_band, b.order_band);
   EXPECT_EQ(a.colour_encoding, b.colour_encoding);
   EXPECT_EQ(a.means, b.means);
   EXPECT_EQ(a.rotations, b.rotations);
@@ -165,12 +166,12 @@ TEST_F(SceneFileTest, RejectsWrongMagic) {
 }
 
 TEST_F(SceneFileTest, RejectsWrongVersion) {
-  for (int version : {0, 5}) {
+  for (int version : {0, 6}) {
     const absl::Status status =
         LoadEdited([version](std::string& b) { b[8] = static_cast<char>(version); });
     EXPECT_EQ(status.code(), absl::StatusCode::kInvalidArgument);
     EXPECT_NE(status.message().find(absl::StrCat("unsupported scene file version ", version,
-                                                 " (this build reads versions 1 to 4)")),
+                                                 " (this build reads versions 1 to 5)")),
               absl::string_view::npos)
         << status;
   }
@@ -204,7 +205,7 @@ TEST_F(SceneFileTest, RoundTripWithColourGradients) {
   ASSERT_TRUE(SaveScene(scene, path_).ok());
   absl::StatusOr<SceneFile> loaded = ReadSceneFile(path_);
   ASSERT_TRUE(loaded.ok()) << loaded.status();
-  EXPECT_EQ(loaded->version, 4u);
+  EXPECT_EQ(loaded->version, 5u);
   ExpectScenesEqual(scene, loaded->scene);
   // 6 more floats per Gaussian than the same scene with flat colours.
   const std::string flat_path = path_ + ".flat";
@@ -240,13 +241,39 @@ TEST_F(SceneFileTest, RoundTripKeepsLinearColours) {
   ExpectScenesEqual(scene, loaded->scene);
 }
 
+TEST_F(SceneFileTest, RoundTripKeepsTheOrderBandAndVersionFourFilesHaveNone) {
+  GaussianScene scene = MakeScene();
+  scene.order_band = 0.002f;
+  ASSERT_TRUE(SaveScene(scene, path_).ok());
+  float stored = 0;
+  std::memcpy(&stored, ReadFileToString(path_)->data() + 52, 4);
+  EXPECT_EQ(stored, 0.002f);
+  absl::StatusOr<SceneFile> loaded = ReadSceneFile(path_);
+  ASSERT_TRUE(loaded.ok()) << loaded.status();
+  EXPECT_EQ(loaded->scene.order_band, 0.002f);
+  ExpectScenesEqual(scene, loaded->scene);
+  // A version-4 file is a version-5 file without the order band (a float32
+  // after the colour-encoding flag, at byte 52): strict depth order.
+  RewriteAsVersion(path_, 4, 52, 4);
+  loaded = ReadSceneFile(path_);
+  ASSERT_TRUE(loaded.ok()) << loaded.status();
+  EXPECT_EQ(loaded->version, 4u);
+  scene.order_band = 0;
+  ExpectScenesEqual(scene, loaded->scene);
+  // Out of range, in the file or in a scene to save: refused by name.
+  scene.order_band = 0.5f;
+  EXPECT_NE(SaveScene(scene, path_).message().find("order_band: 0.5 is outside [0, 0.05]"),
+            absl::string_view::npos);
+}
+
 TEST_F(SceneFileTest, ReadsVersionThreeFilesAsSrgb) {
-  // A version-3 file is a version-4 file without the colour-encoding flag (a
-  // uint32 after the colour-gradient flag, at byte 48).
+  // A version-3 file is a version-5 file without the colour-encoding flag (a
+  // uint32 after the colour-gradient flag, at byte 48) and the order band
+  // after it.
   GaussianScene scene = MakeScene();
   scene.colour_encoding = ColourEncoding::kLinear;
   ASSERT_TRUE(SaveScene(scene, path_).ok());
-  RewriteAsVersion(path_, 3, 48, 4);
+  RewriteAsVersion(path_, 3, 48, 8);
   absl::StatusOr<SceneFile> loaded = ReadSceneFile(path_);
   ASSERT_TRUE(loaded.ok()) << loaded.status();
   EXPECT_EQ(loaded->version, 3u);
@@ -255,15 +282,15 @@ TEST_F(SceneFileTest, ReadsVersionThreeFilesAsSrgb) {
 }
 
 TEST_F(SceneFileTest, ReadsVersionTwoFilesWithFlatColours) {
-  // A version-2 file is a version-4 file without the colour-gradient flag
-  // (a uint32 after the low-pass, at byte 44), the colour-encoding flag after
-  // it and without gradients.
+  // A version-2 file is a version-5 file without the colour-gradient flag
+  // (a uint32 after the low-pass, at byte 44), the colour-encoding flag and
+  // the order band after it, and without gradients.
   const GaussianScene scene = MakeScene();
   ASSERT_TRUE(SaveScene(scene, path_, {{"model", "analytic"}}).ok());
   uint32_t flag = 7;
   std::memcpy(&flag, ReadFileToString(path_)->data() + 44, 4);
   ASSERT_EQ(flag, 0u);
-  RewriteAsVersion(path_, 2, 44, 8);
+  RewriteAsVersion(path_, 2, 44, 12);
   absl::StatusOr<SceneFile> loaded = ReadSceneFile(path_);
   ASSERT_TRUE(loaded.ok()) << loaded.status();
   EXPECT_EQ(loaded->version, 2u);
@@ -273,13 +300,13 @@ TEST_F(SceneFileTest, ReadsVersionTwoFilesWithFlatColours) {
 TEST_F(SceneFileTest, ReadsVersionOneFilesWithTheThreeDgsLowPass) {
   // A version-1 file is a version-2 file without the low-pass in the header
   // (a float32 after time_origin_us, at byte 16 + 8 + 4 + 4 + 8 = 40), so a
-  // version-4 file without the low-pass and the two flags after it.
+  // version-5 file without the low-pass and the two flags and the band after it.
   const GaussianScene scene = MakeScene();
   ASSERT_TRUE(SaveScene(scene, path_, {{"model", "analytic"}}).ok());
   float stored = 0;
   std::memcpy(&stored, ReadFileToString(path_)->data() + 40, 4);
   ASSERT_EQ(stored, 0.1f);
-  RewriteAsVersion(path_, 1, 40, 12);
+  RewriteAsVersion(path_, 1, 40, 16);
 
   absl::StatusOr<SceneFile> loaded = ReadSceneFile(path_);
   ASSERT_TRUE(loaded.ok()) << loaded.status();
@@ -351,7 +378,8 @@ TEST_F(SceneFileTest, RejectsHostileCountsWithoutAllocating) {
   EXPECT_NE(status.message().find("header of 4294967295 bytes"), absl::string_view::npos) << status;
 
   // colour_encoding follows num_gaussians, num_channels, sh_degree, time
-  // origin, low-pass, colour-gradient flag; num_instances follows it.
+  // origin, low-pass, colour-gradient flag; the order band follows it, then
+  // num_instances.
   status = LoadEdited([](std::string& b) {
     const uint32_t huge = 0x7FFFFFFFu;
     std::memcpy(b.data() + 16 + 8 + 4 + 4 + 8 + 4 + 4, &huge, 4);
@@ -361,6 +389,12 @@ TEST_F(SceneFileTest, RejectsHostileCountsWithoutAllocating) {
   status = LoadEdited([](std::string& b) {
     const uint32_t huge = 0x7FFFFFFFu;
     std::memcpy(b.data() + 16 + 8 + 4 + 4 + 8 + 4 + 4 + 4, &huge, 4);
+  });
+  EXPECT_EQ(status.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(status.message().find("order_band nan is outside"), absl::string_view::npos) << status;
+  status = LoadEdited([](std::string& b) {
+    const uint32_t huge = 0x7FFFFFFFu;
+    std::memcpy(b.data() + 16 + 8 + 4 + 4 + 8 + 4 + 4 + 4 + 4, &huge, 4);
   });
   EXPECT_EQ(status.code(), absl::StatusCode::kInvalidArgument);
   EXPECT_NE(status.message().find("num_instances"), absl::string_view::npos) << status;

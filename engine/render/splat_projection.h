@@ -15,6 +15,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <cstring>
 
 #include "common/host_device.h"
 #include "engine/camera/camera_model.h"
@@ -35,6 +36,20 @@ inline constexpr float kExtentMargin = 1.001f;
 inline constexpr float kJacobianGuard = 0.15f;
 
 PF_HD inline float ClampTo(float x, float lo, float hi) { return x < lo ? lo : (hi < x ? hi : x); }
+
+// The key Gaussian i is depth-sorted by, as float bits (non-negative floats
+// sort as unsigned integers): its depth times 1 + order_band x u_i, u_i in
+// [0, 1) a fixed hash of i (GaussianScene::order_band), so Gaussians within
+// that share of each other's depth keep one order in every view.
+PF_HD inline uint32_t SortDepthBits(float depth, uint32_t i, float order_band) {
+  if (order_band > 0) {
+    const float u = static_cast<float>((i * 2654435761u) >> 8) * (1.f / 16777216.f);
+    depth *= 1.f + order_band * u;
+  }
+  uint32_t bits;
+  memcpy(&bits, &depth, sizeof(bits));
+  return bits;
+}
 
 // A view's camera as the projection reads it, in float (the lens in double).
 struct ProjectionCamera {

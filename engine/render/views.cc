@@ -38,6 +38,21 @@ bool IsSafeFileStem(const std::string& name) {
   return std::all_of(name.begin(), name.end(), IsFileNameChar);
 }
 
+// Adds output file stem `name` to `names`: INVALID_ARGUMENT under `field` if
+// it is not a usable file name or already taken.
+absl::Status TakeOutputName(const std::string& name, const std::string& field,
+                            std::set<std::string>* names) {
+  if (!IsSafeFileStem(name)) {
+    return Invalid(
+        field,
+        absl::StrCat("'", name, "' is not a usable file name (letters, digits, '_', '-', '.')"));
+  }
+  if (!names->insert(name).second) {
+    return Invalid(field, absl::StrCat("duplicate output name '", name, "'"));
+  }
+  return absl::OkStatus();
+}
+
 // Returns the default name of a view, "<camera>_<timestamp_us>", with
 // characters unfit for a file name replaced by '_'.
 std::string DefaultViewName(const std::string& camera, int64_t timestamp_us) {
@@ -189,14 +204,7 @@ absl::StatusOr<RenderRequest> RenderRequestFromProto(
     out.camera_model = ModelName(distortion);
     out.distortion = DistortionCoefficients(distortion, out.camera.model);
     out.name = RenderViewName(view);
-    if (!IsSafeFileStem(out.name)) {
-      return Invalid(field + ".name",
-                     absl::StrCat("'", out.name,
-                                  "' is not a usable file name (letters, digits, '_', '-', '.')"));
-    }
-    if (!names.insert(out.name).second) {
-      return Invalid(field + ".name", absl::StrCat("duplicate output name '", out.name, "'"));
-    }
+    RETURN_IF_ERROR(TakeOutputName(out.name, field + ".name", &names));
     request.views.push_back(std::move(out));
   }
 
@@ -205,14 +213,7 @@ absl::StatusOr<RenderRequest> RenderRequestFromProto(
     const std::string field = absl::StrCat("lidars[", i, "]");
     LidarRenderView out;
     out.name = lidar.name().empty() ? absl::StrCat("lidar_", lidar.timestamp_us()) : lidar.name();
-    if (!IsSafeFileStem(out.name)) {
-      return Invalid(field + ".name",
-                     absl::StrCat("'", out.name,
-                                  "' is not a usable file name (letters, digits, '_', '-', '.')"));
-    }
-    if (!names.insert(out.name).second) {
-      return Invalid(field + ".name", absl::StrCat("duplicate output name '", out.name, "'"));
-    }
+    RETURN_IF_ERROR(TakeOutputName(out.name, field + ".name", &names));
     const v1::LidarSpec& spec = lidar.spec();
     out.spec.beam_elevations_deg.assign(spec.beam_elevations_deg().begin(),
                                         spec.beam_elevations_deg().end());
