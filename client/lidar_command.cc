@@ -24,16 +24,6 @@ namespace {
 constexpr char kLidarUsage[] =
     "usage: pf lidar spec SWEEP.bin [--origin X,Y,Z] [--min-range M] [--max-range M]";
 
-absl::StatusOr<double> NumberFlag(const CommandLine& cl, const std::string& flag, double fallback) {
-  if (!cl.Has(flag)) return fallback;
-  double value;
-  if (!absl::SimpleAtod(cl.Get(flag), &value)) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("--", flag, ": not a number: '", cl.Get(flag), "'"));
-  }
-  return value;
-}
-
 absl::Status LidarSpecCommand(const CommandLine& cl) {
   if (cl.positional().size() != 2 || cl.positional()[0] != "spec") {
     return absl::InvalidArgumentError(kLidarUsage);
@@ -64,8 +54,8 @@ absl::Status LidarSpecCommand(const CommandLine& cl) {
     }
     origin = {v[0], v[1], v[2]};
   }
-  ASSIGN_OR_RETURN(const double min_range, NumberFlag(cl, "min-range", 1));
-  ASSIGN_OR_RETURN(const double max_range, NumberFlag(cl, "max-range", 250));
+  ASSIGN_OR_RETURN(const double min_range, cl.GetDouble("min-range", 1));
+  ASSIGN_OR_RETURN(const double max_range, cl.GetDouble("max-range", 250));
   if (!(min_range >= 0 && max_range > min_range)) {
     return absl::InvalidArgumentError(absl::StrCat(
         "--min-range, --max-range: need 0 <= min < max, got ", min_range, ", ", max_range));

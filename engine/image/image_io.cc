@@ -13,6 +13,7 @@
 #include "absl/strings/str_cat.h"
 #include "common/file_util.h"
 #include "common/status_macros.h"
+#include "engine/image/oiio_write.h"
 
 namespace pf {
 namespace {
@@ -34,26 +35,31 @@ absl::StatusOr<std::unique_ptr<ImageInput>> OpenInput(const std::string& path) {
   return in;
 }
 
-absl::Status WriteWithOiio(const std::string& path, const ImageSpec& spec, TypeDesc data_type,
-                           const void* data) {
+}  // namespace
+
+absl::Status WriteImageAtomically(const std::string& path, const ImageSpec& spec,
+                                  TypeDesc data_type, const void* data) {
   RETURN_IF_ERROR(MakeDirs(fs::path(path).parent_path().string()));
   const std::string temp = TempPathFor(path);
-  auto out = ImageOutput::create(path);
-  if (!out) return absl::InternalError(absl::StrCat(path, ": no writer: ", OIIO::geterror()));
-  if (!out->open(temp, spec)) {
-    return absl::InternalError(absl::StrCat(path, ": cannot open for writing: ", out->geterror()));
-  }
-  const bool wrote = out->write_image(data_type, data);
-  const bool closed = out->close();
-  if (!wrote || !closed) {
+  auto fail = [&](const std::string& what) {
     std::error_code ec;
     fs::remove(temp, ec);
-    return absl::InternalError(absl::StrCat(path, ": write failed: ", out->geterror()));
+    return absl::InternalError(absl::StrCat(path, ": ", what));
+  };
+  try {
+    auto out = ImageOutput::create(path);
+    if (!out) return fail(absl::StrCat("no writer: ", OIIO::geterror()));
+    if (!out->open(temp, spec)) {
+      return fail(absl::StrCat("cannot open for writing: ", out->geterror()));
+    }
+    const bool wrote = out->write_image(data_type, data);
+    const bool closed = out->close();
+    if (!wrote || !closed) return fail(absl::StrCat("write failed: ", out->geterror()));
+  } catch (const std::exception& e) {
+    return fail(absl::StrCat("writer threw: ", e.what()));
   }
   return CommitTempFile(temp, path);
 }
-
-}  // namespace
 
 absl::StatusOr<ImageInfo> ReadImageInfo(const std::string& path) {
   ASSIGN_OR_RETURN(auto in, OpenInput(path));
@@ -157,7 +163,7 @@ absl::Status WritePng(const std::string& path, const ImageF& image) {
     bytes[i] = static_cast<uint8_t>(std::lround(std::clamp(v, 0.f, 1.f) * 255.f));
   }
   ImageSpec spec(image.width, image.height, image.channels, TypeDesc::UINT8);
-  return WriteWithOiio(path, spec, TypeDesc::UINT8, bytes.data());
+  return WriteImageAtomically(path, spec, TypeDesc::UINT8, bytes.data());
 }
 
 absl::Status WriteDepthExr(const std::string& path, const ImageF& depth) {
@@ -167,7 +173,7 @@ absl::Status WriteDepthExr(const std::string& path, const ImageF& depth) {
   ImageSpec spec(depth.width, depth.height, 1, TypeDesc::FLOAT);
   spec.channelnames = {"Z"};
   spec.attribute("compression", "zip");
-  return WriteWithOiio(path, spec, TypeDesc::FLOAT, depth.pixels.data());
+  return WriteImageAtomically(path, spec, TypeDesc::FLOAT, depth.pixels.data());
 }
 
 absl::Status ResizeImageFile(const std::string& src_path, const std::string& dst_path, int width,
@@ -191,7 +197,7 @@ absl::Status ResizeImageFile(const std::string& src_path, const std::string& dst
   }
   ImageSpec spec(width, height, source.channels, TypeDesc::UINT8);
   spec.attribute("compression", absl::StrCat("jpeg:", jpeg_quality));
-  return WriteWithOiio(dst_path, spec, TypeDesc::UINT8, bytes.data());
+  return WriteImageAtomically(dst_path, spec, TypeDesc::UINT8, bytes.data());
 }
 
 absl::Status WriteDepthPng16(const std::string& path, const ImageF& depth) {
@@ -206,7 +212,7 @@ absl::Status WriteDepthPng16(const std::string& path, const ImageF& depth) {
                  : 0;
   }
   ImageSpec spec(depth.width, depth.height, 1, TypeDesc::UINT16);
-  return WriteWithOiio(path, spec, TypeDesc::UINT16, raw.data());
+  return WriteImageAtomically(path, spec, TypeDesc::UINT16, raw.data());
 }
 
 }  // namespace pf

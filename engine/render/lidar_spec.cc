@@ -7,16 +7,15 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
-#include <filesystem>
 
 #include "absl/strings/str_cat.h"
 #include "common/file_util.h"
 #include "common/status_macros.h"
+#include "engine/image/oiio_write.h"
 
 namespace pf {
 namespace {
 
-namespace fs = std::filesystem;
 using OIIO::TypeDesc;
 
 constexpr double kPi = 3.14159265358979323846;
@@ -147,26 +146,7 @@ absl::Status WriteRangeImageExr(const std::string& path, const RenderedSweep& sw
   spec.attribute("pf:worldFromSensorEnd", m44d, end.data());
   spec.attribute("pf:timestampUs", absl::StrCat(sweep.pose.start_us));
 
-  RETURN_IF_ERROR(MakeDirs(fs::path(path).parent_path().string()));
-  const std::string temp = TempPathFor(path);
-  auto fail = [&](const std::string& what) {
-    std::error_code ec;
-    fs::remove(temp, ec);
-    return absl::InternalError(absl::StrCat(path, ": ", what));
-  };
-  try {
-    std::unique_ptr<OIIO::ImageOutput> output = OIIO::ImageOutput::create("openexr");
-    if (!output) return fail(absl::StrCat("no EXR writer: ", OIIO::geterror()));
-    if (!output->open(temp, spec)) {
-      return fail(absl::StrCat("cannot open for writing: ", output->geterror()));
-    }
-    const bool wrote = output->write_image(TypeDesc::FLOAT, pixels.data());
-    const bool closed = output->close();
-    if (!wrote || !closed) return fail(absl::StrCat("write failed: ", output->geterror()));
-  } catch (const std::exception& e) {
-    return fail(absl::StrCat("EXR writer threw: ", e.what()));
-  }
-  return CommitTempFile(temp, path);
+  return WriteImageAtomically(path, spec, TypeDesc::FLOAT, pixels.data());
 }
 
 absl::StatusOr<EstimatedLidarSpec> EstimateLidarSpec(const std::vector<float>& xyz,

@@ -8,7 +8,6 @@
 #include <algorithm>
 #include <chrono>
 #include <cstring>
-#include <filesystem>
 #include <limits>
 #include <memory>
 #include <nlohmann/json.hpp>
@@ -19,6 +18,7 @@
 #include "common/status_macros.h"
 #include "common/version.h"
 #include "engine/image/image_io.h"
+#include "engine/image/oiio_write.h"
 #include "engine/render/hole_fill.h"
 
 #ifndef PF_SOFTWARE_VERSION
@@ -28,7 +28,6 @@
 namespace pf {
 namespace {
 
-namespace fs = std::filesystem;
 using Json = nlohmann::ordered_json;
 using OIIO::TypeDesc;
 
@@ -268,33 +267,7 @@ absl::Status WriteRenderExr(const std::string& path, const RenderBuffers& buffer
     offset += source.type.size();
   }
 
-  RETURN_IF_ERROR(MakeDirs(fs::path(path).parent_path().string()));
-  const std::string temp = TempPathFor(path);
-  auto cleanup = [&temp] {
-    std::error_code ec;
-    fs::remove(temp, ec);
-  };
-  try {
-    std::unique_ptr<OIIO::ImageOutput> output = OIIO::ImageOutput::create("openexr");
-    if (!output) {
-      return absl::InternalError(absl::StrCat(path, ": no EXR writer: ", OIIO::geterror()));
-    }
-    if (!output->open(temp, spec)) {
-      cleanup();
-      return absl::InternalError(
-          absl::StrCat(path, ": cannot open for writing: ", output->geterror()));
-    }
-    const bool wrote = output->write_image(TypeDesc::UNKNOWN, packed.data());
-    const bool closed = output->close();
-    if (!wrote || !closed) {
-      cleanup();
-      return absl::InternalError(absl::StrCat(path, ": write failed: ", output->geterror()));
-    }
-  } catch (const std::exception& e) {
-    cleanup();
-    return absl::InternalError(absl::StrCat(path, ": EXR writer threw: ", e.what()));
-  }
-  return CommitTempFile(temp, path);
+  return WriteImageAtomically(path, spec, TypeDesc::UNKNOWN, packed.data());
 }
 
 std::vector<float> LinearRgb(const RenderBuffers& buffers, ColourEncoding encoding) {
