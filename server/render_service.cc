@@ -26,17 +26,22 @@ namespace v1 = pointforward::v1;
 // the real count).
 constexpr int kMinSceneChannels = 3;
 
-// Checks what needs no scene: the number of views and each camera's pixels
-// and estimated memory with `num_features` feature channels.
+// Checks what needs no scene: the number of views and sweeps, each camera's
+// pixels and estimated memory with `num_features` feature channels, and
+// each sweep's rays.
 absl::Status CheckViewLimits(const v1::RenderViews& views, const OutputChannels& channels,
                              int num_features, int max_views, const RenderLimits& limits) {
-  if (views.views_size() == 0) return absl::InvalidArgumentError("views.views: no views to render");
-  if (views.views_size() > max_views) {
-    return absl::InvalidArgumentError(absl::StrCat("views.views: ", views.views_size(),
-                                                   " views exceed the limit of ", max_views,
+  const int64_t items = RenderItemCount(views);
+  if (items == 0) return absl::InvalidArgumentError("views.views: no views or lidars to render");
+  if (items > max_views) {
+    const std::string what = views.lidars_size() == 0
+                                 ? absl::StrCat("views.views: ", views.views_size(), " views")
+                                 : absl::StrCat("views: ", views.views_size(), " views and ",
+                                                views.lidars_size(), " lidars");
+    return absl::InvalidArgumentError(absl::StrCat(what, " exceed the limit of ", max_views,
                                                    " per render job (pf-server --max-views)"));
   }
-  return CheckRenderLimits(views, channels, num_features, limits, "views.cameras");
+  return CheckRenderLimits(views, channels, num_features, limits, "views.");
 }
 
 // Checks the views against what is known of the scene: everything when it
@@ -77,12 +82,6 @@ grpc::Status RenderServiceImpl::CreateRenderJob(grpc::ServerContext* context,
   if (request->chunk_frames() < 0) {
     return ToGrpc(absl::InvalidArgumentError(
         absl::StrCat("chunk_frames: must be >= 0, got ", request->chunk_frames())));
-  }
-
-  if (request->views().lidars_size() > 0) {
-    return ToGrpc(absl::InvalidArgumentError(
-        "views.lidars: LiDAR sweeps are rendered by `pf render SCENE --cameras VIEWS.json` "
-        "(the scene from ExportScene), not yet by render jobs; send the camera views alone"));
   }
 
   // Limits first: nothing is created for a request that exceeds them.
@@ -131,8 +130,8 @@ grpc::Status RenderServiceImpl::CreateRenderJob(grpc::ServerContext* context,
     return ToGrpc(checked);
   }
 
-  // Frame chunks.
-  const int total = request->views().views_size();
+  // Chunks of frames: the views, then the LiDAR sweeps.
+  const int total = static_cast<int>(RenderItemCount(request->views()));
   const int chunk =
       request->chunk_frames() > 0 ? request->chunk_frames() : core_->options().chunk_frames;
   std::vector<NewTask> tasks;

@@ -11,6 +11,7 @@
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <tuple>
 
 #include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
@@ -286,20 +287,31 @@ absl::StatusOr<v1::RenderJob> ServiceCore::RenderJobFor(const JobRecord& job) {
 
 absl::Status ServiceCore::AddRenderOutputs(const JobRecord& job, v1::RenderJob* out) {
   // Outputs: each chunk's files in chunk order, then manifest.json with the
-  // views of all chunks.
+  // views and sweeps of all chunks.
   ASSIGN_OR_RETURN(const std::vector<TaskRecord> tasks, store_->ListTasks(job.id));
+  v1::CreateRenderJobRequest request;
+  RETURN_IF_ERROR(FromJson(job.request, &request, "stored render request"));
+  const int job_views = request.views().views_size();
   nlohmann::ordered_json views = nlohmann::ordered_json::array();
+  nlohmann::ordered_json lidars = nlohmann::ordered_json::array();
   for (const TaskRecord& task : tasks) {
     v1::RenderResult result;
     RETURN_IF_ERROR(FromJson(task.result, &result, absl::StrCat("result of ", TaskLabel(task))));
     for (const v1::OutputFile& file : result.files()) *out->add_files() = file;
-    absl::StatusOr<nlohmann::ordered_json> chunk_views =
-        ParseManifestViews(result.manifest_views_json(), task.view_count);
-    if (!chunk_views.ok()) {
-      return absl::DataLossError(absl::StrCat("manifest views of ", TaskLabel(task), ": ",
-                                              chunk_views.status().message()));
+    // The chunk's frames: its views, then its sweeps.
+    const int chunk_views = std::clamp(job_views - task.first_view, 0, task.view_count);
+    for (auto [json, count, all, what] :
+         {std::tuple{&result.manifest_views_json(), chunk_views, &views, "views"},
+          std::tuple{&result.manifest_lidars_json(), task.view_count - chunk_views, &lidars,
+                     "lidars"}}) {
+      if (count == 0) continue;
+      absl::StatusOr<nlohmann::ordered_json> entries = ParseManifestViews(*json, count);
+      if (!entries.ok()) {
+        return absl::DataLossError(absl::StrCat("manifest ", what, " of ", TaskLabel(task), ": ",
+                                                entries.status().message()));
+      }
+      for (nlohmann::ordered_json& entry : *entries) all->push_back(std::move(entry));
     }
-    for (nlohmann::ordered_json& view : *chunk_views) views.push_back(std::move(view));
   }
   nlohmann::ordered_json manifest;
   manifest["scene"] = {{"name", out->scene()}};
@@ -315,6 +327,7 @@ absl::Status ServiceCore::AddRenderOutputs(const JobRecord& job, v1::RenderJob* 
   manifest["renderJob"] = out->name();
   manifest["software"] = absl::StrCat("PointForward ", SoftwareVersion());
   manifest["views"] = std::move(views);
+  if (!lidars.empty()) manifest["lidars"] = std::move(lidars);
   ASSIGN_OR_RETURN(const BlobDigest digest, blobs_->Put(manifest.dump(2) + "\n"));
   v1::OutputFile* file = out->add_files();
   file->set_name("manifest.json");

@@ -3,7 +3,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <initializer_list>
 #include <map>
+#include <utility>
 
 #include "absl/strings/str_cat.h"
 #include "common/bounded_json.h"
@@ -39,64 +41,98 @@ std::string StringMember(const Json& entry, const char* key) {
   return it != entry.end() && it->is_string() ? it->get<std::string>() : "";
 }
 
-// INVALID_ARGUMENT unless views [first_view, first_view + view_count) are in `views`.
-absl::Status CheckChunkRange(const v1::RenderViews& views, int first_view, int view_count) {
-  if (first_view < 0 || view_count < 1 ||
-      int64_t{first_view} + view_count > int64_t{views.views_size()}) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("views [", first_view, ", ", int64_t{first_view} + view_count,
-                     ") are not views of the job (it has ", views.views_size(), ")"));
+// INVALID_ARGUMENT unless frames [first, first + count) are frames of the job.
+absl::Status CheckChunkRange(const v1::RenderViews& views, int first, int count) {
+  const int64_t frames = RenderItemCount(views);
+  if (first < 0 || count < 1 || int64_t{first} + count > frames) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "frames [", first, ", ", int64_t{first} + count, ") are not frames of the job (it has ",
+        views.views_size(), " views and ", views.lidars_size(), " lidars)"));
+  }
+  return absl::OkStatus();
+}
+
+// Checks that each of `entries` (a chunk's manifest entries under `field`)
+// has "name" names[i] and each of `members` set to names[i] + its suffix.
+absl::Status CheckEntryNames(const Json& entries, const std::vector<std::string>& names,
+                             const std::string& field,
+                             std::initializer_list<std::pair<const char*, const char*>> members) {
+  for (size_t i = 0; i < names.size(); ++i) {
+    const Json& entry = entries[i];
+    const std::string& name = names[i];
+    bool ok = StringMember(entry, "name") == name;
+    std::string files;
+    for (const auto& [member, suffix] : members) {
+      ok = ok && StringMember(entry, member) == name + suffix;
+      absl::StrAppend(&files, files.empty() ? "" : ", ", name, suffix);
+    }
+    if (!ok) {
+      return Invalid(absl::StrCat(field, "[", i, "]"),
+                     absl::StrCat("does not describe '", name, "' (", files, ")"));
+    }
   }
   return absl::OkStatus();
 }
 
 }  // namespace
 
-absl::StatusOr<v1::RenderViews> RenderChunkViews(const v1::RenderViews& views, int first_view,
-                                                 int view_count) {
-  RETURN_IF_ERROR(CheckChunkRange(views, first_view, view_count));
+absl::StatusOr<v1::RenderViews> RenderChunkViews(const v1::RenderViews& views, int first,
+                                                 int count) {
+  RETURN_IF_ERROR(CheckChunkRange(views, first, count));
   v1::RenderViews chunk;
   *chunk.mutable_cameras() = views.cameras();
   *chunk.mutable_edits() = views.edits();
-  for (int i = first_view; i < first_view + view_count; ++i) *chunk.add_views() = views.views(i);
+  for (int i = first; i < first + count; ++i) {
+    if (i < views.views_size()) {
+      *chunk.add_views() = views.views(i);
+    } else {
+      *chunk.add_lidars() = views.lidars(i - views.views_size());
+    }
+  }
   return chunk;
 }
 
-absl::StatusOr<std::vector<std::string>> RenderChunkViewNames(const v1::RenderViews& views,
-                                                              int first_view, int view_count) {
-  RETURN_IF_ERROR(CheckChunkRange(views, first_view, view_count));
-  std::vector<std::string> names;
-  names.reserve(view_count);
-  for (int i = first_view; i < first_view + view_count; ++i) {
-    names.push_back(RenderViewName(views.views(i)));
+absl::StatusOr<RenderChunkNames> ChunkOutputNames(const v1::RenderViews& views, int first,
+                                                  int count) {
+  RETURN_IF_ERROR(CheckChunkRange(views, first, count));
+  RenderChunkNames names;
+  for (int i = first; i < first + count; ++i) {
+    if (i < views.views_size()) {
+      names.views.push_back(RenderViewName(views.views(i)));
+    } else {
+      names.lidars.push_back(RenderLidarName(views.lidars(i - views.views_size())));
+    }
   }
   return names;
 }
 
-absl::StatusOr<Json> ParseManifestViews(const std::string& json, int view_count) {
-  const JsonLimits limits{.max_bytes = kMaxManifestBytesPerView * std::max(view_count, 1),
+absl::StatusOr<Json> ParseManifestViews(const std::string& json, int count) {
+  const JsonLimits limits{.max_bytes = kMaxManifestBytesPerView * std::max(count, 1),
                           .max_depth = JsonLimits{}.max_depth};
-  ASSIGN_OR_RETURN(Json views, ParseBoundedJson(json, limits));
-  if (!views.is_array()) return absl::InvalidArgumentError("not a JSON array");
-  if (views.size() != static_cast<size_t>(view_count)) {
+  ASSIGN_OR_RETURN(Json entries, ParseBoundedJson(json, limits));
+  if (!entries.is_array()) return absl::InvalidArgumentError("not a JSON array");
+  if (entries.size() != static_cast<size_t>(count)) {
     return absl::InvalidArgumentError(
-        absl::StrCat(views.size(), " entries for the chunk's ", view_count, " views"));
+        absl::StrCat(entries.size(), " entries for the chunk's ", count, " frames"));
   }
-  for (size_t i = 0; i < views.size(); ++i) {
-    if (!views[i].is_object()) {
+  for (size_t i = 0; i < entries.size(); ++i) {
+    if (!entries[i].is_object()) {
       return absl::InvalidArgumentError(absl::StrCat("entry ", i, " is not a JSON object"));
     }
   }
-  return views;
+  return entries;
 }
 
-absl::Status CheckRenderResult(const v1::RenderResult& result,
-                               const std::vector<std::string>& view_names) {
-  // Expected name -> its view.
+absl::Status CheckRenderResult(const v1::RenderResult& result, const RenderChunkNames& names) {
+  // Expected file name -> its view or sweep.
   std::map<std::string, std::string> expected;
-  for (const std::string& view : view_names) {
+  for (const std::string& view : names.views) {
     expected[view + ".exr"] = view;
     expected[view + ".png"] = view;
+  }
+  for (const std::string& lidar : names.lidars) {
+    expected[lidar + ".range.exr"] = lidar;
+    expected[lidar + ".lidar.bin"] = lidar;
   }
   std::map<std::string, int> seen;  // Name -> index in files.
   for (int i = 0; i < result.files_size(); ++i) {
@@ -105,7 +141,7 @@ absl::Status CheckRenderResult(const v1::RenderResult& result,
     const auto wanted = expected.find(file.name());
     if (wanted == expected.end()) {
       return Invalid(field + ".name",
-                     absl::StrCat("'", file.name(), "' is not an output of the chunk's views"));
+                     absl::StrCat("'", file.name(), "' is not an output of the chunk's frames"));
     }
     if (!seen.emplace(file.name(), i).second) {
       return Invalid(field + ".name", absl::StrCat("'", file.name(), "' given twice"));
@@ -118,24 +154,24 @@ absl::Status CheckRenderResult(const v1::RenderResult& result,
   }
   for (const auto& [name, view] : expected) {
     if (!seen.count(name)) {
-      return Invalid("render.files", absl::StrCat("no '", name, "' for view '", view, "'"));
+      return Invalid("render.files", absl::StrCat("no '", name, "' for '", view, "'"));
     }
   }
-  absl::StatusOr<Json> entries =
-      ParseManifestViews(result.manifest_views_json(), static_cast<int>(view_names.size()));
-  if (!entries.ok())
-    return Invalid("render.manifest_views_json", std::string(entries.status().message()));
-  for (size_t i = 0; i < view_names.size(); ++i) {
-    const Json& entry = (*entries)[i];
-    const std::string& view = view_names[i];
-    if (StringMember(entry, "name") != view || StringMember(entry, "exr") != view + ".exr" ||
-        StringMember(entry, "png") != view + ".png") {
-      return Invalid(
-          absl::StrCat("render.manifest_views_json[", i, "]"),
-          absl::StrCat("does not describe view '", view, "' (", view, ".exr, ", view, ".png)"));
-    }
+  absl::StatusOr<Json> views =
+      ParseManifestViews(result.manifest_views_json(), static_cast<int>(names.views.size()));
+  if (!views.ok()) {
+    return Invalid("render.manifest_views_json", std::string(views.status().message()));
   }
-  return absl::OkStatus();
+  RETURN_IF_ERROR(CheckEntryNames(*views, names.views, "render.manifest_views_json",
+                                  {{"exr", ".exr"}, {"png", ".png"}}));
+  if (names.lidars.empty() && result.manifest_lidars_json().empty()) return absl::OkStatus();
+  absl::StatusOr<Json> lidars =
+      ParseManifestViews(result.manifest_lidars_json(), static_cast<int>(names.lidars.size()));
+  if (!lidars.ok()) {
+    return Invalid("render.manifest_lidars_json", std::string(lidars.status().message()));
+  }
+  return CheckEntryNames(*lidars, names.lidars, "render.manifest_lidars_json",
+                         {{"rangeExr", ".range.exr"}, {"points", ".lidar.bin"}});
 }
 
 absl::Status CheckReconstructResult(const v1::ReconstructResult& result) {

@@ -62,14 +62,15 @@ absl::Status CheckLeaseHolder(const TaskRecord& task, int attempt, const std::st
 }
 
 // Checks a render chunk's result against the chunk's views and the blob
-// store: the names of its views' files, each uploaded with its size.
+// store: the names of its views' and sweeps' files, each uploaded with its
+// size.
 absl::Status CheckRenderCompletion(ServiceCore& core, const TaskRecord& task,
                                    const v1::RenderResult& result) {
   ASSIGN_OR_RETURN(const JobRecord job, core.store().GetJob(task.job_id));
   v1::CreateRenderJobRequest request;
   RETURN_IF_ERROR(FromJson(job.request, &request, "stored render request"));
-  ASSIGN_OR_RETURN(const std::vector<std::string> names,
-                   RenderChunkViewNames(request.views(), task.first_view, task.view_count));
+  ASSIGN_OR_RETURN(const RenderChunkNames names,
+                   ChunkOutputNames(request.views(), task.first_view, task.view_count));
   RETURN_IF_ERROR(CheckRenderResult(result, names));
   for (int i = 0; i < result.files_size(); ++i) {
     RETURN_IF_ERROR(CheckBlob(core.blobs(), result.files(i).digest(),

@@ -547,24 +547,32 @@ TEST_F(LimitsE2e, OutputNamesThatAreNotPlainFileNamesAreRefused) {
   }
 }
 
-// Render jobs do not render LiDAR sweeps yet: a request with some is refused
-// before anything exists, naming the command that renders them.
-TEST_F(LimitsE2e, LidarSweepsInARenderJobAreRefusedNamingPfRender) {
+// A LiDAR sweep's rays count against the per-view pixel limit: one over it
+// is refused before anything exists, naming the sweep and the flag.
+TEST_F(LimitsE2e, ALidarSweepOverThePixelLimitIsRefusedBeforeAJobExists) {
   ServerProcess server(test_dir_);
-  ASSERT_TRUE(server.Start({"--trusted-root", *dir_})) << server.Log();
+  ASSERT_TRUE(server.Start({"--trusted-root", *dir_, "--max-pixels-per-image", "1000000"}))
+      << server.Log();
   v1::CreateRenderJobRequest request;
   request.mutable_create_scene()->mutable_clip()->set_uri("file://" + ClipPath());
   *request.mutable_views() = Views();
   v1::LidarView* lidar = request.mutable_views()->add_lidars();
-  lidar->mutable_spec()->add_beam_elevations_deg(0);
+  for (int b = 0; b < 1024; ++b) lidar->mutable_spec()->add_beam_elevations_deg(-20 + 0.02 * b);
+  lidar->mutable_spec()->set_azimuth_resolution_deg(0.1);
   for (double v : {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1}) lidar->add_world_from_sensor(v);
   Operation op;
-  const grpc::Status status = CreateRender(server, request, &op);
+  grpc::Status status = CreateRender(server, request, &op);
   EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
-  EXPECT_TRUE(
-      Contains(status.error_message(), "views.lidars: LiDAR sweeps are rendered by `pf render"))
-      << status.error_message();
+  EXPECT_EQ(status.error_message(),
+            "views.lidars[0]: 1024 beams x 3600 columns = 3686400 rays per sweep exceed the "
+            "limit of 1000000 (--max-pixels-per-image)");
   EXPECT_TRUE(testing::ListOperations(server.address(), "", 10).empty());
+  // A bad spec is named the same way.
+  lidar->mutable_spec()->set_azimuth_resolution_deg(1);
+  lidar->mutable_spec()->set_rotation_hz(-1);
+  status = CreateRender(server, request, &op);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_EQ(status.error_message(), "views.lidars[0].spec.rotationHz: must be in (0, 100], got -1");
 }
 
 // -- Integrity ------------------------------------------------------------------
@@ -838,9 +846,9 @@ TEST_F(LimitsE2e, WorkerResultsAreCheckedAgainstTheTaskAndAPoisonedStoreStaysRea
   const std::vector<Lie> lies = {
       {"a file outside the views",
        [](v1::RenderResult* r) { r->mutable_files(0)->set_name("../../etc/passwd"); },
-       "render.files[0].name: '../../etc/passwd' is not an output of the chunk's views"},
+       "render.files[0].name: '../../etc/passwd' is not an output of the chunk's frames"},
       {"a view without its PNG",
-       [](v1::RenderResult* r) { r->mutable_files()->DeleteSubrange(1, 1); }, ".png' for view"},
+       [](v1::RenderResult* r) { r->mutable_files()->DeleteSubrange(1, 1); }, ".png' for 'v"},
       {"a file never uploaded",
        [](v1::RenderResult* r) {
          r->mutable_files(2)->mutable_digest()->set_sha256(std::string(64, '0'));

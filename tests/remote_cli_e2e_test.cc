@@ -584,6 +584,44 @@ TEST_F(RemoteCliE2e, RenderThenJobsWaitListAndGet) {
   EXPECT_EQ(op["response"]["files"].size(), 9u);
 }
 
+// A views file of LiDAR sweeps alone renders them: the range image and the
+// point record of each, and the manifest's "lidars", as `pf render` writes
+// them locally.
+TEST_F(RemoteCliE2e, RenderOfLidarSweepsAloneDownloadsTheirFiles) {
+  StartServer();
+  StartWorker("w1");
+  const std::string scene = CreateScene();
+  ASSERT_FALSE(scene.empty());
+  const nlohmann::json clip = nlohmann::json::parse(std::ifstream(Clip()));
+  ASSERT_FALSE(clip["lidar"].empty());
+  nlohmann::json views;
+  views["lidars"] = {{{"name", "top"},
+                      {"spec", {{"beamElevationsDeg", {-20, -10, 0}}, {"azimuthResolutionDeg", 1}}},
+                      {"timestampUs", clip["lidar"][0]["timestampUs"]},
+                      {"worldFromSensor", clip["lidar"][0]["worldFromSensor"]}}};
+  const std::string views_path = test_dir_ + "/lidar_views.json";
+  std::ofstream(views_path) << views.dump();
+  const std::string out_dir = test_dir_ + "/out";
+  const CommandResult render =
+      Remote({"render", scene, "--cameras", views_path, "--out", out_dir, "--wait"});
+  ASSERT_EQ(render.exit_code, 0) << render.err << Logs();
+  EXPECT_EQ(Lines(render.out).back(), "downloaded 3 files to " + out_dir) << render.out;
+  const CommandResult local = RunCommand({Pf(), "render", *dir_ + "/embedded.pfs", "--cameras",
+                                          views_path, "--out", test_dir_ + "/local"});
+  ASSERT_EQ(local.exit_code, 0) << local.err;
+  EXPECT_EQ(Sha256Of(out_dir + "/top.lidar.bin"), Sha256Of(test_dir_ + "/local/top.lidar.bin"));
+  const nlohmann::json manifest = nlohmann::json::parse(std::ifstream(out_dir + "/manifest.json"));
+  EXPECT_TRUE(manifest["views"].empty());
+  ASSERT_EQ(manifest["lidars"].size(), 1u);
+  EXPECT_EQ(manifest["lidars"][0]["rangeExr"], "top.range.exr");
+  EXPECT_EQ(manifest["lidars"][0]["beams"], 3);
+  EXPECT_EQ(manifest["lidars"][0]["columns"], 360);
+  EXPECT_GT(manifest["lidars"][0]["returns"].get<int>(), 10);
+  const nlohmann::json local_manifest =
+      nlohmann::json::parse(std::ifstream(test_dir_ + "/local/manifest.json"));
+  EXPECT_EQ(manifest["lidars"][0]["returns"], local_manifest["lidars"][0]["returns"]);
+}
+
 // A render job that fails on the worker is exit 1 with the job's error: an
 // actor edit for an instance the scene lacks passes the server's check
 // while the scene is still being built (only the worker knows its

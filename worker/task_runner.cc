@@ -270,13 +270,13 @@ absl::StatusOr<RenderChunkOutput> RenderChunk(const pb::RenderWork& work, const 
   // The server's limits on a view, before anything is allocated for one.
   RETURN_IF_ERROR(CheckRenderLimits(work.views(), channels, opened.scene.num_channels,
                                     {work.max_pixels_per_view(), work.max_render_bytes()},
-                                    "views.cameras"));
+                                    "views."));
 
-  // The chunk's own views, numbered from first_view in the job (older
+  // The chunk's own frames, numbered from first_view in the job (older
   // servers sent all of the job's views).
   const pb::RenderViews& views = work.views();
-  const int chunk_views = views.views_size();
-  const bool whole_job = chunk_views != work.view_count();
+  const int64_t chunk_frames = RenderItemCount(views);
+  const bool whole_job = chunk_frames != work.view_count();
   if (work.first_view() < 0) {
     return absl::InvalidArgumentError(
         absl::StrCat("first_view: must be >= 0, got ", work.first_view()));
@@ -285,15 +285,16 @@ absl::StatusOr<RenderChunkOutput> RenderChunk(const pb::RenderWork& work, const 
     return absl::InvalidArgumentError(
         absl::StrCat("view_count: must be >= 1, got ", work.view_count()));
   }
-  if (whole_job && int64_t{work.first_view()} + work.view_count() > chunk_views) {
+  if (whole_job && int64_t{work.first_view()} + work.view_count() > chunk_frames) {
     return absl::InvalidArgumentError(absl::StrCat(
-        "views.views: the task carries ", chunk_views, " views, neither the chunk's ",
-        work.view_count(), " nor the job's up to view ", work.first_view() + work.view_count()));
+        "views.views: the task carries ", chunk_frames, " frames, neither the chunk's ",
+        work.view_count(), " nor the job's up to frame ", work.first_view() + work.view_count()));
   }
   absl::StatusOr<RenderRequest> parsed = RenderRequestFromProto(views, InstanceIds(opened.scene));
   if (!parsed.ok()) return StatusWithContext(parsed.status(), "views");
   const RenderRequest& request = *parsed;
-  const int offset = whole_job ? 0 : work.first_view();  // Job index of request.views[0].
+  const int offset = whole_job ? 0 : work.first_view();  // Job index of the carried frame 0.
+  const int carried_views = static_cast<int>(request.views.size());
   RETURN_IF_ERROR(MakeDirs(out_dir));
 
   std::unique_ptr<DeviceRenderer> cpu;
@@ -304,19 +305,35 @@ absl::StatusOr<RenderChunkOutput> RenderChunk(const pb::RenderWork& work, const 
   const SceneLabel label{opened.scene_id, opened.model, opened.scene.colour_encoding};
   RenderChunkOutput out;
   std::vector<ManifestEntry> entries;
+  std::vector<LidarManifestEntry> lidars;
   const int end = work.first_view() + work.view_count();
   for (int i = work.first_view(); i < end; ++i) {
-    RETURN_IF_ERROR(CheckCancelled(cancelled, absl::StrCat("before view ", i)));
-    const RenderView& view = request.views[i - offset];
-    absl::StatusOr<ManifestEntry> entry =
-        RenderViewToFiles(*renderer, view, request.edits, channels, label, out_dir);
-    if (!entry.ok()) return StatusWithContext(entry.status(), absl::StrCat("views[", i, "]"));
-    out.files.push_back({entry->exr, absl::StrCat(out_dir, "/", entry->exr), view.name});
-    out.files.push_back({entry->png, absl::StrCat(out_dir, "/", entry->png), view.name});
-    entries.push_back(*std::move(entry));
+    RETURN_IF_ERROR(CheckCancelled(cancelled, absl::StrCat("before frame ", i)));
+    const int carried = i - offset;
+    if (carried < carried_views) {
+      const RenderView& view = request.views[carried];
+      absl::StatusOr<ManifestEntry> entry =
+          RenderViewToFiles(*renderer, view, request.edits, channels, label, out_dir);
+      if (!entry.ok()) return StatusWithContext(entry.status(), absl::StrCat("views[", i, "]"));
+      out.files.push_back({entry->exr, absl::StrCat(out_dir, "/", entry->exr), view.name});
+      out.files.push_back({entry->png, absl::StrCat(out_dir, "/", entry->png), view.name});
+      entries.push_back(*std::move(entry));
+    } else {
+      const LidarRenderView& lidar = request.lidars[carried - carried_views];
+      absl::StatusOr<LidarManifestEntry> entry =
+          RenderLidarToFiles(opened.scene, lidar, request.edits, out_dir);
+      if (!entry.ok()) {
+        return StatusWithContext(entry.status(), absl::StrCat("frame ", i, " (", lidar.name, ")"));
+      }
+      for (const std::string& file : {entry->range_exr, entry->points}) {
+        out.files.push_back({file, absl::StrCat(out_dir, "/", file), lidar.name});
+      }
+      lidars.push_back(*std::move(entry));
+    }
     if (progress) progress(i - work.first_view() + 1);
   }
   out.manifest_views_json = ManifestViewsJson(entries);
+  if (!lidars.empty()) out.manifest_lidars_json = ManifestLidarsJson(lidars);
   out.seconds = SecondsSince(start);
   return out;
 }

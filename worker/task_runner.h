@@ -69,23 +69,27 @@ pointforward::v1::Scene SceneStatistics(const GaussianScene& scene, const ReconS
 
 // One file of a render chunk.
 struct RenderedFile {
-  std::string name;  // "<view>.exr" or "<view>.png", relative to out_dir.
+  std::string name;  // "<view>.exr", "<view>.png", "<lidar>.range.exr" or "<lidar>.lidar.bin".
   std::string path;  // Where it was written.
-  std::string view;  // The view's name.
+  std::string view;  // The view's or sweep's name.
 };
 
 struct RenderChunkOutput {
-  std::vector<RenderedFile> files;  // Per view: its EXR, then its PNG.
-  std::string manifest_views_json;  // The chunk's entries of manifest.json's "views".
+  // Per view: its EXR, then its PNG; then per sweep its range EXR and
+  // point record.
+  std::vector<RenderedFile> files;
+  std::string manifest_views_json;   // The chunk's entries of manifest.json's "views".
+  std::string manifest_lidars_json;  // Those of its "lidars"; empty without sweeps.
   double seconds = 0;
 };
 
-// Renders views [first_view, first_view + view_count) of `work` into
-// `out_dir` exactly as `pf render` does (same buffers, EXR and PNG writers,
-// scene label), checking `cancelled()` before each view; with `renderer`
-// (made for scene.scene, e.g. on a GPU) rather than the CPU rasterizer when
-// not null. INVALID_ARGUMENT naming `outputs`, `views...` or
-// `first_view`/`view_count` for bad input.
+// Renders frames [first_view, first_view + view_count) of `work` (a job's
+// views, then its LiDAR sweeps) into `out_dir` exactly as `pf render` does
+// (same buffers, writers, scene label), checking `cancelled()` before each
+// frame; views with `renderer` (made for scene.scene, e.g. on a GPU) rather
+// than the CPU rasterizer when not null, sweeps on the CPU.
+// INVALID_ARGUMENT naming `outputs`, `views...` or `first_view`/`view_count`
+// for bad input.
 absl::StatusOr<RenderChunkOutput> RenderChunk(const pointforward::v1::RenderWork& work,
                                               const OpenedScene& scene, const std::string& out_dir,
                                               const FramesDoneFn& progress,

@@ -459,6 +459,79 @@ TEST_F(TaskRunner, RenderChunkMatchesPfRenderByteForByte) {
   EXPECT_EQ(views[0]["exr"], "v1.exr");
 }
 
+// A job's sweeps follow its views: a chunk of the last view and both sweeps
+// writes what `pf render` writes for them.
+TEST_F(TaskRunner, RenderChunkRendersSweepsAfterTheViewsAsPfRenderDoes) {
+  ASSERT_GE(clip_->lidar_size(), 2);
+  pb::RenderViews views = FourViews();
+  for (int i = 0; i < 2; ++i) {
+    pb::LidarView* lidar = views.add_lidars();
+    lidar->set_name(absl::StrCat("s", i));
+    for (int b = 0; b < 8; ++b) lidar->mutable_spec()->add_beam_elevations_deg(-14 + 2 * b);
+    lidar->mutable_spec()->set_azimuth_resolution_deg(1);
+    lidar->set_timestamp_us(clip_->lidar(i).timestamp_us());
+    *lidar->mutable_world_from_sensor() = clip_->lidar(i).world_from_sensor();
+  }
+  std::string views_json;
+  ASSERT_TRUE(google::protobuf::util::MessageToJsonString(views, &views_json).ok());
+  const std::string views_path = *dir_ + "/views_lidars.json";
+  ASSERT_TRUE(WriteFileAtomic(views_path, views_json).ok());
+  const std::string embedded = *dir_ + "/embedded_lidars";
+  const CommandResult render = RunCommand(
+      {BinPath("pf"), "render", recon_->scene_path, "--cameras", views_path, "--out", embedded});
+  ASSERT_EQ(render.exit_code, 0) << render.err;
+
+  // Frames 3-5 (v3, s0, s1) as the server sends them.
+  pb::RenderWork work;
+  work.set_scene("scenes/test");
+  *work.mutable_views()->mutable_cameras() = views.cameras();
+  *work.mutable_views()->add_views() = views.views(3);
+  *work.mutable_views()->mutable_lidars() = views.lidars();
+  work.set_first_view(3);
+  work.set_view_count(3);
+  absl::StatusOr<OpenedScene> opened = OpenScene(recon_->scene_path);
+  ASSERT_TRUE(opened.ok()) << opened.status();
+  std::vector<int> frames;
+  const std::string out = *dir_ + "/chunk_lidars";
+  absl::StatusOr<RenderChunkOutput> chunk = RenderChunk(
+      work, *opened, out, [&](int done) { frames.push_back(done); }, nullptr);
+  ASSERT_TRUE(chunk.ok()) << chunk.status();
+  EXPECT_EQ(frames, (std::vector<int>{1, 2, 3}));
+  std::vector<std::string> names;
+  for (const RenderedFile& file : chunk->files) names.push_back(file.name + "@" + file.view);
+  EXPECT_EQ(names,
+            (std::vector<std::string>{"v3.exr@v3", "v3.png@v3", "s0.range.exr@s0",
+                                      "s0.lidar.bin@s0", "s1.range.exr@s1", "s1.lidar.bin@s1"}));
+  for (const RenderedFile& file : chunk->files) {
+    absl::StatusOr<std::string> ours = ReadFileToString(file.path);
+    absl::StatusOr<std::string> theirs = ReadFileToString(embedded + "/" + file.name);
+    ASSERT_TRUE(ours.ok() && theirs.ok()) << file.name;
+    EXPECT_TRUE(WithoutDateTime(*ours) == WithoutDateTime(*theirs))
+        << file.name << " differs from pf render's";
+  }
+
+  // Manifest entries: the view's and the sweeps' as pf render's but for the
+  // render time; the sweeps hit the scene.
+  const nlohmann::json ours_views = nlohmann::json::parse(chunk->manifest_views_json);
+  const nlohmann::json ours_lidars = nlohmann::json::parse(chunk->manifest_lidars_json);
+  absl::StatusOr<std::string> manifest_text = ReadFileToString(embedded + "/manifest.json");
+  ASSERT_TRUE(manifest_text.ok());
+  const nlohmann::json manifest = nlohmann::json::parse(*manifest_text);
+  ASSERT_EQ(ours_views.size(), 1u);
+  ASSERT_EQ(ours_lidars.size(), 2u);
+  auto without_time = [](nlohmann::json entry) {
+    entry.erase("renderMs");
+    return entry;
+  };
+  EXPECT_EQ(without_time(ours_views[0]), without_time(manifest["views"][3]));
+  for (int i = 0; i < 2; ++i) {
+    EXPECT_EQ(without_time(ours_lidars[i]), without_time(manifest["lidars"][i])) << "sweep " << i;
+    EXPECT_EQ(ours_lidars[i]["beams"], 8);
+    EXPECT_EQ(ours_lidars[i]["columns"], 360);
+    EXPECT_GT(ours_lidars[i]["returns"].get<int>(), 100) << "sweep " << i;
+  }
+}
+
 TEST_F(TaskRunner, RenderChunkStopsBeforeTheNextViewWhenCancelled) {
   absl::StatusOr<OpenedScene> opened = OpenScene(recon_->scene_path);
   ASSERT_TRUE(opened.ok()) << opened.status();
@@ -468,7 +541,7 @@ TEST_F(TaskRunner, RenderChunkStopsBeforeTheNextViewWhenCancelled) {
       ChunkOf(0, 4), *opened, out, [&](int frames_done) { done = frames_done; },
       [&] { return done >= 1; });
   EXPECT_EQ(chunk.status().code(), absl::StatusCode::kCancelled) << chunk.status();
-  EXPECT_NE(chunk.status().message().find("before view 1"), absl::string_view::npos);
+  EXPECT_NE(chunk.status().message().find("before frame 1"), absl::string_view::npos);
   EXPECT_EQ(FilesIn(out), (std::set<std::string>{"v0.exr", "v0.png"}));
 }
 
@@ -480,13 +553,13 @@ TEST_F(TaskRunner, RenderChunkRefusesBadInput) {
   };
   absl::Status status = run(ChunkOf(3, 2, true));
   EXPECT_EQ(status.code(), absl::StatusCode::kInvalidArgument);
-  EXPECT_NE(status.message().find("views.views: the task carries 4 views, neither the chunk's 2 "
-                                  "nor the job's up to view 5"),
+  EXPECT_NE(status.message().find("views.views: the task carries 4 frames, neither the chunk's 2 "
+                                  "nor the job's up to frame 5"),
             absl::string_view::npos)
       << status;
   // One view carried for a chunk of two.
   status = run(ChunkOf(3, 2));
-  EXPECT_NE(status.message().find("views.views: the task carries 1 views, neither the chunk's 2"),
+  EXPECT_NE(status.message().find("views.views: the task carries 1 frames, neither the chunk's 2"),
             absl::string_view::npos)
       << status;
   status = run(ChunkOf(-1, 1));

@@ -492,7 +492,8 @@ absl::Status Worker::Render(const pb::Task& task, const std::string& dir, spdlog
     ASSIGN_OR_RETURN(*output->mutable_digest(), blobs_.UploadFile(file.path));
   }
   result->set_manifest_views_json(chunk.manifest_views_json);
-  log.info("rendered chunk views {}-{} of {} in {:.2f} s", work.first_view(),
+  result->set_manifest_lidars_json(chunk.manifest_lidars_json);
+  log.info("rendered chunk frames {}-{} of {} in {:.2f} s", work.first_view(),
            work.first_view() + work.view_count() - 1, RenderJobName(task.operation()),
            SecondsSince(start));
   return absl::OkStatus();

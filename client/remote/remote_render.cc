@@ -21,6 +21,7 @@
 #include "common/file_util.h"
 #include "common/status_macros.h"
 #include "engine/recon/recon_option_table.h"
+#include "engine/render/views.h"
 #include "google/longrunning/operations.pb.h"
 #include "pointforward/v1/service.grpc.pb.h"
 #include "pointforward/v1/views.pb.h"
@@ -51,8 +52,8 @@ absl::StatusOr<v1::RenderViews> LoadViews(const std::string& path) {
     return absl::InvalidArgumentError(
         absl::StrCat(path, ": not a RenderViews JSON: ", parsed.message()));
   }
-  if (views.views_size() == 0) {
-    return absl::InvalidArgumentError(absl::StrCat(path, ": views: no views to render"));
+  if (RenderItemCount(views) == 0) {
+    return absl::InvalidArgumentError(absl::StrCat(path, ": views: no views or lidars to render"));
   }
   return views;
 }

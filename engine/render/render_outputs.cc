@@ -136,11 +136,11 @@ int64_t EstimateRenderBytes(int64_t width, int64_t height, const OutputChannels&
 
 absl::Status CheckRenderLimits(const pointforward::v1::RenderViews& views,
                                const OutputChannels& channels, int num_features,
-                               const RenderLimits& limits, const std::string& cameras_field) {
+                               const RenderLimits& limits, const std::string& prefix) {
   for (int i = 0; i < views.cameras_size(); ++i) {
     const pointforward::v1::Camera& camera = views.cameras(i);
     const int64_t pixels = int64_t{camera.width()} * int64_t{camera.height()};
-    const std::string field = absl::StrCat(cameras_field, "[", i, "]");
+    const std::string field = absl::StrCat(prefix, "cameras[", i, "]");
     if (limits.max_pixels_per_view > 0 && pixels > limits.max_pixels_per_view) {
       return absl::InvalidArgumentError(
           absl::StrCat(field, ": ", camera.width(), "x", camera.height(), " = ", pixels,
@@ -154,6 +154,23 @@ absl::Status CheckRenderLimits(const pointforward::v1::RenderViews& views,
           field, ": rendering a ", camera.width(), "x", camera.height(), " view takes about ",
           bytes, " bytes, over the limit of ", limits.max_bytes_per_view,
           " per view (--max-render-bytes); ask for fewer outputs or pixels"));
+    }
+  }
+  if (limits.max_pixels_per_view <= 0) return absl::OkStatus();
+  for (int i = 0; i < views.lidars_size(); ++i) {
+    const pointforward::v1::LidarSpec& spec = views.lidars(i).spec();
+    // Zeros take the defaults; a bad spec is RenderRequestFromProto's to name.
+    const double resolution = spec.azimuth_resolution_deg() > 0
+                                  ? spec.azimuth_resolution_deg()
+                                  : LidarSpec{}.azimuth_resolution_deg;
+    if (!(resolution >= 0.01)) continue;
+    const int64_t beams = spec.beam_elevations_deg_size();
+    const int64_t columns = LidarColumns(LidarSpec{.azimuth_resolution_deg = resolution});
+    if (beams * columns > limits.max_pixels_per_view) {
+      return absl::InvalidArgumentError(
+          absl::StrCat(prefix, "lidars[", i, "]: ", beams, " beams x ", columns,
+                       " columns = ", beams * columns, " rays per sweep exceed the limit of ",
+                       limits.max_pixels_per_view, " (--max-pixels-per-image)"));
     }
   }
   return absl::OkStatus();
@@ -329,10 +346,30 @@ Json ManifestViews(const std::vector<ManifestEntry>& entries) {
   return views;
 }
 
+Json ManifestLidars(const std::vector<LidarManifestEntry>& lidars) {
+  Json array = Json::array();
+  for (const LidarManifestEntry& l : lidars) {
+    array.push_back({{"name", l.name},
+                     {"rangeExr", l.range_exr},
+                     {"points", l.points},
+                     {"timestampUs", l.timestamp_us},
+                     {"beams", l.beams},
+                     {"columns", l.columns},
+                     {"returns", l.returns},
+                     {"worldFromSensor", l.world_from_sensor},
+                     {"renderMs", l.render_ms}});
+  }
+  return array;
+}
+
 }  // namespace
 
 std::string ManifestViewsJson(const std::vector<ManifestEntry>& entries) {
   return ManifestViews(entries).dump();
+}
+
+std::string ManifestLidarsJson(const std::vector<LidarManifestEntry>& lidars) {
+  return ManifestLidars(lidars).dump();
 }
 
 std::string ManifestJson(const SceneLabel& scene, const std::vector<ManifestEntry>& entries,
@@ -341,21 +378,7 @@ std::string ManifestJson(const SceneLabel& scene, const std::vector<ManifestEntr
   root["scene"] = {{"id", scene.scene_id}, {"model", scene.model}};
   root["software"] = absl::StrCat("PointForward ", SoftwareVersion());
   root["views"] = ManifestViews(entries);
-  if (!lidars.empty()) {
-    Json array = Json::array();
-    for (const LidarManifestEntry& l : lidars) {
-      array.push_back({{"name", l.name},
-                       {"rangeExr", l.range_exr},
-                       {"points", l.points},
-                       {"timestampUs", l.timestamp_us},
-                       {"beams", l.beams},
-                       {"columns", l.columns},
-                       {"returns", l.returns},
-                       {"worldFromSensor", l.world_from_sensor},
-                       {"renderMs", l.render_ms}});
-    }
-    root["lidars"] = std::move(array);
-  }
+  if (!lidars.empty()) root["lidars"] = ManifestLidars(lidars);
   return root.dump(2) + "\n";
 }
 

@@ -94,14 +94,15 @@ struct RenderLimits {
 int64_t EstimateRenderBytes(int64_t width, int64_t height, const OutputChannels& channels,
                             int num_features);
 
-// Checks every camera of `views` against `limits` before anything is
-// allocated: INVALID_ARGUMENT naming "<cameras_field>[i]" and the pf-server
-// flag of the limit, e.g. "views.cameras[0]: 12000x12000 = 144000000 pixels
-// per view exceed the limit of 50000000 (--max-pixels-per-image)".
+// Checks every camera and LiDAR sweep of `views` against `limits` before
+// anything is allocated: INVALID_ARGUMENT naming "<prefix>cameras[i]" or
+// "<prefix>lidars[i]" and the pf-server flag of the limit, e.g.
+// "views.cameras[0]: 12000x12000 = 144000000 pixels per view exceed the
+// limit of 50000000 (--max-pixels-per-image)". A sweep's rays count as a
+// view's pixels.
 absl::Status CheckRenderLimits(const pointforward::v1::RenderViews& views,
                                const OutputChannels& channels, int num_features,
-                               const RenderLimits& limits,
-                               const std::string& cameras_field = "cameras");
+                               const RenderLimits& limits, const std::string& prefix = "");
 
 // Returns the EXR channel names for `channels` and `num_features` channels,
 // in the order listed above.
@@ -166,9 +167,10 @@ struct LidarManifestEntry {
 std::string ManifestJson(const SceneLabel& scene, const std::vector<ManifestEntry>& entries,
                          const std::vector<LidarManifestEntry>& lidars = {});
 
-// The manifest's "views" array alone, as JSON text (a render chunk's part of
-// the job's manifest).
+// The manifest's "views" and "lidars" arrays alone, as JSON text (a render
+// chunk's part of the job's manifest).
 std::string ManifestViewsJson(const std::vector<ManifestEntry>& entries);
+std::string ManifestLidarsJson(const std::vector<LidarManifestEntry>& lidars);
 
 // Renders `view` of the renderer's scene with `edits` and the layers of
 // `channels`, and writes <view.name>.exr and <view.name>.png into `out_dir`:

@@ -398,6 +398,20 @@ TEST(RenderLimits, PixelsAndEstimatedMemoryOfEveryCameraAreChecked) {
   EXPECT_GT(EstimateRenderBytes(2147483647, 2147483647, all, 256), int64_t{1} << 62);
   EXPECT_EQ(CheckRenderLimits(views, all, 8, {0, int64_t{1} << 40}).code(),
             absl::StatusCode::kInvalidArgument);
+
+  // A LiDAR sweep's rays count as a view's pixels: 1024 beams x 36000 columns.
+  pointforward::v1::RenderViews sweeps;
+  pointforward::v1::LidarView* lidar = sweeps.add_lidars();
+  for (int b = 0; b < 1024; ++b) lidar->mutable_spec()->add_beam_elevations_deg(0);
+  lidar->mutable_spec()->set_azimuth_resolution_deg(0.01);
+  EXPECT_EQ(CheckRenderLimits(sweeps, all, 8, {36'864'000, 0}, "views.").message(), "");
+  EXPECT_EQ(CheckRenderLimits(sweeps, all, 8, {36'863'999, 0}, "views.").message(),
+            "views.lidars[0]: 1024 beams x 36000 columns = 36864000 rays per sweep exceed the "
+            "limit of 36863999 (--max-pixels-per-image)");
+  // The default resolution (0.2 degrees: 1800 columns) when none is given.
+  lidar->mutable_spec()->clear_azimuth_resolution_deg();
+  EXPECT_TRUE(CheckRenderLimits(sweeps, all, 8, {1024 * 1800, 0}).ok());
+  EXPECT_FALSE(CheckRenderLimits(sweeps, all, 8, {1024 * 1800 - 1, 0}).ok());
 }
 
 }  // namespace

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <initializer_list>
 #include <map>
 #include <set>
 
@@ -38,17 +39,30 @@ bool IsSafeFileStem(const std::string& name) {
   return std::all_of(name.begin(), name.end(), IsFileNameChar);
 }
 
-// Adds output file stem `name` to `names`: INVALID_ARGUMENT under `field` if
-// it is not a usable file name or already taken.
-absl::Status TakeOutputName(const std::string& name, const std::string& field,
-                            std::set<std::string>* names) {
+// Output file names taken so far, and their stems.
+struct TakenNames {
+  std::set<std::string> stems;
+  std::set<std::string> files;
+};
+
+// Takes output file stem `name` and its files (the stem with each of
+// `suffixes`): INVALID_ARGUMENT under `field` if it is not a usable file
+// name, or the stem or one of its files is already taken.
+absl::Status TakeOutputName(const std::string& name, std::initializer_list<const char*> suffixes,
+                            const std::string& field, TakenNames* taken) {
   if (!IsSafeFileStem(name)) {
     return Invalid(
         field,
         absl::StrCat("'", name, "' is not a usable file name (letters, digits, '_', '-', '.')"));
   }
-  if (!names->insert(name).second) {
+  if (!taken->stems.insert(name).second) {
     return Invalid(field, absl::StrCat("duplicate output name '", name, "'"));
+  }
+  for (const char* suffix : suffixes) {
+    const std::string file = name + suffix;
+    if (!taken->files.insert(file).second) {
+      return Invalid(field, absl::StrCat("output file '", file, "' is another view's or sweep's"));
+    }
   }
   return absl::OkStatus();
 }
@@ -148,6 +162,14 @@ std::string RenderViewName(const v1::View& view) {
   return view.name().empty() ? DefaultViewName(view.camera(), view.timestamp_us()) : view.name();
 }
 
+int64_t RenderItemCount(const v1::RenderViews& views) {
+  return int64_t{views.views_size()} + views.lidars_size();
+}
+
+std::string RenderLidarName(const v1::LidarView& lidar) {
+  return lidar.name().empty() ? absl::StrCat("lidar_", lidar.timestamp_us()) : lidar.name();
+}
+
 std::vector<std::string> InstanceIds(const GaussianScene& scene) {
   std::vector<std::string> ids;
   ids.reserve(scene.instances.size());
@@ -186,7 +208,7 @@ absl::StatusOr<RenderRequest> RenderRequestFromProto(
   if (message.views_size() == 0 && message.lidars_size() == 0) {
     return Invalid("views", "no views or lidars to render");
   }
-  std::set<std::string> names;
+  TakenNames names;
   for (int i = 0; i < message.views_size(); ++i) {
     const v1::View& view = message.views(i);
     const std::string field = absl::StrCat("views[", i, "]");
@@ -204,7 +226,7 @@ absl::StatusOr<RenderRequest> RenderRequestFromProto(
     out.camera_model = ModelName(distortion);
     out.distortion = DistortionCoefficients(distortion, out.camera.model);
     out.name = RenderViewName(view);
-    RETURN_IF_ERROR(TakeOutputName(out.name, field + ".name", &names));
+    RETURN_IF_ERROR(TakeOutputName(out.name, {".exr", ".png"}, field + ".name", &names));
     request.views.push_back(std::move(out));
   }
 
@@ -212,8 +234,9 @@ absl::StatusOr<RenderRequest> RenderRequestFromProto(
     const v1::LidarView& lidar = message.lidars(i);
     const std::string field = absl::StrCat("lidars[", i, "]");
     LidarRenderView out;
-    out.name = lidar.name().empty() ? absl::StrCat("lidar_", lidar.timestamp_us()) : lidar.name();
-    RETURN_IF_ERROR(TakeOutputName(out.name, field + ".name", &names));
+    out.name = RenderLidarName(lidar);
+    RETURN_IF_ERROR(
+        TakeOutputName(out.name, {".range.exr", ".lidar.bin"}, field + ".name", &names));
     const v1::LidarSpec& spec = lidar.spec();
     out.spec.beam_elevations_deg.assign(spec.beam_elevations_deg().begin(),
                                         spec.beam_elevations_deg().end());

@@ -56,6 +56,14 @@ struct RenderRequest {
 // name, else "<camera>_<timestamp_us>" made fit for a file name.
 std::string RenderViewName(const pointforward::v1::View& view);
 
+// The frames of a render job: its views, then its LiDAR sweeps, numbered
+// from 0 in that order (how render jobs count and chunk them).
+int64_t RenderItemCount(const pointforward::v1::RenderViews& views);
+
+// Returns the output file stem of `lidar` as RenderRequestFromProto names it:
+// its name, else "lidar_<timestamp_us>".
+std::string RenderLidarName(const pointforward::v1::LidarView& lidar);
+
 // Checks `views` and turns it into what the rasterizer takes: cameras valid
 // and with unique ids, each view's camera known and its pose a rigid 4x4
 // (16 numbers), view names unique and usable as file names, LiDAR sweeps

@@ -270,6 +270,17 @@ TEST(RenderViews, LidarsTakeDefaultsAndNameBadFields) {
                          scene);
   EXPECT_NE(bad.status().message().find("lidars[0].worldFromSensor: expected 16 numbers"),
             std::string::npos);
+  // A sweep's files may not be a view's: view "top.range" writes top.range.exr.
+  bad = ParseRenderViews(R"({
+    "cameras": [{"id": "c", "width": 8, "height": 8,
+                 "intrinsics": {"fx": 8, "fy": 8, "cx": 4, "cy": 4}}],
+    "views": [{"name": "top.range", "camera": "c",
+               "worldFromCamera": [1,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,0,1]}],
+    "lidars": [{"name": "top", "spec": {"beamElevationsDeg": [0]},
+                "worldFromSensor": [1,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,0,1]}]})",
+                         scene);
+  EXPECT_EQ(bad.status().message(),
+            "lidars[0].name: output file 'top.range.exr' is another view's or sweep's");
 }
 
 }  // namespace

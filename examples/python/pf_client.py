@@ -8,13 +8,18 @@ python3-protobuf and python3-openimageio:
 
     PYTHONPATH=build/python /usr/bin/python3 examples/python/pf_client.py \
         --server 127.0.0.1:50051 --clip demo-out/clip/clip.json \
-        --views demo-out/views.json --out /tmp/renders
+        --views demo-out/views.json --out /tmp/renders [--lidar]
 
 Steps: check grpc.health.v1, list the services by server reflection, upload the clip's manifest and every file it
 references to BlobService (only those the server lacks), CreateScene and
 wait on the operation, CreateRenderJob and wait, download every output
 (checking its SHA-256), and open the first EXR with OpenImageIO. The last
 line printed is a JSON summary.
+
+With --lidar the render job also renders a LiDAR sweep (views.lidars): 32
+beams from -25 to 10 degrees, 0.5-degree columns, at the pose and time of
+the clip's first recorded sweep. Its range image (<name>.range.exr:
+channels range, hit, intensity) is read back and summarised.
 
 With authentication on (pf-server --auth-token-file), give the token with
 --token or PF_TOKEN: every call carries "authorization: Bearer <token>". With
@@ -202,6 +207,8 @@ def main():
     parser.add_argument("--clip", required=True, help="clip manifest (clip.json)")
     parser.add_argument("--views", required=True, help="RenderViews JSON (as for pf render)")
     parser.add_argument("--out", required=True, help="directory for the downloaded outputs")
+    parser.add_argument("--lidar", action="store_true",
+                        help="also render a LiDAR sweep at the clip's first recorded sweep")
     parser.add_argument("--token", default=os.environ.get("PF_TOKEN", ""),
                         help="bearer token (default: $PF_TOKEN; none: authentication off)")
     parser.add_argument("--tls-ca", default=os.environ.get("PF_TLS_CA", ""),
@@ -242,6 +249,14 @@ def main():
     views = views_pb2.RenderViews()
     with open(args.views) as f:
         json_format.Parse(f.read(), views)
+    if args.lidar:
+        recorded = json.loads(manifest).get("lidar", [])
+        if not recorded:
+            sys.exit(f"pf_client: --lidar: {args.clip} records no LiDAR sweep to take a pose from")
+        sweep = views.lidars.add(name="sweep", timestamp_us=int(recorded[0]["timestampUs"]))
+        sweep.spec.beam_elevations_deg.extend(-25 + 35 * b / 31 for b in range(32))
+        sweep.spec.azimuth_resolution_deg = 0.5
+        sweep.world_from_sensor.extend(recorded[0]["worldFromSensor"])
     operation = renders.CreateRenderJob(service_pb2.CreateRenderJobRequest(
         scene=scene.name, views=views))
     operation = wait(operations, operation, "render")
@@ -259,10 +274,27 @@ def main():
     stats = oiio.ImageBufAlgo.computePixelStats(image)
     channels = list(spec.channelnames)
     mean_rgb = [stats.avg[channels.index(c)] for c in ("R", "G", "B")]
-    print(json.dumps({"scene": scene.name, "gaussians": scene.gaussians,
-                      "renderJob": job.name, "files": len(job.files), "exr": exr_name,
-                      "width": spec.width, "height": spec.height, "channels": channels,
-                      "meanRgb": mean_rgb, "services": services}))
+    summary = {"scene": scene.name, "gaussians": scene.gaussians,
+               "renderJob": job.name, "files": len(job.files), "exr": exr_name,
+               "width": spec.width, "height": spec.height, "channels": channels,
+               "meanRgb": mean_rgb, "services": services}
+
+    # 4. The LiDAR sweeps: beams x columns range images, range in metres
+    # where hit is 1.
+    if len(views.lidars):
+        summary["lidars"] = []
+        for lidar in views.lidars:
+            image = oiio.ImageBuf(os.path.join(args.out, f"{lidar.name}.range.exr"))
+            names = list(image.spec().channelnames)
+            pixels = image.get_pixels(oiio.FLOAT)
+            hits = pixels[:, :, names.index("hit")] > 0.5
+            ranges = sorted(pixels[:, :, names.index("range")][hits].tolist())
+            summary["lidars"].append({
+                "name": lidar.name, "view": json_format.MessageToDict(lidar),
+                "beams": image.spec().height, "columns": image.spec().width,
+                "returns": len(ranges),
+                "medianRangeM": ranges[len(ranges) // 2] if ranges else None})
+    print(json.dumps(summary))
 
 
 if __name__ == "__main__":
