@@ -9,6 +9,7 @@
 // the mean figures to stdout.
 #include <google/protobuf/util/json_util.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <optional>
@@ -250,6 +251,23 @@ absl::Status EvalCommand(const CommandLine& cl) {
         "%.1f %% of the recorded returns returned\n",
         report.lidar_render.size(), mean.chamfer, mean.range_error_median, mean.range_error_p90,
         100 * mean.early_share, 100 * mean.late_share, 100 * mean.hit_share);
+    if (mean.cells > 0) {
+      std::printf(
+          "    drops: the render agrees with the LiDAR on %.1f %% of %lld seen (beam, azimuth) "
+          "cells (recorded %.1f %% drops, rendered %.1f %%)\n",
+          100 * mean.drop_agreement, static_cast<long long>(mean.cells),
+          100 * mean.recorded_drop_share, 100 * mean.rendered_drop_share);
+    }
+    if (!mean.beams.empty()) {
+      const auto [best, worst] = std::minmax_element(
+          mean.beams.begin(), mean.beams.end(),
+          [](const auto& a, const auto& b) { return a.range_error_median < b.range_error_median; });
+      std::printf(
+          "    per beam (%zu, report.json perBeam): range error median from %.3f m (%.2f deg) "
+          "to %.3f m (%.2f deg; 90th percentile %.3f m)\n",
+          mean.beams.size(), best->range_error_median, best->elevation_deg,
+          worst->range_error_median, worst->elevation_deg, worst->range_error_p90);
+    }
   }
   std::printf("  report: %s/report.json\n", out_dir.c_str());
   return absl::OkStatus();

@@ -163,6 +163,19 @@ TEST_F(ReconCli, EvalReportHasEveryTargetFrameWithFigures) {
   EXPECT_LT(lidar["rangeErrorMedian"].get<double>(), 0.3);
   EXPECT_LT(lidar["earlyShare"].get<double>() + lidar["lateShare"].get<double>(), 0.5);
   EXPECT_LT(lidar["chamfer"].get<double>(), 0.5);
+  // pf synth's LiDAR is one spinning head: 32 beams from 10 to -25 degrees,
+  // each measured, and the seen cells' drops (where rays leave the scene)
+  // mostly where the render drops too.
+  ASSERT_EQ(lidar["perBeam"].size(), 32u) << lidar["perSweep"][0];
+  EXPECT_NEAR(lidar["perBeam"][0]["elevationDeg"].get<double>(), 10, 0.01);
+  EXPECT_NEAR(lidar["perBeam"][31]["elevationDeg"].get<double>(), -25, 0.01);
+  int64_t beam_points = 0;
+  for (const nlohmann::json& beam : lidar["perBeam"]) beam_points += beam["points"].get<int64_t>();
+  EXPECT_EQ(beam_points, lidar["points"].get<int64_t>());
+  EXPECT_FALSE(lidar["perSweep"][0].contains("beamsNote"));
+  EXPECT_GT(lidar["cells"].get<int64_t>(), 0.9 * lidar["points"].get<int64_t>());
+  EXPECT_GT(lidar["recordedDropShare"].get<double>(), 0.0);
+  EXPECT_GT(lidar["dropAgreement"].get<double>(), 0.9);
 }
 
 TEST_F(ReconCli, AnalyticUsesAtMostAQuarterOfThePixelAlignedGaussians) {

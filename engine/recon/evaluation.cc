@@ -549,6 +549,23 @@ std::string EvalReportJson(const EvalReport& report) {
                                          {"earlyShare", f.early_share},
                                          {"lateShare", f.late_share},
                                          {"chamfer", f.chamfer}});
+      if (f.cells > 0) {
+        head.update(nlohmann::ordered_json{{"cells", f.cells},
+                                           {"recordedDropShare", f.recorded_drop_share},
+                                           {"renderedDropShare", f.rendered_drop_share},
+                                           {"dropAgreement", f.drop_agreement}});
+      }
+      if (!f.beams.empty()) {
+        nlohmann::ordered_json beams = nlohmann::ordered_json::array();
+        for (const LidarBeamFigures& b : f.beams) {
+          beams.push_back({{"elevationDeg", b.elevation_deg},
+                           {"points", b.points},
+                           {"hitShare", b.hit_share},
+                           {"rangeErrorMedian", b.range_error_median},
+                           {"rangeErrorP90", b.range_error_p90}});
+        }
+        head["perBeam"] = std::move(beams);
+      }
       return head;
     };
     nlohmann::ordered_json sweeps = nlohmann::ordered_json::array();
@@ -556,6 +573,7 @@ std::string EvalReportJson(const EvalReport& report) {
       nlohmann::ordered_json sweep =
           with_figures({{"timestampUs", f.timestamp_us}, {"sweepPoints", f.sweep_points}}, f);
       sweep["renderSeconds"] = f.render_seconds;
+      if (!f.beams_note.empty()) sweep["beamsNote"] = f.beams_note;
       sweeps.push_back(std::move(sweep));
     }
     const LidarSweepFigures mean = MeanLidarFigures(report.lidar_render);

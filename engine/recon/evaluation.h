@@ -89,14 +89,22 @@
 //                    "earlyShare": x, "lateShare": x, "chamfer": m,
 //                    "seconds": s (loading, rendering, measuring),
 //                    "renderSeconds": s (RenderLidarRays alone),
+//                    "cells": n, "recordedDropShare": x,
+//                    "renderedDropShare": x, "dropAgreement": x,
+//                    "perBeam": [{"elevationDeg": d, "points": n,
+//                                 "hitShare": x, "rangeErrorMedian": m,
+//                                 "rangeErrorP90": m}, ...],
 //                    "perSweep": [{"timestampUs": t, "sweepPoints": n,
-//                                  "points": n, "hitShare": x, ...}, ...]}
+//                                  "points": n, "hitShare": x, ...,
+//                                  "beamsNote": "..."}, ...]}
 // (null without such a sweep): the means over the sweeps of the share of the
 // recorded returns the render returns too, the median and 90th percentile
 // of |rendered - recorded| range over those, the shares of those returned
 // early and late (LidarSweepFigures), and the Chamfer distance (the
 // mean of both directions' mean nearest-point distances, each capped at
-// 5 m). The summary line of `pf eval` gives them.
+// 5 m). Where a sweep is one spinning head's (SweepBeams) it also has the
+// figures per beam and the drops (cells, ...; both left out otherwise, and
+// beamsNote says why). The summary lines of `pf eval` give them.
 #ifndef POINTFORWARD_ENGINE_RECON_EVALUATION_H_
 #define POINTFORWARD_ENGINE_RECON_EVALUATION_H_
 

@@ -5,9 +5,12 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
+#include <string>
 #include <vector>
 
 #include "absl/container/flat_hash_map.h"
+#include "absl/strings/str_cat.h"
 #include "common/status_macros.h"
 #include "engine/camera/image_pixel.h"
 
@@ -72,11 +75,101 @@ double Quantile(std::vector<double> values, double q) {
   return values[k];
 }
 
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kDegree = kPi / 180;
+// Cells are tested for a camera's view this far along their ray.
+constexpr double kCellSeenDistance = 30;
+
+double ElevationDeg(const Vec3& d) { return std::atan2(d.z, std::hypot(d.x, d.y)) / kDegree; }
+double AzimuthDeg(const Vec3& d) { return std::atan2(d.y, d.x) / kDegree; }
+
+// The beam of elevation `e` among `beams` (sorted from the highest down):
+// the nearest, when `e` lies within half the gap to its neighbour on that
+// side; -1 otherwise.
+int BeamOf(const std::vector<double>& beams, double e) {
+  int best = -1;
+  double best_gap = 0;
+  for (size_t b = 0; b < beams.size(); ++b) {
+    const double d = std::abs(e - beams[b]);
+    if (best < 0 || d < best_gap) best = static_cast<int>(b), best_gap = d;
+  }
+  if (best < 0) return -1;
+  const bool above = e > beams[best];
+  const int neighbour = above ? best - 1 : best + 1;
+  if (neighbour < 0 || neighbour >= static_cast<int>(beams.size())) {
+    // Beyond the outermost beam: within half the gap to the one inside.
+    const int inside = above ? best + 1 : best - 1;
+    if (inside < 0 || inside >= static_cast<int>(beams.size())) return best;
+    return best_gap <= 0.5 * std::abs(beams[best] - beams[inside]) ? best : -1;
+  }
+  return best_gap <= 0.5 * std::abs(beams[best] - beams[neighbour]) ? best : -1;
+}
+
+// The firing azimuths' phase (degrees, in [0, resolution)): the circular
+// mean of each direction's azimuth modulo the resolution.
+double FiringPhaseDeg(const std::vector<Vec3>& directions, double resolution) {
+  double c = 0, s = 0;
+  for (const Vec3& d : directions) {
+    const double a = 2 * kPi * AzimuthDeg(d) / resolution;
+    c += std::cos(a), s += std::sin(a);
+  }
+  double phase = std::atan2(s, c) / (2 * kPi) * resolution;
+  if (phase < 0) phase += resolution;
+  return phase;
+}
+
 }  // namespace
+
+absl::StatusOr<LidarSpec> SweepBeams(const std::vector<float>& sensor_xyz, double max_range) {
+  ASSIGN_OR_RETURN(const EstimatedLidarSpec estimate,
+                   EstimateLidarSpec(sensor_xyz, {}, 1, max_range));
+  const std::vector<double>& beams = estimate.spec.beam_elevations_deg;
+  int64_t in_range = 0;
+  for (size_t i = 0; i + 2 < sensor_xyz.size(); i += 3) {
+    const double r = Norm(Vec3{sensor_xyz[i], sensor_xyz[i + 1], sensor_xyz[i + 2]});
+    in_range += r >= 1 && r <= max_range;
+  }
+  if (estimate.points < 0.99 * static_cast<double>(in_range)) {
+    return absl::InvalidArgumentError(absl::StrCat("not one spinning head's sweep: its ",
+                                                   beams.size(), " beams place ", estimate.points,
+                                                   " of ", in_range, " points"));
+  }
+  double min_gap = 180;
+  for (size_t b = 0; b + 1 < beams.size(); ++b)
+    min_gap = std::min(min_gap, beams[b] - beams[b + 1]);
+  if (beams.size() > 1 && !(estimate.elevation_rms_deg < 0.1 * min_gap)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("not one spinning head's sweep: elevation RMS ", estimate.elevation_rms_deg,
+                     " degrees from its beams, against a smallest gap of ", min_gap, " degrees"));
+  }
+  return estimate.spec;
+}
 
 LidarSweepFigures MeanLidarFigures(const std::vector<LidarSweepFigures>& sweeps) {
   LidarSweepFigures mean;
+  int with_cells = 0;
+  bool same_beams = !sweeps.empty();
   for (const LidarSweepFigures& f : sweeps) {
+    same_beams = same_beams && !f.beams.empty() && f.beams.size() == sweeps[0].beams.size();
+  }
+  if (same_beams) mean.beams.resize(sweeps[0].beams.size());
+  for (const LidarSweepFigures& f : sweeps) {
+    if (f.cells > 0) {
+      ++with_cells;
+      mean.cells += f.cells;
+      mean.recorded_drop_share += f.recorded_drop_share;
+      mean.rendered_drop_share += f.rendered_drop_share;
+      mean.drop_agreement += f.drop_agreement;
+    }
+    for (size_t b = 0; b < mean.beams.size(); ++b) {
+      LidarBeamFigures& m = mean.beams[b];
+      const LidarBeamFigures& g = f.beams[b];
+      m.elevation_deg += g.elevation_deg / static_cast<double>(sweeps.size());
+      m.points += g.points;
+      m.hit_share += g.hit_share / static_cast<double>(sweeps.size());
+      m.range_error_median += g.range_error_median / static_cast<double>(sweeps.size());
+      m.range_error_p90 += g.range_error_p90 / static_cast<double>(sweeps.size());
+    }
     mean.sweep_points += f.sweep_points;
     mean.points += f.points;
     mean.hit_share += f.hit_share;
@@ -95,6 +188,11 @@ LidarSweepFigures MeanLidarFigures(const std::vector<LidarSweepFigures>& sweeps)
   mean.early_share /= n;
   mean.late_share /= n;
   mean.chamfer /= n;
+  if (with_cells > 0) {
+    mean.recorded_drop_share /= with_cells;
+    mean.rendered_drop_share /= with_cells;
+    mean.drop_agreement /= with_cells;
+  }
   return mean;
 }
 
@@ -135,6 +233,7 @@ absl::StatusOr<LidarSweepFigures> EvaluateLidarRender(const GaussianScene& scene
   std::vector<LidarRay> rays;
   std::vector<Vec3> recorded;
   std::vector<double> recorded_range;
+  std::vector<Vec3> in_sensor;  // Every point within range, in the sensor frame.
   int64_t sweep_points = 0;
   for (size_t i = 0; i + 2 < sweep.points.size(); i += 3) {
     const Vec3 p{sweep.points[i], sweep.points[i + 1], sweep.points[i + 2]};
@@ -142,8 +241,9 @@ absl::StatusOr<LidarSweepFigures> EvaluateLidarRender(const GaussianScene& scene
     const double range = Norm(offset);
     if (!(range > 0.1 && range <= options.max_range)) continue;
     ++sweep_points;
+    in_sensor.push_back(sensor_from_world * offset);
     if (!seen(p)) continue;
-    rays.push_back({sensor_from_world * offset, 0.5});
+    rays.push_back({in_sensor.back(), 0.5});
     recorded.push_back(p);
     recorded_range.push_back(range);
   }
@@ -181,6 +281,77 @@ absl::StatusOr<LidarSweepFigures> EvaluateLidarRender(const GaussianScene& scene
   const NearestPoints to_recorded(recorded), to_rendered(rendered);
   figures.chamfer =
       0.5 * (MeanDistance(rendered, to_recorded) + MeanDistance(recorded, to_rendered));
+
+  // Per beam and the drops, where the sweep is one head's.
+  std::vector<float> xyz;
+  xyz.reserve(3 * in_sensor.size());
+  for (const Vec3& d : in_sensor) xyz.insert(xyz.end(), {float(d.x), float(d.y), float(d.z)});
+  const absl::StatusOr<LidarSpec> spec = SweepBeams(xyz, options.max_range);
+  if (!spec.ok()) {
+    figures.beams_note = std::string(spec.status().message());
+    return figures;
+  }
+  const std::vector<double>& beams = spec->beam_elevations_deg;
+  std::vector<std::vector<double>> beam_errors(beams.size());
+  figures.beams.resize(beams.size());
+  for (size_t b = 0; b < beams.size(); ++b) figures.beams[b].elevation_deg = beams[b];
+  for (size_t i = 0; i < rays.size(); ++i) {
+    const int b = BeamOf(beams, ElevationDeg(rays[i].direction));
+    if (b < 0) continue;
+    ++figures.beams[b].points;
+    if (returns[i].hit) beam_errors[b].push_back(std::abs(returns[i].range - recorded_range[i]));
+  }
+  for (size_t b = 0; b < beams.size(); ++b) {
+    LidarBeamFigures& f = figures.beams[b];
+    if (f.points > 0) {
+      f.hit_share = static_cast<double>(beam_errors[b].size()) / static_cast<double>(f.points);
+    }
+    f.range_error_median = Quantile(beam_errors[b], 0.5);
+    f.range_error_p90 = Quantile(beam_errors[b], 0.9);
+  }
+
+  // Cells: a beam and a firing azimuth (the recorded azimuths' phase plus a
+  // multiple of the resolution); a cell holding a recorded point returned.
+  const int columns = LidarColumns(*spec);
+  const double resolution = 360.0 / columns;
+  const double phase = FiringPhaseDeg(in_sensor, resolution);
+  std::vector<uint8_t> returned(beams.size() * columns, 0);
+  for (const Vec3& d : in_sensor) {
+    const int b = BeamOf(beams, ElevationDeg(d));
+    if (b < 0) continue;
+    int k = static_cast<int>(std::lround((AzimuthDeg(d) - phase) / resolution)) % columns;
+    if (k < 0) k += columns;
+    returned[b * columns + k] = 1;
+  }
+  std::vector<LidarRay> cell_rays;
+  std::vector<uint8_t> cell_returned;
+  const Mat3& world_from_sensor = pose.world_from_sensor_start.rotation;
+  for (size_t b = 0; b < beams.size(); ++b) {
+    for (int k = 0; k < columns; ++k) {
+      const double e = beams[b] * kDegree, a = (phase + k * resolution) * kDegree;
+      const Vec3 d{std::cos(e) * std::cos(a), std::cos(e) * std::sin(a), std::sin(e)};
+      if (!seen(sweep.sensor_origin + kCellSeenDistance * (world_from_sensor * d))) continue;
+      cell_rays.push_back({d, 0.5});
+      cell_returned.push_back(returned[b * columns + k]);
+    }
+  }
+  if (cell_rays.empty()) return figures;
+  const auto cells_start = std::chrono::steady_clock::now();
+  ASSIGN_OR_RETURN(const std::vector<LidarReturn> cell_returns,
+                   RenderLidarRays(scene, cell_rays, pose, options));
+  figures.render_seconds +=
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - cells_start).count();
+  int64_t recorded_drops = 0, rendered_drops = 0, agree = 0;
+  for (size_t c = 0; c < cell_rays.size(); ++c) {
+    recorded_drops += !cell_returned[c];
+    rendered_drops += !cell_returns[c].hit;
+    agree += (cell_returned[c] != 0) == cell_returns[c].hit;
+  }
+  const double cells = static_cast<double>(cell_rays.size());
+  figures.cells = static_cast<int64_t>(cell_rays.size());
+  figures.recorded_drop_share = static_cast<double>(recorded_drops) / cells;
+  figures.rendered_drop_share = static_cast<double>(rendered_drops) / cells;
+  figures.drop_agreement = static_cast<double>(agree) / cells;
   return figures;
 }
 

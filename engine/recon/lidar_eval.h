@@ -6,6 +6,7 @@
 #define POINTFORWARD_ENGINE_RECON_LIDAR_EVAL_H_
 
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include "absl/status/statusor.h"
@@ -13,6 +14,7 @@
 #include "engine/recon/view_depth.h"
 #include "engine/render/gaussian_scene.h"
 #include "engine/render/lidar_render.h"
+#include "engine/render/lidar_spec.h"
 
 namespace pf {
 
@@ -20,6 +22,14 @@ namespace pf {
 struct SeeingCamera {
   CameraModel model;
   Rigid world_from_camera;
+};
+
+// The rendered LiDAR's figures over the rays of one beam.
+struct LidarBeamFigures {
+  double elevation_deg = 0;
+  int64_t points = 0;    // Measured rays (recorded returns a camera saw).
+  double hit_share = 0;  // Share of them the render also returns.
+  double range_error_median = 0, range_error_p90 = 0;  // Over the rays both return.
 };
 
 struct LidarSweepFigures {
@@ -41,7 +51,26 @@ struct LidarSweepFigures {
   // recorded ones; each distance capped at kChamferCap).
   double chamfer = 0;
   double render_seconds = 0;  // RenderLidarRays' wall time.
+
+  // Where the sweep is one spinning head's (SweepBeams): per beam, from the
+  // highest down; empty otherwise, and beams_note says why.
+  std::vector<LidarBeamFigures> beams;
+  std::string beams_note;
+  // Drops, where the sweep is one head's: its (beam, firing azimuth) cells
+  // whose ray a camera saw (30 m out) and the shares of them the LiDAR
+  // returned nothing for, the render returned nothing for, and where the two
+  // agree (both a return or both a drop); cells 0 otherwise.
+  int64_t cells = 0;
+  double recorded_drop_share = 0, rendered_drop_share = 0, drop_agreement = 0;
 };
+
+// The beams of a recorded sweep, when it is one spinning head's: the spec
+// EstimateLidarSpec finds from the points in the sensor frame (z up), which
+// must place 99 % of them and whose elevation RMS must be under a tenth of the
+// smallest gap between beams. INVALID_ARGUMENT saying which test failed
+// otherwise (a sweep merged from several sensors, or from a frame not at the
+// head).
+absl::StatusOr<LidarSpec> SweepBeams(const std::vector<float>& sensor_xyz, double max_range);
 
 inline constexpr double kChamferCap = 5.0;
 
@@ -52,16 +81,19 @@ inline double SignedTolerance(double recorded_range) {
 }
 
 // The means over `sweeps` of hit_share, the range errors, the early and late
-// shares and chamfer;
-// points, sweep_points and render_seconds summed; timestamp_us 0. All zero
-// for none.
+// shares and chamfer; of the drop shares over the sweeps with cells; of each
+// beam's figures when every sweep has the same number of beams (empty
+// otherwise); points, sweep_points, cells and render_seconds summed;
+// timestamp_us 0. All zero for none.
 LidarSweepFigures MeanLidarFigures(const std::vector<LidarSweepFigures>& sweeps);
 
 // Renders `scene` along the rays of `sweep`'s points (a sensor at rest at the
 // sweep's time) that one of `cameras` had in its image, and measures it
 // against them: the rest of the sweep (behind a forward rig, say) is nothing
 // the scene could know. Points farther than options.max_range from the
-// sensor are left out. FAILED_PRECONDITION when no point is left.
+// sensor are left out. Where the sweep is one head's (SweepBeams), also per
+// beam, and the drops: the render along the centre of every (beam, firing
+// azimuth) cell a camera saw. FAILED_PRECONDITION when no point is left.
 absl::StatusOr<LidarSweepFigures> EvaluateLidarRender(const GaussianScene& scene,
                                                       const LidarSweepData& sweep,
                                                       const std::vector<SeeingCamera>& cameras,

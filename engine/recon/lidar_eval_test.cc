@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <string>
 #include <vector>
 
 namespace pf {
@@ -32,13 +33,18 @@ GaussianScene Wall() {
 // A sweep from the origin: 8 beams from -8 to +6 degrees, every 2 degrees of
 // azimuth; a ray that meets the wall returns there (`offset` metres past
 // it), the others 20 m out (what stands beyond the scene).
-LidarSweepData Sweep(double offset) {
+// With `drop_beyond_y`, rays that meet the wall's plane farther than that
+// from y = 0 (but within 5.5 m) return nothing. With `jitter_deg`, each
+// point's elevation is off by up to that, spread evenly.
+LidarSweepData Sweep(double offset, double drop_beyond_y = 0, double jitter_deg = 0) {
   LidarSweepData sweep;
   sweep.timestamp_us = 5;
   for (int a = 0; a < 180; ++a) {
     const double azimuth = a * 2 * kPi / 180;
     for (int b = 0; b < 8; ++b) {
-      const double elevation = (-8 + 2 * b) * kPi / 180;
+      const double u = 97 * (a * 0.6180339887 + b * 0.4142135624);
+      const double jitter = jitter_deg * (2 * (u - std::floor(u)) - 1);
+      const double elevation = (-8 + 2 * b + jitter) * kPi / 180;
       const Vec3 d{std::cos(elevation) * std::cos(azimuth), std::cos(elevation) * std::sin(azimuth),
                    std::sin(elevation)};
       double range = 20;
@@ -46,6 +52,7 @@ LidarSweepData Sweep(double offset) {
         const double t = 8 / d.x;
         const Vec3 p = t * d;
         if (std::abs(p.y) < 5.5 && std::abs(p.z) < 5.5) range = t + offset;
+        if (drop_beyond_y > 0 && std::abs(p.y) >= drop_beyond_y && std::abs(p.y) < 5.5) continue;
       }
       for (double v : {range * d.x, range * d.y, range * d.z}) sweep.points.push_back(float(v));
     }
@@ -98,6 +105,66 @@ TEST(LidarEval, TheWallTheCamerasSawIsMeasuredAndTheRestLeftOut) {
 
   // No camera: nothing to measure.
   EXPECT_TRUE(absl::IsFailedPrecondition(EvaluateLidarRender(wall, Sweep(0), {}).status()));
+}
+
+TEST(LidarEval, OneHeadsSweepIsMeasuredPerBeamAndItsDropsCounted) {
+  const GaussianScene wall = Wall();
+  absl::StatusOr<LidarSweepFigures> figures =
+      EvaluateLidarRender(wall, Sweep(0), {ForwardCamera()});
+  ASSERT_TRUE(figures.ok()) << figures.status();
+  ASSERT_EQ(figures->beams.size(), 8u) << figures->beams_note;
+  for (int b = 0; b < 8; ++b) {
+    const LidarBeamFigures& beam = figures->beams[b];
+    EXPECT_NEAR(beam.elevation_deg, 6 - 2 * b, 1e-3) << b;
+    EXPECT_EQ(beam.points, 33) << b;
+    EXPECT_DOUBLE_EQ(beam.hit_share, 1.0) << b;
+    EXPECT_LT(beam.range_error_median, 0.02) << b;
+  }
+  // Every cell the camera sees (33 azimuths x 8 beams) returned, rendered too.
+  EXPECT_EQ(figures->cells, 33 * 8);
+  EXPECT_EQ(figures->recorded_drop_share, 0.0);
+  EXPECT_EQ(figures->rendered_drop_share, 0.0);
+  EXPECT_DOUBLE_EQ(figures->drop_agreement, 1.0);
+
+  // On the wall the LiDAR returned only within 3 m of y = 0 (azimuths up to
+  // 20 degrees): the 12 seen azimuths beyond, where the scene's wall goes on
+  // to 6 m, are recorded drops the render returns. The upper beam's figures
+  // are over its 21 returns the camera saw.
+  figures = EvaluateLidarRender(wall, Sweep(0, 3), {ForwardCamera()});
+  ASSERT_TRUE(figures.ok()) << figures.status();
+  ASSERT_EQ(figures->beams.size(), 8u) << figures->beams_note;
+  EXPECT_EQ(figures->beams[0].points, 21);
+  EXPECT_EQ(figures->cells, 33 * 8);
+  EXPECT_NEAR(figures->recorded_drop_share, 12.0 / 33, 1e-9);
+  EXPECT_EQ(figures->rendered_drop_share, 0.0);
+  EXPECT_NEAR(figures->drop_agreement, 21.0 / 33, 1e-9);
+
+  // Elevations off by up to 0.8 degrees either way: not one head's beams; no
+  // per-beam figures or cells, and the note says why.
+  figures = EvaluateLidarRender(wall, Sweep(0, 0, 0.8), {ForwardCamera()});
+  ASSERT_TRUE(figures.ok()) << figures.status();
+  EXPECT_TRUE(figures->beams.empty());
+  EXPECT_EQ(figures->cells, 0);
+  EXPECT_NE(figures->beams_note.find("not one spinning head's sweep"), std::string::npos)
+      << figures->beams_note;
+  EXPECT_GT(figures->points, 0);
+}
+
+TEST(LidarEval, MeansPoolBeamsAndDropsOverTheSweepsThatHaveThem) {
+  LidarSweepFigures a, b;
+  a.beams = {{2, 10, 1.0, 0.1, 0.2}};
+  b.beams = {{2, 30, 0.5, 0.3, 0.4}};
+  a.cells = 100, a.drop_agreement = 0.9, a.recorded_drop_share = 0.2;
+  const LidarSweepFigures mean = MeanLidarFigures({a, b});
+  ASSERT_EQ(mean.beams.size(), 1u);
+  EXPECT_EQ(mean.beams[0].points, 40);
+  EXPECT_DOUBLE_EQ(mean.beams[0].hit_share, 0.75);
+  EXPECT_DOUBLE_EQ(mean.beams[0].range_error_median, 0.2);
+  EXPECT_EQ(mean.cells, 100);
+  EXPECT_DOUBLE_EQ(mean.drop_agreement, 0.9);  // b has no cells.
+  EXPECT_DOUBLE_EQ(mean.recorded_drop_share, 0.2);
+  b.beams.clear();
+  EXPECT_TRUE(MeanLidarFigures({a, b}).beams.empty());
 }
 
 }  // namespace
