@@ -181,6 +181,15 @@ struct Rigid {
   }
 };
 
+// The pose a fraction `s` of the way from `a` (s = 0) to `b` (s = 1): the
+// translation linearly, the rotation by slerp.
+inline Rigid InterpolateRigid(const Rigid& a, const Rigid& b, double s) {
+  Rigid out;
+  out.rotation = ToMatrix(Slerp(FromMatrix(a.rotation), FromMatrix(b.rotation), s));
+  out.translation = a.translation + s * (b.translation - a.translation);
+  return out;
+}
+
 // How far 16 row-major numbers are from a rigid transform: the largest of
 // |R^T R - I| entries, |det R - 1| and |last row - (0, 0, 0, 1)|. Also returns
 // det R through `determinant` if given.

@@ -43,6 +43,9 @@ absl::StatusOr<CompositingWeights> ComputeCompositingWeights(const GaussianScene
                                                              const RenderCamera& camera,
                                                              int64_t timestamp_us,
                                                              const WeightOptions& options) {
+  if (camera.rolling_shutter.has_value()) {
+    return absl::InvalidArgumentError("camera: the colour fit's weights have no rolling shutter");
+  }
   const CameraModel& model = camera.model;
   if (model.width() <= 0 || model.height() <= 0) {
     return absl::InvalidArgumentError(

@@ -376,6 +376,10 @@ TEST(CompositingWeights, RejectsEmptyCameraAndBadScenes) {
   EXPECT_EQ(ComputeCompositingWeights(scene, SimpleCamera(10, 10, 10), 0).status().code(),
             absl::StatusCode::kInvalidArgument);
   scene.owners[3] = 0;
+  RenderCamera rolling = SimpleCamera(10, 10, 10);
+  rolling.rolling_shutter = RollingShutter{{}, 0, rolling.world_from_camera};
+  EXPECT_EQ(ComputeCompositingWeights(scene, rolling, 0).status().message(),
+            "camera: the colour fit's weights have no rolling shutter");
   scene.means.pop_back();
   EXPECT_EQ(ComputeCompositingWeights(scene, SimpleCamera(10, 10, 10), 0).status().code(),
             absl::StatusCode::kInvalidArgument);

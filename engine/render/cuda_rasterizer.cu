@@ -397,6 +397,10 @@ absl::StatusOr<RenderBuffers> CudaScene::Impl::Render(const RenderCamera& camera
                                                       const std::vector<ActorEdit>& edits,
                                                       const RenderOptions& options,
                                                       CudaRenderTiming* timing) const {
+  if (camera.rolling_shutter.has_value()) {
+    return absl::InvalidArgumentError(
+        "camera: a rolling shutter renders on the CPU only (DeviceRenderer falls back to it)");
+  }
   raster::RenderFrame frame;
   if (absl::Status s = raster::SetUpRenderFrame(instances, time_origin_us, camera, timestamp_us,
                                                 edits, options.near_plane, &frame);

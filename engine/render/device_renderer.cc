@@ -30,7 +30,10 @@ absl::StatusOr<RenderBuffers> DeviceRenderer::Render(const RenderCamera& camera,
                                                      int64_t timestamp_us,
                                                      const std::vector<ActorEdit>& edits,
                                                      const RenderOptions& options) const {
-  if (gpu_ != nullptr) return gpu_->Render(camera, timestamp_us, edits, options);
+  // The CUDA rasterizer has no rolling shutter: such views render on the CPU.
+  if (gpu_ != nullptr && !camera.rolling_shutter.has_value()) {
+    return gpu_->Render(camera, timestamp_us, edits, options);
+  }
   return pf::Render(*scene_, camera, timestamp_us, edits, options);
 }
 

@@ -56,14 +56,7 @@ double SmoothDepth(const RenderBuffers& b, double u, double v, double min_alpha,
 }  // namespace
 
 Rigid SweepPoseAt(const LidarSweepPose& pose, double fraction) {
-  const Quat a = FromMatrix(pose.world_from_sensor_start.rotation);
-  const Quat b = FromMatrix(pose.world_from_sensor_end.rotation);
-  Rigid out;
-  out.rotation = ToMatrix(Slerp(a, b, fraction));
-  out.translation = pose.world_from_sensor_start.translation +
-                    fraction * (pose.world_from_sensor_end.translation -
-                                pose.world_from_sensor_start.translation);
-  return out;
+  return InterpolateRigid(pose.world_from_sensor_start, pose.world_from_sensor_end, fraction);
 }
 
 absl::StatusOr<std::vector<LidarReturn>> RenderLidarRays(const GaussianScene& scene,

@@ -500,6 +500,10 @@ absl::StatusOr<GaussianParams<T>> Backward(const GaussianScene& scene, const Par
                                            const OutputGradients<T>& grads,
                                            const RenderOptions& options, BackwardStats* stats,
                                            testing::DoubleRender* forward) {
+  if (camera.rolling_shutter.has_value()) {
+    return absl::InvalidArgumentError(
+        "camera: the backward pass has no rolling shutter; optimise global-shutter views only");
+  }
   RenderFrame frame;
   if (absl::Status status =
           raster::SetUpRenderFrame(scene.instances, scene.time_origin_us, camera, timestamp_us,

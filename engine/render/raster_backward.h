@@ -78,8 +78,9 @@ struct BackwardStats {
 
 // The gradient of the loss whose output gradients are `grads` through
 // Render(scene, camera, timestamp_us, edits, options). INVALID_ARGUMENT for
-// what Render() rejects, a scene with SH colour, or a gradient of the wrong
-// size (naming it). Deterministic; uses DefaultThreadPool().
+// what Render() rejects, a rolling-shutter camera, a scene with SH colour,
+// or a gradient of the wrong size (naming it). Deterministic; uses
+// DefaultThreadPool().
 absl::StatusOr<SceneGradients> RenderBackward(const GaussianScene& scene,
                                               const RenderCamera& camera, int64_t timestamp_us,
                                               const std::vector<ActorEdit>& edits,

@@ -326,6 +326,12 @@ TEST(RasterBackward, RejectsWhatItCannotDifferentiate) {
   r = RenderBackward(scene, camera, kTime, {}, g, no_features);
   ASSERT_FALSE(r.ok());
   EXPECT_NE(r.status().message().find("grads.features"), std::string::npos) << r.status();
+
+  RenderCamera rolling = camera;
+  rolling.rolling_shutter = RollingShutter{{}, 0, camera.world_from_camera};
+  r = RenderBackward(scene, rolling, kTime, {}, {});
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.status().message().find("no rolling shutter"), std::string::npos) << r.status();
 }
 
 }  // namespace

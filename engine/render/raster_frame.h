@@ -7,6 +7,7 @@
 #define POINTFORWARD_ENGINE_RENDER_RASTER_FRAME_H_
 
 #include <cstdint>
+#include <optional>
 #include <vector>
 
 #include "absl/status/status.h"
@@ -22,15 +23,61 @@ struct Transform {
   float t[3];
 };
 
+// Poses a rolling-shutter frame keeps per owner, at evenly spaced fractions
+// of the readout (the first line 0, the last 1); between them, linearly.
+inline constexpr int kReadoutSamples = 33;
+
 struct RenderFrame : ProjectionCamera {
   int tiles_x = 0, tiles_y = 0;
   std::vector<Transform> camera_from_owner;  // [K+1]
   std::vector<float> eye_in_owner;           // [K+1, 3]
   std::vector<uint8_t> owner_live;           // [K+1]
+  // With a rolling shutter: the readout, and camera_from_owner at the
+  // kReadoutSamples fractions of it ([K+1, kReadoutSamples]); empty without.
+  std::optional<RollingShutter::Readout> readout;
+  std::vector<Transform> readout_camera_from_owner;
 };
 
+// The fraction of the readout (0 first line, 1 last) at which the line
+// through pixel-space point (x, y) is read.
+inline float ReadoutFraction(const RenderFrame& frame, float x, float y) {
+  const float rows = static_cast<float>(frame.height - 1 > 0 ? frame.height - 1 : 1);
+  const float columns = static_cast<float>(frame.width - 1 > 0 ? frame.width - 1 : 1);
+  float f = 0;
+  switch (*frame.readout) {
+    case RollingShutter::Readout::kTopToBottom:
+      f = (y - 0.5f) / rows;
+      break;
+    case RollingShutter::Readout::kBottomToTop:
+      f = 1 - (y - 0.5f) / rows;
+      break;
+    case RollingShutter::Readout::kLeftToRight:
+      f = (x - 0.5f) / columns;
+      break;
+    case RollingShutter::Readout::kRightToLeft:
+      f = 1 - (x - 0.5f) / columns;
+      break;
+  }
+  return ClampTo(f, 0.f, 1.f);
+}
+
+// camera_from_owner of `owner` at readout fraction `f` (a rolling-shutter
+// frame's).
+inline Transform ReadoutCameraFromOwner(const RenderFrame& frame, uint32_t owner, float f) {
+  const float s = f * (kReadoutSamples - 1);
+  const int k = s >= kReadoutSamples - 1 ? kReadoutSamples - 2 : static_cast<int>(s);
+  const float w = s - static_cast<float>(k);
+  const Transform& a = frame.readout_camera_from_owner[owner * kReadoutSamples + k];
+  const Transform& b = frame.readout_camera_from_owner[owner * kReadoutSamples + k + 1];
+  Transform out;
+  for (int j = 0; j < 9; ++j) out.r[j] = a.r[j] + w * (b.r[j] - a.r[j]);
+  for (int j = 0; j < 3; ++j) out.t[j] = a.t[j] + w * (b.t[j] - a.t[j]);
+  return out;
+}
+
 // Fills `frame` for rendering a scene with `instances` (and time origin
-// `time_origin_us`) through `camera` at `timestamp_us` with `edits`.
+// `time_origin_us`) through `camera` at `timestamp_us` with `edits` (with a
+// rolling shutter, the readout's poses too: the actors at each line's time).
 // INVALID_ARGUMENT if the camera has no pixels or more than
 // kMaxRenderPixels, or an edit names an unknown instance or gives a
 // trajectory without boxes.

@@ -69,9 +69,25 @@ bool ProjectGaussian(const GaussianScene& scene, const RenderFrame& frame, size_
                      float* gradients) {
   const uint32_t owner = scene.owners[i];
   if (!frame.owner_live[owner]) return false;
-  const Transform& cam = frame.camera_from_owner[owner];
   raster::SplatGeometry g;
-  if (!raster::ProjectSplatGeometry(scene, i, frame, cam.r, cam.t, &g)) return false;
+  if (frame.readout.has_value()) {
+    // From the middle of the readout (else its first or last line), then
+    // from the line the centre landed on.
+    float f = -1;
+    for (float guess : {0.5f, 0.f, 1.f}) {
+      const Transform cam = raster::ReadoutCameraFromOwner(frame, owner, guess);
+      if (raster::ProjectSplatGeometry(scene, i, frame, cam.r, cam.t, &g)) {
+        f = raster::ReadoutFraction(frame, g.mx, g.my);
+        break;
+      }
+    }
+    if (f < 0) return false;
+    const Transform cam = raster::ReadoutCameraFromOwner(frame, owner, f);
+    if (!raster::ProjectSplatGeometry(scene, i, frame, cam.r, cam.t, &g)) return false;
+  } else {
+    const Transform& cam = frame.camera_from_owner[owner];
+    if (!raster::ProjectSplatGeometry(scene, i, frame, cam.r, cam.t, &g)) return false;
+  }
   *out = raster::ToProjected(g, owner);
   if (gradients != nullptr) {
     raster::ScreenColourGradients(&scene.colour_gradients[6 * i], g, gradients + 6 * i);
@@ -247,13 +263,10 @@ absl::Status SetUpRenderFrame(const std::vector<InstanceTrack>& instances, int64
                                                    model.height(), " exceeds ", kMaxRenderPixels,
                                                    " pixels"));
   }
-  // Owner poses at this time, with the edits applied.
+  // The edits: which instances are drawn, and which follow a new track.
   const size_t num_instances = instances.size();
-  std::vector<Rigid> world_from_owner(num_instances + 1);
   std::vector<uint8_t> live(num_instances + 1, 1);
-  for (size_t k = 0; k < num_instances; ++k) {
-    world_from_owner[k + 1] = InstancePoseAt(instances[k].boxes, timestamp_us);
-  }
+  std::vector<const ActorEdit*> new_track(num_instances, nullptr);
   for (size_t e = 0; e < edits.size(); ++e) {
     const ActorEdit& edit = edits[e];
     size_t k = 0;
@@ -269,12 +282,25 @@ absl::Status SetUpRenderFrame(const std::vector<InstanceTrack>& instances, int64
         return absl::InvalidArgumentError(
             absl::StrCat("edits[", e, "].boxes: a trajectory edit needs at least one box"));
       }
-      const std::vector<TrackBox>& track = instances[k].boxes;
-      const Rigid canonical = track.empty() ? Rigid{} : BoxPose(track.front());
-      world_from_owner[k + 1] =
-          BoxPose(InterpolateBox(edit.boxes, timestamp_us)) * canonical.Inverse();
+      new_track[k] = &edit;
     }
   }
+  // Owner poses at time `t`, with the edits applied.
+  auto owner_poses = [&](int64_t t) {
+    std::vector<Rigid> world_from_owner(num_instances + 1);
+    for (size_t k = 0; k < num_instances; ++k) {
+      if (new_track[k] == nullptr) {
+        world_from_owner[k + 1] = InstancePoseAt(instances[k].boxes, t);
+      } else {
+        const std::vector<TrackBox>& track = instances[k].boxes;
+        const Rigid canonical = track.empty() ? Rigid{} : BoxPose(track.front());
+        world_from_owner[k + 1] =
+            BoxPose(InterpolateBox(new_track[k]->boxes, t)) * canonical.Inverse();
+      }
+    }
+    return world_from_owner;
+  };
+  const std::vector<Rigid> world_from_owner = owner_poses(timestamp_us);
 
   SetUpProjectionCamera(
       model, near_plane,
@@ -289,6 +315,24 @@ absl::Status SetUpRenderFrame(const std::vector<InstanceTrack>& instances, int64
     frame->camera_from_owner[k] = ToFloat(camera_from_world * world_from_owner[k]);
     const Vec3 eye = world_from_owner[k].Inverse() * camera.world_from_camera.translation;
     for (int c = 0; c < 3; ++c) frame->eye_in_owner[3 * k + c] = static_cast<float>(eye[c]);
+  }
+  frame->readout.reset();
+  frame->readout_camera_from_owner.clear();
+  if (camera.rolling_shutter.has_value()) {
+    const RollingShutter& shutter = *camera.rolling_shutter;
+    frame->readout = shutter.readout;
+    frame->readout_camera_from_owner.resize((num_instances + 1) * kReadoutSamples);
+    for (int j = 0; j < kReadoutSamples; ++j) {
+      const double f = static_cast<double>(j) / (kReadoutSamples - 1);
+      const Rigid line_from_world =
+          InterpolateRigid(camera.world_from_camera, shutter.world_from_camera_end, f).Inverse();
+      const std::vector<Rigid> owners =
+          owner_poses(timestamp_us + std::llround(f * static_cast<double>(shutter.readout_us)));
+      for (size_t k = 0; k <= num_instances; ++k) {
+        frame->readout_camera_from_owner[k * kReadoutSamples + j] =
+            ToFloat(line_from_world * owners[k]);
+      }
+    }
   }
   return absl::OkStatus();
 }

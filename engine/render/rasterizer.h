@@ -9,11 +9,16 @@
 // (linear centre, slerp rotation between the two nearest boxes; before the
 // first box or after the last, the end box is held). A scene with colour
 // gradients shades its first three channels across each Gaussian
-// (GaussianScene::colour_gradients, splat_projection.h).
+// (GaussianScene::colour_gradients, splat_projection.h). Through a
+// rolling-shutter camera each Gaussian is projected whole from the pose (and
+// with the actors at the time) of the line its centre is read on: found by
+// projecting it from the middle of the readout, then once more from the line
+// that gives (one fixed-point step).
 #ifndef POINTFORWARD_ENGINE_RENDER_RASTERIZER_H_
 #define POINTFORWARD_ENGINE_RENDER_RASTERIZER_H_
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -24,10 +29,23 @@
 
 namespace pf {
 
-// A camera to render through: its model and pose.
+// A rolling-shutter camera's readout (RenderCamera::rolling_shutter): the
+// first line is read at the camera's pose and the render's time, the last at
+// world_from_camera_end, readout_us later; the lines between at the pose and
+// time the same fraction of the way (InterpolateRigid).
+struct RollingShutter {
+  enum class Readout { kTopToBottom, kBottomToTop, kLeftToRight, kRightToLeft };
+  Readout readout = Readout::kTopToBottom;
+  int64_t readout_us = 0;
+  Rigid world_from_camera_end;
+};
+
+// A camera to render through: its model and pose (of the first line read,
+// with a rolling shutter).
 struct RenderCamera {
   CameraModel model;
   Rigid world_from_camera;
+  std::optional<RollingShutter> rolling_shutter;
 };
 
 // A per-render change to one actor.

@@ -15,7 +15,8 @@
 namespace pf::testing {
 
 // Renders like Render() (same conventions and outputs, stats left zero).
-// Edits must name existing instances (the test's responsibility). If
+// Edits must name existing instances (the test's responsibility); a rolling
+// shutter is not modelled (the camera's pose is the whole image's). If
 // `ambiguous` is given it receives [H, W] flags for pixels whose result hangs
 // on a threshold by a hair (an alpha within 2e-5 relative of 1/255, a
 // transmittance within 1e-4 relative of 1e-4, two largest weights within

@@ -6,6 +6,7 @@
 #include <OpenImageIO/imageio.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cstring>
 #include <limits>
@@ -336,6 +337,16 @@ Json ManifestViews(const std::vector<ManifestEntry>& entries) {
       item["intrinsics"] = {
           {"fx", model.fx()}, {"fy", model.fy()}, {"cx", model.cx()}, {"cy", model.cy()}};
       if (!view.distortion.empty()) item["distortion"] = Json(view.distortion);
+      if (view.camera.rolling_shutter.has_value()) {
+        const RollingShutter& shutter = *view.camera.rolling_shutter;
+        static constexpr const char* kReadouts[] = {"TOP_TO_BOTTOM", "BOTTOM_TO_TOP",
+                                                    "LEFT_TO_RIGHT", "RIGHT_TO_LEFT"};
+        const std::array<double, 16> end = shutter.world_from_camera_end.ToRowMajor();
+        item["rollingShutter"] = {
+            {"readout", kReadouts[static_cast<int>(shutter.readout)]},
+            {"readoutUs", shutter.readout_us},
+            {"worldFromCameraEnd", std::vector<double>(end.begin(), end.end())}};
+      }
     }
     item["width"] = entry.width;
     item["height"] = entry.height;

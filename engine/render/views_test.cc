@@ -244,6 +244,48 @@ TEST(RenderViews, LoadPrefixesErrorsWithThePath) {
   EXPECT_EQ(request->views.size(), 2u);
 }
 
+TEST(RenderViews, ARollingShutterIsReadAndItsBadFieldsNamed) {
+  GaussianScene scene;
+  const std::string view = R"({
+    "cameras": [{"id": "c", "width": 8, "height": 8,
+                 "intrinsics": {"fx": 8, "fy": 8, "cx": 4, "cy": 4}}],
+    "views": [{"camera": "c", "worldFromCamera": [1,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,0,1],
+               "rollingShutter": {$SHUTTER}}]})";
+  auto parse = [&](const std::string& shutter) {
+    std::string json = view;
+    json.replace(json.find("$SHUTTER"), 8, shutter);
+    return ParseRenderViews(json, scene);
+  };
+  absl::StatusOr<RenderRequest> request = parse(
+      R"("readout": "BOTTOM_TO_TOP", "readoutUs": 30000,
+         "worldFromCameraEnd": [1,0,0,0.5, 0,1,0,0, 0,0,1,0, 0,0,0,1])");
+  ASSERT_TRUE(request.ok()) << request.status();
+  const std::optional<RollingShutter>& shutter = request->views[0].camera.rolling_shutter;
+  ASSERT_TRUE(shutter.has_value());
+  EXPECT_EQ(shutter->readout, RollingShutter::Readout::kBottomToTop);
+  EXPECT_EQ(shutter->readout_us, 30000);
+  EXPECT_EQ(shutter->world_from_camera_end.translation.x, 0.5);
+  EXPECT_EQ(parse(R"("readoutUs": 1, "worldFromCameraEnd": )" + std::string(kIdentity))
+                .status()
+                .message(),
+            "views[0].rollingShutter.readout: say which line is read first: TOP_TO_BOTTOM, "
+            "BOTTOM_TO_TOP, LEFT_TO_RIGHT or RIGHT_TO_LEFT");
+  EXPECT_EQ(parse(R"("readout": "TOP_TO_BOTTOM", "readoutUs": -1, "worldFromCameraEnd": )" +
+                  std::string(kIdentity))
+                .status()
+                .message(),
+            "views[0].rollingShutter.readoutUs: must be >= 0, got -1");
+  EXPECT_NE(parse(R"("readout": "TOP_TO_BOTTOM")")
+                .status()
+                .message()
+                .find("views[0].rollingShutter.worldFromCameraEnd: expected 16 numbers"),
+            std::string::npos);
+  // Without one, the whole image is at one pose.
+  request = ParseRenderViews(ValidJson(), SceneWithInstances());
+  ASSERT_TRUE(request.ok()) << request.status();
+  EXPECT_FALSE(request->views[0].camera.rolling_shutter.has_value());
+}
+
 TEST(RenderViews, LidarsTakeDefaultsAndNameBadFields) {
   GaussianScene scene;
   absl::StatusOr<RenderRequest> request = ParseRenderViews(R"({

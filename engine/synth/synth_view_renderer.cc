@@ -126,7 +126,27 @@ absl::StatusOr<ResolvedViews> ResolveViews(const v1::RenderViews& request,
     if (!names.insert(name).second) {
       return Invalid(field + ".name", absl::StrCat("duplicate output name '", name, "'"));
     }
-    resolved.views.push_back({name, camera->second, pose, view.timestamp_us() * 1e-6});
+    ResolvedView out{name, camera->second, pose, view.timestamp_us() * 1e-6, std::nullopt};
+    if (view.has_rolling_shutter()) {
+      const v1::RollingShutter& shutter = view.rolling_shutter();
+      const std::string shutter_field = field + ".rollingShutter";
+      if (shutter.readout() == v1::RollingShutter::READOUT_UNSPECIFIED) {
+        return Invalid(shutter_field + ".readout", "say which line is read first");
+      }
+      if (shutter.readout_us() < 0) {
+        return Invalid(shutter_field + ".readoutUs",
+                       absl::StrCat("must be >= 0, got ", shutter.readout_us()));
+      }
+      if (out.camera.has_distortion()) {
+        return Invalid(shutter_field,
+                       "pf synth render reads a rolling shutter from pinhole "
+                       "cameras only");
+      }
+      ASSIGN_OR_RETURN(Rigid end, CheckPose(shutter.world_from_camera_end(),
+                                            shutter_field + ".worldFromCameraEnd"));
+      out.rolling_shutter = SynthReadout{shutter.readout(), shutter.readout_us() * 1e-6, end};
+    }
+    resolved.views.push_back(std::move(out));
   }
 
   for (int i = 0; i < request.edits_size(); ++i) {
@@ -153,6 +173,47 @@ absl::StatusOr<ResolvedViews> ResolveViews(const v1::RenderViews& request,
   return resolved;
 }
 
+namespace {
+
+// Renders a rolling-shutter view line by line: each line a one-line pinhole
+// camera (the principal point moved) at the line's pose and time.
+RenderedView RenderRollingShutterView(const SynthScene& scene, const VehicleEdits& edits,
+                                      const ResolvedView& view, int antialias) {
+  const CameraModel& camera = view.camera;
+  const SynthReadout& shutter = *view.rolling_shutter;
+  const bool rows = shutter.readout == v1::RollingShutter::TOP_TO_BOTTOM ||
+                    shutter.readout == v1::RollingShutter::BOTTOM_TO_TOP;
+  const bool reversed = shutter.readout == v1::RollingShutter::BOTTOM_TO_TOP ||
+                        shutter.readout == v1::RollingShutter::RIGHT_TO_LEFT;
+  const int width = camera.width(), height = camera.height();
+  const int lines = rows ? height : width;
+  RenderedView out;
+  out.rgb = ImageF(width, height, 3);
+  out.depth = ImageF(width, height, 1);
+  out.instance.assign(static_cast<size_t>(width) * height, 0);
+  for (int line = 0; line < lines; ++line) {
+    const int read = reversed ? lines - 1 - line : line;  // Order of reading.
+    const double f = lines > 1 ? static_cast<double>(read) / (lines - 1) : 0;
+    const Rigid pose = InterpolateRigid(view.world_from_camera, shutter.world_from_camera_end, f);
+    const CameraModel strip =
+        rows ? CameraModel(width, 1, camera.fx(), camera.fy(), camera.cx(), camera.cy() - line)
+             : CameraModel(1, height, camera.fx(), camera.fy(), camera.cx() - line, camera.cy());
+    const RenderedView part = RenderView(
+        SnapshotAt(scene, view.time_s + f * shutter.readout_s, edits), strip, pose, antialias);
+    const int count = rows ? width : height;
+    for (int k = 0; k < count; ++k) {
+      const int x = rows ? k : line, y = rows ? line : k;
+      const size_t to = static_cast<size_t>(y) * width + x;
+      for (int c = 0; c < 3; ++c) out.rgb.pixels[3 * to + c] = part.rgb.pixels[3 * k + c];
+      out.depth.pixels[to] = part.depth.pixels[k];
+      out.instance[to] = part.instance[k];
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
 absl::StatusOr<std::vector<std::string>> RenderSynthViews(const std::string& clip_dir,
                                                           const std::string& views_path,
                                                           const std::string& out_dir) {
@@ -175,9 +236,11 @@ absl::StatusOr<std::vector<std::string>> RenderSynthViews(const std::string& cli
   std::vector<std::string> names;
   for (size_t i = 0; i < resolved->views.size(); ++i) {
     const ResolvedView& view = resolved->views[i];
-    const SceneSnapshot snapshot = SnapshotAt(scene, view.time_s, resolved->edits);
     const RenderedView image =
-        RenderView(snapshot, view.camera, view.world_from_camera, options->antialias);
+        view.rolling_shutter.has_value()
+            ? RenderRollingShutterView(scene, resolved->edits, view, options->antialias)
+            : RenderView(SnapshotAt(scene, view.time_s, resolved->edits), view.camera,
+                         view.world_from_camera, options->antialias);
     RETURN_IF_ERROR(WritePng(absl::StrCat(out_dir, "/", view.name, ".png"), image.rgb));
     RETURN_IF_ERROR(WriteDepthExr(absl::StrCat(out_dir, "/", view.name, ".exr"), image.depth));
     spdlog::info("synth render: view {}/{} '{}' done", i + 1, resolved->views.size(), view.name);

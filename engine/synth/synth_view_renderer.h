@@ -5,6 +5,7 @@
 #ifndef POINTFORWARD_ENGINE_SYNTH_SYNTH_VIEW_RENDERER_H_
 #define POINTFORWARD_ENGINE_SYNTH_SYNTH_VIEW_RENDERER_H_
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -17,12 +18,21 @@
 
 namespace pf {
 
+// A view's rolling shutter (View.rolling_shutter): its lines are read from
+// the view's pose and time to `world_from_camera_end`, `readout_s` later.
+struct SynthReadout {
+  pointforward::v1::RollingShutter::Readout readout;
+  double readout_s = 0;
+  Rigid world_from_camera_end;
+};
+
 // One view, checked and ready to render.
 struct ResolvedView {
   std::string name;  // Output file stem.
   CameraModel camera;
   Rigid world_from_camera;
   double time_s = 0;
+  std::optional<SynthReadout> rolling_shutter;  // Pinhole cameras only.
 };
 
 struct ResolvedViews {
@@ -35,8 +45,11 @@ struct ResolvedViews {
 // naming the field (`views[2].camera: unknown camera 'x'`) for unknown or
 // duplicate ids and names, poses that are not 16 finite numbers of a rigid
 // transform, bad intrinsics or images over 16384 pixels a side, unknown
-// edited instances, edits without a kind, and TRAJECTORY edits without
-// valid boxes.
+// edited instances, edits without a kind, TRAJECTORY edits without valid
+// boxes, and rolling shutters without a readout, with a negative readoutUs or
+// a bad worldFromCameraEnd, or on a camera with lens distortion. A
+// rolling-shutter view is rendered line by line, each line from its pose and
+// at its time.
 absl::StatusOr<ResolvedViews> ResolveViews(const pointforward::v1::RenderViews& request,
                                            const SynthScene& scene);
 

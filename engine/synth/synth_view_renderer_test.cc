@@ -46,6 +46,55 @@ std::string ResolveError(const std::string& json) {
   return resolved.ok() ? "" : std::string(resolved.status().message());
 }
 
+TEST(SynthViewRenderer, RollingShuttersAreCheckedAndReadLineByLine) {
+  const SynthScene scene = SmallRendererScene();
+  const std::string pose = PoseJson(scene.WorldFromCamera(1, 0));
+  auto view = [&](const std::string& shutter) {
+    return R"({"views": [{"camera": "cam_front", "worldFromCamera": )" + pose +
+           R"(, "rollingShutter": {)" + shutter + "}}]}";
+  };
+  EXPECT_EQ(ResolveError(view(R"("readoutUs": 10, "worldFromCameraEnd": )" + pose)),
+            "views[0].rollingShutter.readout: say which line is read first");
+  EXPECT_EQ(ResolveError(view(R"("readout": "LEFT_TO_RIGHT", "readoutUs": -5)")),
+            "views[0].rollingShutter.readoutUs: must be >= 0, got -5");
+  EXPECT_EQ(ResolveError(view(R"("readout": "LEFT_TO_RIGHT")")),
+            "views[0].rollingShutter.worldFromCameraEnd: expected 16 numbers, got 0");
+
+  // A readout that neither moves nor takes time, read line by line, is the
+  // whole-image render; one that moves is not.
+  const std::string dir = testing::MakeTempDir("synth_rolling");
+  const SynthOptions options = SmallRendererOptions();
+  ASSERT_TRUE(WriteFileAtomic(dir + "/synth.json", SynthParamsToJson(options)).ok());
+  Rigid moved = scene.WorldFromCamera(1, 0);
+  moved.translation = moved.translation + moved.rotation * Vec3{0.5, 0, 0};
+  const std::string views =
+      R"({"views": [{"camera": "cam_front", "name": "global", "worldFromCamera": )" + pose +
+      R"(}, {"camera": "cam_front", "name": "still", "worldFromCamera": )" + pose +
+      R"(, "rollingShutter": {"readout": "BOTTOM_TO_TOP", "worldFromCameraEnd": )" + pose +
+      R"(}}, {"camera": "cam_front", "name": "moving", "worldFromCamera": )" + pose +
+      R"(, "rollingShutter": {"readout": "LEFT_TO_RIGHT", "readoutUs": 30000, )" +
+      R"("worldFromCameraEnd": )" + PoseJson(moved) + "}}]}";
+  ASSERT_TRUE(WriteFileAtomic(dir + "/views.json", views).ok());
+  ASSERT_TRUE(RenderSynthViews(dir, dir + "/views.json", dir + "/out").ok());
+  absl::StatusOr<ImageF> global = ReadDepth(dir + "/out/global.exr");
+  absl::StatusOr<ImageF> still = ReadDepth(dir + "/out/still.exr");
+  absl::StatusOr<ImageF> moving = ReadDepth(dir + "/out/moving.exr");
+  ASSERT_TRUE(global.ok() && still.ok() && moving.ok());
+  double still_error = 0, left_error = 0, right_error = 0;
+  for (int y = 0; y < global->height; ++y) {
+    for (int x = 0; x < global->width; ++x) {
+      still_error = std::max(still_error, std::abs(double(still->at(x, y)) - global->at(x, y)) /
+                                              std::max(1.0, double(global->at(x, y))));
+      (x < 4 ? left_error : right_error) +=
+          x < 4 || x >= global->width - 4 ? std::abs(moving->at(x, y) - global->at(x, y)) : 0;
+    }
+  }
+  EXPECT_LT(still_error, 1e-3);  // Relative: the rays to float rounding.
+  // The first columns are read at the view's pose, the last 0.5 m to its right.
+  EXPECT_LT(left_error, 0.1 * right_error);
+  EXPECT_GT(right_error, 0);
+}
+
 TEST(SynthViewRenderer, ErrorsNameTheField) {
   const SynthScene scene = SmallRendererScene();
   const std::string pose = PoseJson(scene.WorldFromCamera(1, 0));
