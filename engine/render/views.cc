@@ -192,10 +192,6 @@ std::string RenderViewName(const v1::View& view) {
   return view.name().empty() ? DefaultViewName(view.camera(), view.timestamp_us()) : view.name();
 }
 
-int64_t RenderItemCount(const v1::RenderViews& views) {
-  return int64_t{views.views_size()} + views.lidars_size();
-}
-
 std::string RenderLidarName(const v1::LidarView& lidar) {
   return lidar.name().empty() ? absl::StrCat("lidar_", lidar.timestamp_us()) : lidar.name();
 }

@@ -58,7 +58,9 @@ std::string RenderViewName(const pointforward::v1::View& view);
 
 // The frames of a render job: its views, then its LiDAR sweeps, numbered
 // from 0 in that order (how render jobs count and chunk them).
-int64_t RenderItemCount(const pointforward::v1::RenderViews& views);
+inline int64_t RenderItemCount(const pointforward::v1::RenderViews& views) {
+  return int64_t{views.views_size()} + views.lidars_size();
+}
 
 // Returns the output file stem of `lidar` as RenderRequestFromProto names it:
 // its name, else "lidar_<timestamp_us>".
