@@ -58,9 +58,9 @@ beside it; the flag wins.
   --lease-seconds N        lease a worker holds on a task between heartbeats
                            (PF_LEASE_SECONDS; default 30)
   --max-attempts N         attempts before a task and its job fail (PF_MAX_ATTEMPTS; default 3)
-  --chunk-frames N         views per render chunk unless the request says (PF_CHUNK_FRAMES;
-                           default 4)
-  --max-views N            views per render job (PF_MAX_VIEWS; default 10000)
+  --chunk-frames N         frames (views, then LiDAR sweeps) per render chunk unless the
+                           request says (PF_CHUNK_FRAMES; default 4)
+  --max-views N            views and LiDAR sweeps per render job (PF_MAX_VIEWS; default 10000)
   --max-upload-bytes N     largest blob one upload may carry (PF_MAX_UPLOAD_BYTES;
                            default 1073741824)
   --max-request-bytes N    largest gRPC message the server accepts; larger ones are
