@@ -126,13 +126,11 @@ absl::StatusOr<Json> ParseManifestViews(const std::string& json, int count) {
 absl::Status CheckRenderResult(const v1::RenderResult& result, const RenderChunkNames& names) {
   // Expected file name -> its view or sweep.
   std::map<std::string, std::string> expected;
-  for (const std::string& view : names.views) {
-    expected[view + ".exr"] = view;
-    expected[view + ".png"] = view;
-  }
-  for (const std::string& lidar : names.lidars) {
-    expected[lidar + ".range.exr"] = lidar;
-    expected[lidar + ".lidar.bin"] = lidar;
+  for (const auto& [stems, suffixes] :
+       {std::pair{&names.views, kViewFileSuffixes}, std::pair{&names.lidars, kLidarFileSuffixes}}) {
+    for (const std::string& stem : *stems) {
+      for (const char* suffix : suffixes) expected[stem + suffix] = stem;
+    }
   }
   std::map<std::string, int> seen;  // Name -> index in files.
   for (int i = 0; i < result.files_size(); ++i) {
@@ -163,7 +161,7 @@ absl::Status CheckRenderResult(const v1::RenderResult& result, const RenderChunk
     return Invalid("render.manifest_views_json", std::string(views.status().message()));
   }
   RETURN_IF_ERROR(CheckEntryNames(*views, names.views, "render.manifest_views_json",
-                                  {{"exr", ".exr"}, {"png", ".png"}}));
+                                  {{"exr", kViewFileSuffixes[0]}, {"png", kViewFileSuffixes[1]}}));
   if (names.lidars.empty() && result.manifest_lidars_json().empty()) return absl::OkStatus();
   absl::StatusOr<Json> lidars =
       ParseManifestViews(result.manifest_lidars_json(), static_cast<int>(names.lidars.size()));
@@ -171,7 +169,7 @@ absl::Status CheckRenderResult(const v1::RenderResult& result, const RenderChunk
     return Invalid("render.manifest_lidars_json", std::string(lidars.status().message()));
   }
   return CheckEntryNames(*lidars, names.lidars, "render.manifest_lidars_json",
-                         {{"rangeExr", ".range.exr"}, {"points", ".lidar.bin"}});
+                         {{"rangeExr", kLidarFileSuffixes[0]}, {"points", kLidarFileSuffixes[1]}});
 }
 
 absl::Status CheckReconstructResult(const v1::ReconstructResult& result) {

@@ -140,6 +140,16 @@ class TaskRunner : public ::testing::Test {
     return work;
   }
 
+  // `pf render` of the reconstructed scene at `views`, into `out_dir`.
+  static CommandResult PfRender(const pb::RenderViews& views, const std::string& out_dir) {
+    std::string views_json;
+    EXPECT_TRUE(google::protobuf::util::MessageToJsonString(views, &views_json).ok());
+    const std::string views_path = out_dir + ".views.json";
+    EXPECT_TRUE(WriteFileAtomic(views_path, views_json).ok());
+    return RunCommand(
+        {BinPath("pf"), "render", recon_->scene_path, "--cameras", views_path, "--out", out_dir});
+  }
+
   static std::set<std::string> FilesIn(const std::string& dir) {
     std::set<std::string> names;
     for (const auto& entry : fs::directory_iterator(dir)) names.insert(entry.path().filename());
@@ -393,13 +403,8 @@ TEST(WithoutDateTime, BlanksOnlyTheAttributeValue) {
 
 TEST_F(TaskRunner, RenderChunkMatchesPfRenderByteForByte) {
   // The whole job rendered by `pf render`.
-  std::string views_json;
-  ASSERT_TRUE(google::protobuf::util::MessageToJsonString(FourViews(), &views_json).ok());
-  const std::string views_path = *dir_ + "/views.json";
-  ASSERT_TRUE(WriteFileAtomic(views_path, views_json).ok());
   const std::string embedded = *dir_ + "/embedded";
-  const CommandResult render = RunCommand(
-      {BinPath("pf"), "render", recon_->scene_path, "--cameras", views_path, "--out", embedded});
+  const CommandResult render = PfRender(FourViews(), embedded);
   ASSERT_EQ(render.exit_code, 0) << render.err;
 
   // Views 1-2 of 4 as a chunk.
@@ -472,13 +477,8 @@ TEST_F(TaskRunner, RenderChunkRendersSweepsAfterTheViewsAsPfRenderDoes) {
     lidar->set_timestamp_us(clip_->lidar(i).timestamp_us());
     *lidar->mutable_world_from_sensor() = clip_->lidar(i).world_from_sensor();
   }
-  std::string views_json;
-  ASSERT_TRUE(google::protobuf::util::MessageToJsonString(views, &views_json).ok());
-  const std::string views_path = *dir_ + "/views_lidars.json";
-  ASSERT_TRUE(WriteFileAtomic(views_path, views_json).ok());
   const std::string embedded = *dir_ + "/embedded_lidars";
-  const CommandResult render = RunCommand(
-      {BinPath("pf"), "render", recon_->scene_path, "--cameras", views_path, "--out", embedded});
+  const CommandResult render = PfRender(views, embedded);
   ASSERT_EQ(render.exit_code, 0) << render.err;
 
   // Frames 3-5 (v3, s0, s1) as the server sends them.

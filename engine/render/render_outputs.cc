@@ -401,8 +401,8 @@ absl::StatusOr<LidarManifestEntry> RenderLidarToFiles(const GaussianScene& scene
                    RenderLidarSweep(scene, lidar.spec, lidar.pose, edits));
   LidarManifestEntry entry;
   entry.name = lidar.name;
-  entry.range_exr = lidar.name + ".range.exr";
-  entry.points = lidar.name + ".lidar.bin";
+  entry.range_exr = lidar.name + kLidarFileSuffixes[0];
+  entry.points = lidar.name + kLidarFileSuffixes[1];
   RETURN_IF_ERROR(WriteRangeImageExr(absl::StrCat(out_dir, "/", entry.range_exr), sweep));
   RETURN_IF_ERROR(WriteSweepPoints(absl::StrCat(out_dir, "/", entry.points), sweep));
   entry.timestamp_us = lidar.pose.start_us;
@@ -428,8 +428,8 @@ absl::StatusOr<ManifestEntry> RenderViewToFiles(
   ManifestEntry entry;
   entry.render_ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-  entry.exr = view.name + ".exr";
-  entry.png = view.name + ".png";
+  entry.exr = view.name + kViewFileSuffixes[0];
+  entry.png = view.name + kViewFileSuffixes[1];
   entry.view = &view;
   entry.channels = ExrChannelNames(channels, renderer.scene().num_channels);
   entry.width = buffers.width;

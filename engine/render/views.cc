@@ -4,7 +4,6 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
-#include <initializer_list>
 #include <map>
 #include <set>
 
@@ -48,7 +47,7 @@ struct TakenNames {
 // Takes output file stem `name` and its files (the stem with each of
 // `suffixes`): INVALID_ARGUMENT under `field` if it is not a usable file
 // name, or the stem or one of its files is already taken.
-absl::Status TakeOutputName(const std::string& name, std::initializer_list<const char*> suffixes,
+absl::Status TakeOutputName(const std::string& name, const std::array<const char*, 2>& suffixes,
                             const std::string& field, TakenNames* taken) {
   if (!IsSafeFileStem(name)) {
     return Invalid(
@@ -256,7 +255,7 @@ absl::StatusOr<RenderRequest> RenderRequestFromProto(
                        RollingShutterFromProto(view.rolling_shutter(), field + ".rollingShutter"));
     }
     out.name = RenderViewName(view);
-    RETURN_IF_ERROR(TakeOutputName(out.name, {".exr", ".png"}, field + ".name", &names));
+    RETURN_IF_ERROR(TakeOutputName(out.name, kViewFileSuffixes, field + ".name", &names));
     request.views.push_back(std::move(out));
   }
 
@@ -265,8 +264,7 @@ absl::StatusOr<RenderRequest> RenderRequestFromProto(
     const std::string field = absl::StrCat("lidars[", i, "]");
     LidarRenderView out;
     out.name = RenderLidarName(lidar);
-    RETURN_IF_ERROR(
-        TakeOutputName(out.name, {".range.exr", ".lidar.bin"}, field + ".name", &names));
+    RETURN_IF_ERROR(TakeOutputName(out.name, kLidarFileSuffixes, field + ".name", &names));
     const v1::LidarSpec& spec = lidar.spec();
     out.spec.beam_elevations_deg.assign(spec.beam_elevations_deg().begin(),
                                         spec.beam_elevations_deg().end());

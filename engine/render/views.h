@@ -11,6 +11,7 @@
 #ifndef POINTFORWARD_ENGINE_RENDER_VIEWS_H_
 #define POINTFORWARD_ENGINE_RENDER_VIEWS_H_
 
+#include <array>
 #include <cstdint>
 #include <optional>
 #include <string>
@@ -51,6 +52,12 @@ struct RenderRequest {
   std::vector<ActorEdit> edits;
   std::vector<LidarRenderView> lidars;
 };
+
+// The files each view and each LiDAR sweep write, as suffixes of its output
+// stem (RenderViewName, RenderLidarName): a view's EXR and PNG preview; a
+// sweep's range image and point record.
+inline constexpr std::array<const char*, 2> kViewFileSuffixes = {".exr", ".png"};
+inline constexpr std::array<const char*, 2> kLidarFileSuffixes = {".range.exr", ".lidar.bin"};
 
 // Returns the output file stem of `view` as ParseRenderViews names it: its
 // name, else "<camera>_<timestamp_us>" made fit for a file name.
