@@ -251,6 +251,13 @@ absl::Status EvalCommand(const CommandLine& cl) {
         "%.1f %% of the recorded returns returned\n",
         report.lidar_render.size(), mean.chamfer, mean.range_error_median, mean.range_error_p90,
         100 * mean.early_share, 100 * mean.late_share, 100 * mean.hit_share);
+    if (mean.intensity_rays > 0) {
+      std::printf(
+          "    intensity: median error %.3g over %lld returns on the recorded surface (the best "
+          "constant's %.3g)\n",
+          mean.intensity_error_median, static_cast<long long>(mean.intensity_rays),
+          mean.intensity_constant_error_median);
+    }
     if (mean.cells > 0) {
       std::printf(
           "    drops: the render agrees with the LiDAR on %.1f %% of %lld seen (beam, azimuth) "

@@ -81,6 +81,10 @@ int Info(const std::string& path) {
               scene.sh_degree < 0 ? "none" : absl::StrCat(scene.sh_degree).c_str());
   std::printf("low-pass:     %g px^2\n", scene.low_pass);
   std::printf("order band:   %g of depth\n", scene.order_band);
+  std::printf("intensity:    %s\n",
+              scene.lidar_intensity_channel < 0
+                  ? "none"
+                  : absl::StrCat("LiDAR, channel ", scene.lidar_intensity_channel).c_str());
   std::printf("colour:       %s\n", scene.has_colour_gradients() ? "gradients" : "flat");
   std::printf("time origin:  %lld us\n", static_cast<long long>(scene.time_origin_us));
   std::printf("lifespans:    %zu finite, %zu never fade\n", finite_lifespans,

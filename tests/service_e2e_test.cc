@@ -478,24 +478,35 @@ TEST_F(ServiceE2e, PythonClientCreatesASceneRendersAndReadsAnExr) {
   const std::vector<float>& hit = ours.at("hit");
   ASSERT_EQ(hit.size(), 32u * 720u);
   int same = 0;
-  std::vector<double> range_error;
+  std::vector<double> range_error, intensity_error;
   for (size_t r = 0; r < hit.size(); ++r) {
     same += hit[r] == theirs.at("hit")[r];
     if (hit[r] > 0.5 && theirs.at("hit")[r] > 0.5) {
       range_error.push_back(std::abs(ours.at("range")[r] - theirs.at("range")[r]));
+      intensity_error.push_back(std::abs(ours.at("intensity")[r] - theirs.at("intensity")[r]));
     }
   }
   EXPECT_GE(same, 0.99 * hit.size());
   ASSERT_FALSE(range_error.empty());
   std::sort(range_error.begin(), range_error.end());
   EXPECT_LT(range_error[range_error.size() / 2], 1e-3);
-  // The client's summary reads the same image: its median range is pf render's.
-  std::vector<float> local_ranges;
+  std::sort(intensity_error.begin(), intensity_error.end());
+  EXPECT_LT(intensity_error[intensity_error.size() / 2], 1e-3);
+  // The client's summary reads the same image: its median range and
+  // intensity are pf render's; the scene has pf synth's LiDAR intensity.
+  std::vector<float> local_ranges, local_intensities;
   for (size_t r = 0; r < hit.size(); ++r) {
-    if (theirs.at("hit")[r] > 0.5) local_ranges.push_back(theirs.at("range")[r]);
+    if (theirs.at("hit")[r] > 0.5) {
+      local_ranges.push_back(theirs.at("range")[r]);
+      local_intensities.push_back(theirs.at("intensity")[r]);
+    }
   }
   std::sort(local_ranges.begin(), local_ranges.end());
+  std::sort(local_intensities.begin(), local_intensities.end());
   EXPECT_NEAR(sweep["medianRangeM"].get<double>(), local_ranges[local_ranges.size() / 2], 0.01);
+  const double median_intensity = local_intensities[local_intensities.size() / 2];
+  EXPECT_GT(median_intensity, 0.05);
+  EXPECT_NEAR(sweep["medianIntensity"].get<double>(), median_intensity, 0.01);
 }
 
 }  // namespace

@@ -48,7 +48,10 @@ void HoldOutSweep(const LidarSweepData& sweep, const HoldOutOptions& options, Li
   *hidden = sweep;
   kept->points.clear();
   hidden->points.clear();
+  kept->intensities.clear();
+  hidden->intensities.clear();
   const size_t n = sweep.points.size() / 3;
+  const bool with_intensity = sweep.intensities.size() == n;
   std::vector<double> elevations;
   double threshold = 0;
   if (options.mode == HoldOutOptions::Mode::kTop) {
@@ -64,8 +67,10 @@ void HoldOutSweep(const LidarSweepData& sweep, const HoldOutOptions& options, Li
   for (size_t i = 0; i < n; ++i) {
     const bool hide =
         options.mode == HoldOutOptions::Mode::kHalf ? InHiddenHalf(i) : elevations[i] > threshold;
-    std::vector<float>& to = hide ? hidden->points : kept->points;
-    to.insert(to.end(), sweep.points.begin() + 3 * i, sweep.points.begin() + 3 * i + 3);
+    LidarSweepData& to = hide ? *hidden : *kept;
+    to.points.insert(to.points.end(), sweep.points.begin() + 3 * i,
+                     sweep.points.begin() + 3 * i + 3);
+    if (with_intensity) to.intensities.push_back(sweep.intensities[i]);
   }
 }
 

@@ -549,6 +549,12 @@ std::string EvalReportJson(const EvalReport& report) {
                                          {"earlyShare", f.early_share},
                                          {"lateShare", f.late_share},
                                          {"chamfer", f.chamfer}});
+      if (f.intensity_rays > 0) {
+        head.update(nlohmann::ordered_json{
+            {"intensityRays", f.intensity_rays},
+            {"intensityErrorMedian", f.intensity_error_median},
+            {"intensityConstantErrorMedian", f.intensity_constant_error_median}});
+      }
       if (f.cells > 0) {
         head.update(nlohmann::ordered_json{{"cells", f.cells},
                                            {"recordedDropShare", f.recorded_drop_share},

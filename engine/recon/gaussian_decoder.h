@@ -2,11 +2,12 @@
 // query becomes one 3D Gaussian of the scene.
 //
 // - Mean: the query's position (world, or the instance's canonical frame).
-// - Features (kReconChannels = 7): [0..2] fused RGB (a hidden query's own
+// - Features (kReconChannels = 8): [0..2] fused RGB (a hidden query's own
 //   colour: fusion sees the foreground in front of it), [3..5] the unit surface
 //   normal (same frame as the mean), [6] multi-view agreement in (0, 1], 0
 //   for a hidden query (no view observes it; colour_refinement.h keeps its
-//   colour).
+//   colour), [7] LiDAR intensity (0 here; lidar_intensity.h fills it where
+//   the clip has LiDAR).
 //   The renderer's RGB is the first three channels (identity decoder).
 // - Rotation and scale: a flat disc on the local surface. Its axes are t1
 //   (the source ray projected on the tangent plane), t2 = n x t1 and the
@@ -43,9 +44,11 @@
 namespace pf {
 
 // Feature channels of reconstructed scenes.
-inline constexpr int kReconChannels = 7;
+inline constexpr int kReconChannels = 8;
 // The channel of multi-view agreement; 0 marks a hidden Gaussian.
 inline constexpr int kAgreementChannel = 6;
+// The channel of LiDAR intensity (GaussianScene::lidar_intensity_channel).
+inline constexpr int kIntensityChannel = 7;
 
 struct DecoderOptions {
   double tangent_sigma = 0.65;  // Std-dev along the surface per query spacing.

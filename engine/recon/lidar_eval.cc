@@ -147,13 +147,19 @@ absl::StatusOr<LidarSpec> SweepBeams(const std::vector<float>& sensor_xyz, doubl
 
 LidarSweepFigures MeanLidarFigures(const std::vector<LidarSweepFigures>& sweeps) {
   LidarSweepFigures mean;
-  int with_cells = 0;
+  int with_cells = 0, with_intensity = 0;
   bool same_beams = !sweeps.empty();
   for (const LidarSweepFigures& f : sweeps) {
     same_beams = same_beams && !f.beams.empty() && f.beams.size() == sweeps[0].beams.size();
   }
   if (same_beams) mean.beams.resize(sweeps[0].beams.size());
   for (const LidarSweepFigures& f : sweeps) {
+    if (f.intensity_rays > 0) {
+      ++with_intensity;
+      mean.intensity_rays += f.intensity_rays;
+      mean.intensity_error_median += f.intensity_error_median;
+      mean.intensity_constant_error_median += f.intensity_constant_error_median;
+    }
     if (f.cells > 0) {
       ++with_cells;
       mean.cells += f.cells;
@@ -188,6 +194,10 @@ LidarSweepFigures MeanLidarFigures(const std::vector<LidarSweepFigures>& sweeps)
   mean.early_share /= n;
   mean.late_share /= n;
   mean.chamfer /= n;
+  if (with_intensity > 0) {
+    mean.intensity_error_median /= with_intensity;
+    mean.intensity_constant_error_median /= with_intensity;
+  }
   if (with_cells > 0) {
     mean.recorded_drop_share /= with_cells;
     mean.rendered_drop_share /= with_cells;
@@ -233,6 +243,9 @@ absl::StatusOr<LidarSweepFigures> EvaluateLidarRender(const GaussianScene& scene
   std::vector<LidarRay> rays;
   std::vector<Vec3> recorded;
   std::vector<double> recorded_range;
+  std::vector<float> recorded_intensity;
+  const bool with_intensity =
+      scene.lidar_intensity_channel >= 0 && sweep.intensities.size() == sweep.points.size() / 3;
   std::vector<Vec3> in_sensor;  // Every point within range, in the sensor frame.
   int64_t sweep_points = 0;
   for (size_t i = 0; i + 2 < sweep.points.size(); i += 3) {
@@ -246,6 +259,7 @@ absl::StatusOr<LidarSweepFigures> EvaluateLidarRender(const GaussianScene& scene
     rays.push_back({in_sensor.back(), 0.5});
     recorded.push_back(p);
     recorded_range.push_back(range);
+    if (with_intensity) recorded_intensity.push_back(sweep.intensities[i / 3]);
   }
   if (rays.empty()) {
     return absl::FailedPreconditionError("no point of the sweep lies in a camera's image");
@@ -261,6 +275,7 @@ absl::StatusOr<LidarSweepFigures> EvaluateLidarRender(const GaussianScene& scene
   figures.points = static_cast<int64_t>(rays.size());
   std::vector<double> errors;
   std::vector<Vec3> rendered;
+  std::vector<size_t> same_surface;  // Rays both return within SignedTolerance.
   int64_t early = 0, late = 0;
   for (size_t i = 0; i < rays.size(); ++i) {
     if (!returns[i].hit) continue;
@@ -268,6 +283,7 @@ absl::StatusOr<LidarSweepFigures> EvaluateLidarRender(const GaussianScene& scene
     errors.push_back(std::abs(signed_error));
     early += signed_error < -SignedTolerance(recorded_range[i]);
     late += signed_error > SignedTolerance(recorded_range[i]);
+    if (std::abs(signed_error) <= SignedTolerance(recorded_range[i])) same_surface.push_back(i);
     rendered.push_back(sweep.sensor_origin + (returns[i].range / recorded_range[i]) *
                                                  (recorded[i] - sweep.sensor_origin));
   }
@@ -281,6 +297,18 @@ absl::StatusOr<LidarSweepFigures> EvaluateLidarRender(const GaussianScene& scene
   const NearestPoints to_recorded(recorded), to_rendered(rendered);
   figures.chamfer =
       0.5 * (MeanDistance(rendered, to_recorded) + MeanDistance(recorded, to_rendered));
+  if (with_intensity && !same_surface.empty()) {
+    std::vector<double> truth, error, constant_error;
+    for (size_t i : same_surface) {
+      truth.push_back(recorded_intensity[i]);
+      error.push_back(std::abs(returns[i].intensity - recorded_intensity[i]));
+    }
+    const double constant = Quantile(truth, 0.5);
+    for (double t : truth) constant_error.push_back(std::abs(t - constant));
+    figures.intensity_rays = static_cast<int64_t>(same_surface.size());
+    figures.intensity_error_median = Quantile(error, 0.5);
+    figures.intensity_constant_error_median = Quantile(constant_error, 0.5);
+  }
 
   // Per beam and the drops, where the sweep is one head's.
   std::vector<float> xyz;

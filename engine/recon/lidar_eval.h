@@ -52,6 +52,14 @@ struct LidarSweepFigures {
   double chamfer = 0;
   double render_seconds = 0;  // RenderLidarRays' wall time.
 
+  // Intensity, where the scene has a LiDAR intensity channel and the sweep
+  // recorded intensities: over the rays both return on one surface (range
+  // error within SignedTolerance), the median |rendered - recorded|, and the
+  // same for the best constant (the median of their recorded intensities),
+  // the figure to beat. In the clip's units; 0 rays otherwise.
+  int64_t intensity_rays = 0;
+  double intensity_error_median = 0, intensity_constant_error_median = 0;
+
   // Where the sweep is one spinning head's (SweepBeams): per beam, from the
   // highest down; empty otherwise, and beams_note says why.
   std::vector<LidarBeamFigures> beams;
@@ -81,9 +89,10 @@ inline double SignedTolerance(double recorded_range) {
 }
 
 // The means over `sweeps` of hit_share, the range errors, the early and late
-// shares and chamfer; of the drop shares over the sweeps with cells; of each
+// shares and chamfer; of the drop shares over the sweeps with cells; of the
+// intensity errors over the sweeps with intensity rays; of each
 // beam's figures when every sweep has the same number of beams (empty
-// otherwise); points, sweep_points, cells and render_seconds summed;
+// otherwise); points, sweep_points, cells, intensity_rays and render_seconds summed;
 // timestamp_us 0. All zero for none.
 LidarSweepFigures MeanLidarFigures(const std::vector<LidarSweepFigures>& sweeps);
 

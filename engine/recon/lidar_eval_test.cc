@@ -35,7 +35,8 @@ GaussianScene Wall() {
 // it), the others 20 m out (what stands beyond the scene).
 // With `drop_beyond_y`, rays that meet the wall's plane farther than that
 // from y = 0 (but within 5.5 m) return nothing. With `jitter_deg`, each
-// point's elevation is off by up to that, spread evenly.
+// point's elevation is off by up to that, spread evenly. Each point's
+// intensity is 10 + 5 y.
 LidarSweepData Sweep(double offset, double drop_beyond_y = 0, double jitter_deg = 0) {
   LidarSweepData sweep;
   sweep.timestamp_us = 5;
@@ -55,6 +56,7 @@ LidarSweepData Sweep(double offset, double drop_beyond_y = 0, double jitter_deg 
         if (drop_beyond_y > 0 && std::abs(p.y) >= drop_beyond_y && std::abs(p.y) < 5.5) continue;
       }
       for (double v : {range * d.x, range * d.y, range * d.z}) sweep.points.push_back(float(v));
+      sweep.intensities.push_back(float(10 + 5 * range * d.y));
     }
   }
   return sweep;
@@ -150,12 +152,54 @@ TEST(LidarEval, OneHeadsSweepIsMeasuredPerBeamAndItsDropsCounted) {
   EXPECT_GT(figures->points, 0);
 }
 
+TEST(LidarEval, TheIntensityIsMeasuredAgainstTheBestConstant) {
+  // The wall with an intensity channel of 10 + 5 y, as the sweep recorded.
+  GaussianScene wall = Wall();
+  std::vector<float> features(4 * wall.size());
+  for (size_t i = 0; i < wall.size(); ++i) {
+    features[4 * i + 3] = 10 + 5 * wall.means[3 * i + 1];
+  }
+  wall.num_channels = 4;
+  wall.features = std::move(features);
+  wall.lidar_intensity_channel = 3;
+  absl::StatusOr<LidarSweepFigures> figures =
+      EvaluateLidarRender(wall, Sweep(0), {ForwardCamera()});
+  ASSERT_TRUE(figures.ok()) << figures.status();
+  EXPECT_EQ(figures->intensity_rays, 33 * 8);
+  // Discs 5 cm apart: the blend is within a disc's 0.25 of the truth. The
+  // recorded y spread over +-5 m: the best constant (10) is off by a median 5 x
+  // 8 tan(16 degrees).
+  EXPECT_LT(figures->intensity_error_median, 0.25);
+  EXPECT_NEAR(figures->intensity_constant_error_median, 5 * 8 * std::tan(16 * kPi / 180), 0.6);
+  // 0.3 m behind the wall: the same surface by SignedTolerance (0.5 m here),
+  // so measured; 2 m behind: none is.
+  figures = EvaluateLidarRender(wall, Sweep(0.3), {ForwardCamera()});
+  ASSERT_TRUE(figures.ok()) << figures.status();
+  EXPECT_EQ(figures->intensity_rays, 33 * 8);
+  figures = EvaluateLidarRender(wall, Sweep(2.0), {ForwardCamera()});
+  ASSERT_TRUE(figures.ok()) << figures.status();
+  EXPECT_EQ(figures->intensity_rays, 0);
+  // No channel in the scene, or no intensities in the sweep: no figures.
+  figures = EvaluateLidarRender(Wall(), Sweep(0), {ForwardCamera()});
+  ASSERT_TRUE(figures.ok()) << figures.status();
+  EXPECT_EQ(figures->intensity_rays, 0);
+  LidarSweepData unknown = Sweep(0);
+  unknown.intensities.clear();
+  figures = EvaluateLidarRender(wall, unknown, {ForwardCamera()});
+  ASSERT_TRUE(figures.ok()) << figures.status();
+  EXPECT_EQ(figures->intensity_rays, 0);
+}
+
 TEST(LidarEval, MeansPoolBeamsAndDropsOverTheSweepsThatHaveThem) {
   LidarSweepFigures a, b;
   a.beams = {{2, 10, 1.0, 0.1, 0.2}};
   b.beams = {{2, 30, 0.5, 0.3, 0.4}};
   a.cells = 100, a.drop_agreement = 0.9, a.recorded_drop_share = 0.2;
+  a.intensity_rays = 50, a.intensity_error_median = 2, a.intensity_constant_error_median = 7;
   const LidarSweepFigures mean = MeanLidarFigures({a, b});
+  EXPECT_EQ(mean.intensity_rays, 50);
+  EXPECT_DOUBLE_EQ(mean.intensity_error_median, 2);  // b has no intensity.
+  EXPECT_DOUBLE_EQ(mean.intensity_constant_error_median, 7);
   ASSERT_EQ(mean.beams.size(), 1u);
   EXPECT_EQ(mean.beams[0].points, 40);
   EXPECT_DOUBLE_EQ(mean.beams[0].hit_share, 0.75);

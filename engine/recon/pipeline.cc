@@ -9,6 +9,7 @@
 #include "absl/strings/str_cat.h"
 #include "common/status_macros.h"
 #include "engine/recon/cuda_colour_fit.h"
+#include "engine/recon/lidar_intensity.h"
 #include "engine/recon/scene_graph.h"
 #include "pointforward/v1/clip.pb.h"
 #if PF_HAVE_TORCH
@@ -162,7 +163,26 @@ void Pipeline::Decode() {
       ++stats.dynamic_gaussians;
     }
   }
-  Done(ReconStage::kDecode);
+  // LiDAR intensity from the sweeps the depth stage would take (nearest each
+  // CONTEXT view), so those of TARGET times stay out.
+  std::vector<const LidarSweepData*> sweeps;
+  std::vector<bool> taken(inputs_.sweeps.size(), false);
+  for (const ContextView& view : inputs_.views) {
+    const int s = NearestSweep(inputs_.sweeps, view.timestamp_us);
+    if (s >= 0 && !taken[s]) {
+      taken[s] = true;
+      sweeps.push_back(&inputs_.sweeps[s]);
+    }
+  }
+  std::string intensity = " (no LiDAR: no intensity)";
+  if (!sweeps.empty()) {
+    const LidarIntensityStats fused = FuseLidarIntensity(sweeps, kIntensityChannel, &result_.scene);
+    result_.scene.lidar_intensity_channel = kIntensityChannel;
+    intensity =
+        absl::StrCat(" (LiDAR intensity from ", fused.points, " returns of ", sweeps.size(),
+                     " sweeps: ", fused.assigned, " of ", result_.scene.size(), " Gaussians)");
+  }
+  Done(ReconStage::kDecode, intensity);
 }
 
 absl::Status Pipeline::FitColours() {

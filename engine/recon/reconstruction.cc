@@ -1,7 +1,6 @@
 // Loading a reconstruction's inputs and running the model the options name.
 #include "engine/recon/reconstruction.h"
 
-#include <algorithm>
 #include <chrono>
 
 #include "absl/strings/str_cat.h"
@@ -30,12 +29,8 @@ absl::StatusOr<ReconInputs> LoadReconInputs(const LoadedClip& loaded, const Reco
     return absl::InvalidArgumentError("frames: the clip has no CONTEXT frame to reconstruct from");
   }
   RETURN_IF_ERROR(SetTracksFromClip(loaded.clip, &inputs));
-  // LiDAR only matters for views without a depth map.
-  const bool need_lidar = std::any_of(inputs.views.begin(), inputs.views.end(),
-                                      [](const ContextView& v) { return v.depth.width == 0; });
-  if (need_lidar) {
-    ASSIGN_OR_RETURN(inputs.sweeps, LoadLidarSweeps(loaded, options.allow_outside_paths));
-  }
+  // LiDAR gives the depth of views without a depth map, and the intensity.
+  ASSIGN_OR_RETURN(inputs.sweeps, LoadLidarSweeps(loaded, options.allow_outside_paths));
   return inputs;
 }
 

@@ -57,11 +57,13 @@ absl::StatusOr<std::vector<LidarSweepData>> LoadLidarSweeps(const LoadedClip& lo
     data.sensor_up = Normalized(world_from_sensor.rotation * Vec3{0, 0, 1});
     const size_t n = records.size() / 4;
     data.points.reserve(n * 3);
+    data.intensities.reserve(n);
     for (size_t p = 0; p < n; ++p) {
       const Vec3 local{records[4 * p], records[4 * p + 1], records[4 * p + 2]};
       if (!std::isfinite(local.x) || !std::isfinite(local.y) || !std::isfinite(local.z)) continue;
       const Vec3 w = world_from_sensor * local;
       data.points.insert(data.points.end(), {float(w.x), float(w.y), float(w.z)});
+      data.intensities.push_back(records[4 * p + 3]);
     }
     sweeps.push_back(std::move(data));
   }

@@ -26,13 +26,15 @@ namespace pf {
 // One LiDAR sweep in world coordinates.
 struct LidarSweepData {
   int64_t timestamp_us = 0;
-  std::vector<float> points;  // [P, 3] world frame
-  Vec3 sensor_origin;         // World position of the sensor.
-  Vec3 sensor_up{0, 0, 1};    // World direction of the sensor's z axis (up on a level mount).
+  std::vector<float> points;       // [P, 3] world frame
+  std::vector<float> intensities;  // [P] as recorded; empty where not known.
+  Vec3 sensor_origin;              // World position of the sensor.
+  Vec3 sensor_up{0, 0, 1};         // World direction of the sensor's z axis (up on a level mount).
 };
 
 // Reads every sweep of the clip (float32 little-endian x, y, z, intensity
-// records in the sensor frame) and moves the points to the world.
+// records in the sensor frame) and moves the points to the world, keeping
+// their intensities.
 // INVALID_ARGUMENT naming `lidar[i].points` for a file whose size is not a
 // multiple of 16 bytes, `lidar[i].worldFromSensor` for a pose that is not 16
 // numbers; NOT_FOUND for a missing file.

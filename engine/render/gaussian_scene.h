@@ -28,6 +28,9 @@
 // overlap on one surface then stack the same way in every view, as they did
 // in the context views its colours were fitted to; by strict depth order their
 // stacking would turn on micrometres and differ from view to view.
+//
+// `lidar_intensity_channel` names the feature channel a LiDAR render reads
+// its intensity from (lidar_render.h); -1: the scene has none.
 #ifndef POINTFORWARD_ENGINE_RENDER_GAUSSIAN_SCENE_H_
 #define POINTFORWARD_ENGINE_RENDER_GAUSSIAN_SCENE_H_
 
@@ -78,6 +81,8 @@ struct GaussianScene {
   // scenes; reconstructions in the sRGB working space) or linear light.
   // Render outputs convert from it (render_outputs.h).
   ColourEncoding colour_encoding = ColourEncoding::kSrgb;
+  // The feature channel of LiDAR intensity, in [0, num_channels); -1: none.
+  int lidar_intensity_channel = -1;
 
   std::vector<float> means;           // [N, 3]
   std::vector<float> rotations;       // [N, 4] (w, x, y, z), any norm > 0

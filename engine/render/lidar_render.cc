@@ -100,7 +100,8 @@ absl::StatusOr<std::vector<LidarReturn>> RenderLidarRays(const GaussianScene& sc
 
   std::vector<LidarReturn> out(rays.size());
   RenderOptions render_options;
-  render_options.features = false;
+  const int intensity_channel = scene.lidar_intensity_channel;
+  render_options.features = intensity_channel >= 0;
   render_options.instance = false;
   for (int s = 0; s < sectors; ++s) {
     if (members[s].empty()) continue;
@@ -149,7 +150,12 @@ absl::StatusOr<std::vector<LidarReturn>> RenderLidarRays(const GaussianScene& sc
       if (!(buffers->alpha[pixel] >= options.min_alpha)) continue;
       const double range = SmoothDepth(*buffers, u, v, options.min_alpha, pixel) / d.z;
       if (!(range > 0 && range <= options.max_range)) continue;
-      out[i] = {true, static_cast<float>(range)};
+      const float intensity =
+          intensity_channel < 0
+              ? 0.f
+              : buffers->features[pixel * scene.num_channels + intensity_channel] /
+                    buffers->alpha[pixel];
+      out[i] = {true, static_cast<float>(range), intensity};
     }
   }
   return out;

@@ -12,7 +12,9 @@
 // between the 4 pixel centres around the ray where they are returns within
 // 3 % of each other (one surface), else the pixel's own. The expected depth
 // mixes surfaces across a depth edge inside one pixel (a return there lies
-// between them); a median depth is not rendered.
+// between them); a median depth is not rendered. A return's intensity is the
+// scene's LiDAR intensity channel (GaussianScene::lidar_intensity_channel)
+// blended at the ray's pixel, over its alpha; 0 for a scene without one.
 #ifndef POINTFORWARD_ENGINE_RENDER_LIDAR_RENDER_H_
 #define POINTFORWARD_ENGINE_RENDER_LIDAR_RENDER_H_
 
@@ -47,7 +49,8 @@ struct LidarRenderOptions {
 
 struct LidarReturn {
   bool hit = false;
-  float range = 0;  // Metres along the ray (0 without a return).
+  float range = 0;      // Metres along the ray (0 without a return).
+  float intensity = 0;  // The scene's LiDAR intensity (0 without a return or channel).
 };
 
 // The sensor's pose at `fraction` of the sweep: centre linear, rotation

@@ -111,6 +111,38 @@ TEST(LidarRender, RangesAreTheDistanceToTheWallsAllRound) {
   std::sort(magnitudes.begin(), magnitudes.end());
   EXPECT_LT(magnitudes[magnitudes.size() / 2], 0.025);
   EXPECT_LT(magnitudes.back(), 0.05);
+  for (const LidarReturn& r : *returns) EXPECT_EQ(r.intensity, 0.f);  // No intensity channel.
+}
+
+TEST(LidarRender, AReturnsIntensityIsTheChannelOfTheWallItHits) {
+  // The room with a fourth channel, the intensity: 10 and 20 on the walls at
+  // x = +6 and -6, 30 and 40 at y = +4 and -4.
+  GaussianScene room = Room(6, 4);
+  std::vector<float> features(4 * room.size());
+  for (size_t i = 0; i < room.size(); ++i) {
+    for (int c = 0; c < 3; ++c) features[4 * i + c] = room.features[3 * i + c];
+    const float x = room.means[3 * i], y = room.means[3 * i + 1];
+    features[4 * i + 3] = std::abs(x) > 5.99f ? (x > 0 ? 10.f : 20.f) : (y > 0 ? 30.f : 40.f);
+  }
+  room.num_channels = 4;
+  room.features = std::move(features);
+  room.lidar_intensity_channel = 3;
+  const std::vector<LidarRay> rays = SpinningRays();
+  absl::StatusOr<std::vector<LidarReturn>> returns = RenderLidarRays(room, rays, {});
+  ASSERT_TRUE(returns.ok()) << returns.status();
+  int exact = 0, off_corner = 0;
+  for (size_t i = 0; i < rays.size(); ++i) {
+    ASSERT_TRUE((*returns)[i].hit) << i;
+    const Vec3 d = rays[i].direction;
+    const Vec3 p = RoomRange(6, 4, {0, 0, 0}, d) * (d / Norm(d));
+    // Within 10 cm of a corner two walls blend.
+    if (std::abs(std::abs(p.x) - 6) < 0.1 && std::abs(std::abs(p.y) - 4) < 0.1) continue;
+    ++off_corner;
+    const float truth = std::abs(p.x) > 5.999 ? (p.x > 0 ? 10.f : 20.f) : (p.y > 0 ? 30.f : 40.f);
+    exact += std::abs((*returns)[i].intensity - truth) < 1e-3f;
+  }
+  EXPECT_GT(off_corner, 5500);
+  EXPECT_EQ(exact, off_corner);
 }
 
 TEST(LidarRender, NoReturnWhereNothingIsAndAMovingSensorSeesFromWhereItIs) {

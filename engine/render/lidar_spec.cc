@@ -109,7 +109,7 @@ absl::Status WriteSweepPoints(const std::string& path, const RenderedSweep& swee
           r.range * Direction(sweep.spec.beam_elevations_deg[b], ColumnAzimuthDeg(sweep.spec, k));
       const Vec3 p = sensor_start_from_world *
                      (SweepPoseAt(sweep.pose, ColumnFraction(k, columns)) * in_sensor);
-      records.insert(records.end(), {float(p.x), float(p.y), float(p.z), 0.f});
+      records.insert(records.end(), {float(p.x), float(p.y), float(p.z), r.intensity});
     }
   }
   std::string bytes(records.size() * sizeof(float), '\0');
@@ -128,6 +128,7 @@ absl::Status WriteRangeImageExr(const std::string& path, const RenderedSweep& sw
   std::vector<float> pixels(static_cast<size_t>(rows) * columns * 3, 0.f);
   for (size_t i = 0; i < sweep.returns.size(); ++i) {
     pixels[3 * i] = sweep.returns[i].hit ? 1.f : 0.f;
+    pixels[3 * i + 1] = sweep.returns[i].hit ? sweep.returns[i].intensity : 0.f;
     pixels[3 * i + 2] = sweep.returns[i].hit ? sweep.returns[i].range : 0.f;
   }
   OIIO::ImageSpec spec(columns, rows, 3, TypeDesc::FLOAT);

@@ -67,13 +67,14 @@ absl::StatusOr<RenderedSweep> RenderLidarSweep(const GaussianScene& scene, const
 // atomically. Points are in the sensor frame at the sweep's start (the
 // pose a clip's LidarSweep.world_from_sensor gives): each return placed
 // along its ray from the sensor where it was when the ray fired, then
-// brought into that frame. Intensity is written as 0: the scene has no
-// LiDAR intensity channel.
+// brought into that frame. The intensity is the return's (LidarReturn: the
+// scene's LiDAR intensity channel, 0 for a scene without one).
 absl::Status WriteSweepPoints(const std::string& path, const RenderedSweep& sweep);
 
 // Writes the sweep as a range image EXR to `path`, atomically: rows x
 // columns (row b = beam b, column k as above), float channels `range`
-// (metres along the ray, 0 without a return), `intensity` (0, as above) and
+// (metres along the ray, 0 without a return), `intensity` (as above, 0
+// without a return) and
 // `hit` (1 or 0); header attributes pf:beamElevationsDeg (float[]),
 // pf:azimuthResolutionDeg, pf:rotationHz, pf:maxRangeM (double),
 // pf:worldFromSensorStart and pf:worldFromSensorEnd (m44d, row-major

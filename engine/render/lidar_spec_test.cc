@@ -155,6 +155,43 @@ TEST(LidarSpec, ASweepIsTheCylinderInTheRangeImageAndThePointRecord) {
   }
 }
 
+TEST(LidarSpec, TheIntensityChannelIsWrittenToBothFiles) {
+  // The cylinder with a fourth channel, 5 + the disc's height, as its intensity.
+  GaussianScene scene = Cylinder();
+  std::vector<float> features(4 * scene.size());
+  for (size_t i = 0; i < scene.size(); ++i) {
+    for (int c = 0; c < 3; ++c) features[4 * i + c] = scene.features[3 * i + c];
+    features[4 * i + 3] = 5 + scene.means[3 * i + 2];
+  }
+  scene.num_channels = 4;
+  scene.features = std::move(features);
+  scene.lidar_intensity_channel = 3;
+  const LidarSpec spec = SixteenBeams();
+  absl::StatusOr<RenderedSweep> sweep = RenderLidarSweep(scene, spec, LidarSweepPose{});
+  ASSERT_TRUE(sweep.ok()) << sweep.status();
+  const std::string dir = testing::MakeTempDir("lidar_intensity");
+  ASSERT_TRUE(WriteRangeImageExr(dir + "/s.range.exr", *sweep).ok());
+  ASSERT_TRUE(WriteSweepPoints(dir + "/s.lidar.bin", *sweep).ok());
+  int width = 0, height = 0;
+  const std::vector<float> intensity =
+      ReadChannel(dir + "/s.range.exr", "intensity", &width, &height);
+  ASSERT_EQ(intensity.size(), 17u * 360);
+  // A ray at elevation e meets the wall at height kRadius tan(e); discs 5 cm
+  // apart blend over about a disc's width.
+  double worst = 0;
+  for (int b = 0; b < 16; ++b) {
+    const double truth = 5 + kRadius * std::tan(spec.beam_elevations_deg[b] * kPi / 180);
+    for (int k = 0; k < 360; ++k) worst = std::max(worst, std::abs(intensity[b * 360 + k] - truth));
+  }
+  EXPECT_LT(worst, 0.06);
+  for (int k = 0; k < 360; ++k) EXPECT_EQ(intensity[16 * 360 + k], 0.f);  // No return.
+  const std::vector<float> records = ReadRecords(dir + "/s.lidar.bin");
+  ASSERT_EQ(records.size(), 4u * 16 * 360);
+  for (size_t p = 0; p < records.size(); p += 4) {
+    EXPECT_NEAR(records[p + 3], 5 + records[p + 2], 0.06) << p;
+  }
+}
+
 TEST(LidarSpec, AMovingSensorsPointsAreInItsStartFrame) {
   const GaussianScene scene = Cylinder();
   LidarSpec spec;

@@ -370,12 +370,13 @@ class BodyReader {
 };
 
 // Our header comment: "pointforward time_origin_us=T sh_degree=D low_pass=S
-// colour_encoding=E order_band=B" (low_pass since scene file version 2; files
-// without it keep the 3DGS one; colour_encoding since version 4, else srgb;
-// order_band since version 5, else 0).
+// colour_encoding=E order_band=B lidar_intensity_channel=C" (low_pass since
+// scene file version 2; files without it keep the 3DGS one; colour_encoding
+// since version 4, else srgb; order_band since version 5, else 0;
+// lidar_intensity_channel since version 6, else -1).
 void ParseOurComment(const std::vector<std::string>& comments, int64_t* time_origin_us,
                      std::optional<int>* sh_degree, float* low_pass,
-                     ColourEncoding* colour_encoding, float* order_band) {
+                     ColourEncoding* colour_encoding, float* order_band, int* intensity_channel) {
   for (const std::string& comment : comments) {
     std::vector<std::string> words = absl::StrSplit(comment, ' ', absl::SkipWhitespace());
     if (words.empty() || words[0] != kCommentTag) continue;
@@ -398,6 +399,7 @@ void ParseOurComment(const std::vector<std::string>& comments, int64_t* time_ori
       int64_t value = 0;
       if (!absl::SimpleAtoi(kv.second, &value)) continue;
       if (kv.first == "time_origin_us") *time_origin_us = value;
+      if (kv.first == "lidar_intensity_channel") *intensity_channel = static_cast<int>(value);
       if (kv.first == "sh_degree") *sh_degree = static_cast<int>(value);
     }
   }
@@ -414,11 +416,12 @@ absl::StatusOr<std::string> EncodePly(const GaussianScene& scene, const PlyExpor
                                      [](float s) { return std::isfinite(s); });
   const std::vector<std::string> names = ExportProperties(scene, with_features, with_time);
 
-  std::string header = absl::StrCat("ply\nformat binary_little_endian 1.0\ncomment ", kCommentTag,
-                                    " time_origin_us=", scene.time_origin_us,
-                                    " sh_degree=", scene.sh_degree, " low_pass=", scene.low_pass,
-                                    " colour_encoding=", ColourEncodingName(scene.colour_encoding),
-                                    " order_band=", scene.order_band, "\nelement vertex ", n, "\n");
+  std::string header = absl::StrCat(
+      "ply\nformat binary_little_endian 1.0\ncomment ", kCommentTag,
+      " time_origin_us=", scene.time_origin_us, " sh_degree=", scene.sh_degree,
+      " low_pass=", scene.low_pass, " colour_encoding=", ColourEncodingName(scene.colour_encoding),
+      " order_band=", scene.order_band, " lidar_intensity_channel=", scene.lidar_intensity_channel,
+      "\nelement vertex ", n, "\n");
   for (const std::string& name : names) absl::StrAppend(&header, "property float ", name, "\n");
   absl::StrAppend(&header, "end_header\n");
 
@@ -578,7 +581,7 @@ absl::StatusOr<GaussianScene> DecodePly(const std::string& bytes, const std::str
   GaussianScene scene;
   std::optional<int> stored_degree;
   ParseOurComment(header.comments, &scene.time_origin_us, &stored_degree, &scene.low_pass,
-                  &scene.colour_encoding, &scene.order_band);
+                  &scene.colour_encoding, &scene.order_band, &scene.lidar_intensity_channel);
   // Our export of a scene without SH writes degree-0 f_dc; restore "no SH".
   if (degree == 0 && stored_degree == -1) degree = -1;
   scene.sh_degree = degree;

@@ -198,11 +198,13 @@ TEST(PlyRoundTrip, ShSceneArraysAreExact) {
 }
 
 TEST(PlyRoundTrip, FeatureSceneArraysMatchWithinFloatTolerance) {
-  const GaussianScene scene = MakeScene(-1, 3);
+  GaussianScene scene = MakeScene(-1, 3);
+  scene.lidar_intensity_channel = 2;
   absl::StatusOr<GaussianScene> back = DecodePly(*EncodePly(scene), "mem.ply");
   ASSERT_TRUE(back.ok()) << back.status();
   EXPECT_EQ(back->sh_degree, -1);  // Restored from our header comment.
   EXPECT_EQ(back->num_channels, 3);
+  EXPECT_EQ(back->lidar_intensity_channel, 2);
   ExpectNear(back->features, scene.features, 1e-6f, "features");
   EXPECT_EQ(back->means, scene.means);
   EXPECT_EQ(back->log_scales, scene.log_scales);

@@ -147,6 +147,11 @@ absl::Status ValidateScene(const GaussianScene& scene) {
     return absl::InvalidArgumentError(
         absl::StrCat("order_band: ", scene.order_band, " is outside [0, ", kMaxOrderBand, "]"));
   }
+  if (scene.lidar_intensity_channel < -1 || scene.lidar_intensity_channel >= scene.num_channels) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("lidar_intensity_channel: ", scene.lidar_intensity_channel,
+                     " is neither -1 nor a channel of the ", scene.num_channels));
+  }
   const size_t n = scene.size();
   RETURN_IF_ERROR(CheckArraySize("means", scene.means.size(), 3 * n));
   RETURN_IF_ERROR(CheckArraySize("rotations", scene.rotations.size(), 4 * n));
@@ -216,6 +221,7 @@ absl::Status SaveScene(const GaussianScene& scene, const std::string& path,
   header.Put<uint32_t>(scene.has_colour_gradients() ? 1 : 0);
   header.Put<uint32_t>(scene.colour_encoding == ColourEncoding::kLinear ? 1 : 0);
   header.Put<float>(scene.order_band);
+  header.Put<int32_t>(scene.lidar_intensity_channel);
   header.Put<uint32_t>(static_cast<uint32_t>(scene.instances.size()));
   for (const InstanceTrack& track : scene.instances) {
     header.PutString(track.id);
@@ -350,6 +356,14 @@ absl::StatusOr<SceneFile> ReadSceneFile(const std::string& path) {
   if (!(scene.order_band >= 0 && scene.order_band <= kMaxOrderBand)) {
     return invalid("header order_band ", scene.order_band, " is outside [0, ", kMaxOrderBand, "]");
   }
+  // Version 6 added the LiDAR intensity channel (-1 before: none).
+  int32_t intensity_channel = -1;
+  if (version >= 6) RETURN_IF_ERROR(header.Get("lidar_intensity_channel", &intensity_channel));
+  if (intensity_channel < -1 || intensity_channel >= num_channels) {
+    return invalid("header lidar_intensity_channel ", intensity_channel,
+                   " is neither -1 nor one of the ", num_channels, " channels");
+  }
+  scene.lidar_intensity_channel = intensity_channel;
   if (num_channels < 1 || num_channels > kMaxChannels) {
     return invalid("header num_channels ", num_channels, " is outside [1, ", kMaxChannels, "]");
   }

@@ -56,6 +56,7 @@ void ExpectScenesEqual(const GaussianScene& a, const GaussianScene& b) {
   EXPECT_EQ(a.low_pass, b.low_pass);
   EXPECT_EQ(a.order_band, b.order_band);
   EXPECT_EQ(a.colour_encoding, b.colour_encoding);
+  EXPECT_EQ(a.lidar_intensity_channel, b.lidar_intensity_channel);
   EXPECT_EQ(a.means, b.means);
   EXPECT_EQ(a.rotations, b.rotations);
   EXPECT_EQ(a.log_scales, b.log_scales);
@@ -166,12 +167,12 @@ TEST_F(SceneFileTest, RejectsWrongMagic) {
 }
 
 TEST_F(SceneFileTest, RejectsWrongVersion) {
-  for (int version : {0, 6}) {
+  for (int version : {0, 7}) {
     const absl::Status status =
         LoadEdited([version](std::string& b) { b[8] = static_cast<char>(version); });
     EXPECT_EQ(status.code(), absl::StatusCode::kInvalidArgument);
     EXPECT_NE(status.message().find(absl::StrCat("unsupported scene file version ", version,
-                                                 " (this build reads versions 1 to 5)")),
+                                                 " (this build reads versions 1 to 6)")),
               absl::string_view::npos)
         << status;
   }
@@ -205,7 +206,7 @@ TEST_F(SceneFileTest, RoundTripWithColourGradients) {
   ASSERT_TRUE(SaveScene(scene, path_).ok());
   absl::StatusOr<SceneFile> loaded = ReadSceneFile(path_);
   ASSERT_TRUE(loaded.ok()) << loaded.status();
-  EXPECT_EQ(loaded->version, 5u);
+  EXPECT_EQ(loaded->version, 6u);
   ExpectScenesEqual(scene, loaded->scene);
   // 6 more floats per Gaussian than the same scene with flat colours.
   const std::string flat_path = path_ + ".flat";
@@ -252,9 +253,10 @@ TEST_F(SceneFileTest, RoundTripKeepsTheOrderBandAndVersionFourFilesHaveNone) {
   ASSERT_TRUE(loaded.ok()) << loaded.status();
   EXPECT_EQ(loaded->scene.order_band, 0.002f);
   ExpectScenesEqual(scene, loaded->scene);
-  // A version-4 file is a version-5 file without the order band (a float32
-  // after the colour-encoding flag, at byte 52): strict depth order.
-  RewriteAsVersion(path_, 4, 52, 4);
+  // A version-4 file is a version-6 file without the order band (a float32
+  // after the colour-encoding flag, at byte 52) and the intensity channel
+  // after it: strict depth order.
+  RewriteAsVersion(path_, 4, 52, 8);
   loaded = ReadSceneFile(path_);
   ASSERT_TRUE(loaded.ok()) << loaded.status();
   EXPECT_EQ(loaded->version, 4u);
@@ -266,14 +268,48 @@ TEST_F(SceneFileTest, RoundTripKeepsTheOrderBandAndVersionFourFilesHaveNone) {
             absl::string_view::npos);
 }
 
+TEST_F(SceneFileTest, RoundTripKeepsTheIntensityChannelAndVersionFiveFilesHaveNone) {
+  GaussianScene scene = MakeScene();
+  scene.lidar_intensity_channel = 3;
+  ASSERT_TRUE(SaveScene(scene, path_).ok());
+  int32_t stored = 0;
+  std::memcpy(&stored, ReadFileToString(path_)->data() + 56, 4);
+  EXPECT_EQ(stored, 3);
+  absl::StatusOr<SceneFile> loaded = ReadSceneFile(path_);
+  ASSERT_TRUE(loaded.ok()) << loaded.status();
+  ExpectScenesEqual(scene, loaded->scene);
+  // A version-5 file is a version-6 file without the channel (an int32 after
+  // the order band, at byte 56): no intensity.
+  RewriteAsVersion(path_, 5, 56, 4);
+  loaded = ReadSceneFile(path_);
+  ASSERT_TRUE(loaded.ok()) << loaded.status();
+  EXPECT_EQ(loaded->version, 5u);
+  scene.lidar_intensity_channel = -1;
+  ExpectScenesEqual(scene, loaded->scene);
+  // A channel the scene lacks: refused by name, in a scene to save or a file.
+  scene.lidar_intensity_channel = 4;
+  EXPECT_NE(SaveScene(scene, path_)
+                .message()
+                .find("lidar_intensity_channel: 4 is neither -1 nor a channel of the 4"),
+            absl::string_view::npos);
+  const absl::Status status = LoadEdited([](std::string& b) {
+    const int32_t channel = 9;
+    std::memcpy(b.data() + 56, &channel, 4);
+  });
+  EXPECT_NE(
+      status.message().find("header lidar_intensity_channel 9 is neither -1 nor one of the 4"),
+      absl::string_view::npos)
+      << status;
+}
+
 TEST_F(SceneFileTest, ReadsVersionThreeFilesAsSrgb) {
-  // A version-3 file is a version-5 file without the colour-encoding flag (a
-  // uint32 after the colour-gradient flag, at byte 48) and the order band
-  // after it.
+  // A version-3 file is a version-6 file without the colour-encoding flag (a
+  // uint32 after the colour-gradient flag, at byte 48) and the order band and
+  // intensity channel after it.
   GaussianScene scene = MakeScene();
   scene.colour_encoding = ColourEncoding::kLinear;
   ASSERT_TRUE(SaveScene(scene, path_).ok());
-  RewriteAsVersion(path_, 3, 48, 8);
+  RewriteAsVersion(path_, 3, 48, 12);
   absl::StatusOr<SceneFile> loaded = ReadSceneFile(path_);
   ASSERT_TRUE(loaded.ok()) << loaded.status();
   EXPECT_EQ(loaded->version, 3u);
@@ -282,15 +318,15 @@ TEST_F(SceneFileTest, ReadsVersionThreeFilesAsSrgb) {
 }
 
 TEST_F(SceneFileTest, ReadsVersionTwoFilesWithFlatColours) {
-  // A version-2 file is a version-5 file without the colour-gradient flag
-  // (a uint32 after the low-pass, at byte 44), the colour-encoding flag and
-  // the order band after it, and without gradients.
+  // A version-2 file is a version-6 file without the colour-gradient flag
+  // (a uint32 after the low-pass, at byte 44), the colour-encoding flag, the
+  // order band and the intensity channel after it, and without gradients.
   const GaussianScene scene = MakeScene();
   ASSERT_TRUE(SaveScene(scene, path_, {{"model", "analytic"}}).ok());
   uint32_t flag = 7;
   std::memcpy(&flag, ReadFileToString(path_)->data() + 44, 4);
   ASSERT_EQ(flag, 0u);
-  RewriteAsVersion(path_, 2, 44, 12);
+  RewriteAsVersion(path_, 2, 44, 16);
   absl::StatusOr<SceneFile> loaded = ReadSceneFile(path_);
   ASSERT_TRUE(loaded.ok()) << loaded.status();
   EXPECT_EQ(loaded->version, 2u);
@@ -300,13 +336,14 @@ TEST_F(SceneFileTest, ReadsVersionTwoFilesWithFlatColours) {
 TEST_F(SceneFileTest, ReadsVersionOneFilesWithTheThreeDgsLowPass) {
   // A version-1 file is a version-2 file without the low-pass in the header
   // (a float32 after time_origin_us, at byte 16 + 8 + 4 + 4 + 8 = 40), so a
-  // version-5 file without the low-pass and the two flags and the band after it.
+  // version-6 file without the low-pass and the two flags, the band and the
+  // intensity channel after it.
   const GaussianScene scene = MakeScene();
   ASSERT_TRUE(SaveScene(scene, path_, {{"model", "analytic"}}).ok());
   float stored = 0;
   std::memcpy(&stored, ReadFileToString(path_)->data() + 40, 4);
   ASSERT_EQ(stored, 0.1f);
-  RewriteAsVersion(path_, 1, 40, 16);
+  RewriteAsVersion(path_, 1, 40, 20);
 
   absl::StatusOr<SceneFile> loaded = ReadSceneFile(path_);
   ASSERT_TRUE(loaded.ok()) << loaded.status();
@@ -379,7 +416,7 @@ TEST_F(SceneFileTest, RejectsHostileCountsWithoutAllocating) {
 
   // colour_encoding follows num_gaussians, num_channels, sh_degree, time
   // origin, low-pass, colour-gradient flag; the order band follows it, then
-  // num_instances.
+  // the intensity channel and num_instances.
   status = LoadEdited([](std::string& b) {
     const uint32_t huge = 0x7FFFFFFFu;
     std::memcpy(b.data() + 16 + 8 + 4 + 4 + 8 + 4 + 4, &huge, 4);
@@ -394,7 +431,7 @@ TEST_F(SceneFileTest, RejectsHostileCountsWithoutAllocating) {
   EXPECT_NE(status.message().find("order_band nan is outside"), absl::string_view::npos) << status;
   status = LoadEdited([](std::string& b) {
     const uint32_t huge = 0x7FFFFFFFu;
-    std::memcpy(b.data() + 16 + 8 + 4 + 4 + 8 + 4 + 4 + 4 + 4, &huge, 4);
+    std::memcpy(b.data() + 16 + 8 + 4 + 4 + 8 + 4 + 4 + 4 + 4 + 4, &huge, 4);
   });
   EXPECT_EQ(status.code(), absl::StatusCode::kInvalidArgument);
   EXPECT_NE(status.message().find("num_instances"), absl::string_view::npos) << status;

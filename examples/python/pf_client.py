@@ -280,7 +280,7 @@ def main():
                "meanRgb": mean_rgb, "services": services}
 
     # 4. The LiDAR sweeps: beams x columns range images, range in metres
-    # where hit is 1.
+    # and the scene's LiDAR intensity where hit is 1.
     if len(views.lidars):
         summary["lidars"] = []
         for lidar in views.lidars:
@@ -289,11 +289,13 @@ def main():
             pixels = image.get_pixels(oiio.FLOAT)
             hits = pixels[:, :, names.index("hit")] > 0.5
             ranges = sorted(pixels[:, :, names.index("range")][hits].tolist())
+            intensities = sorted(pixels[:, :, names.index("intensity")][hits].tolist())
             summary["lidars"].append({
                 "name": lidar.name, "view": json_format.MessageToDict(lidar),
                 "beams": image.spec().height, "columns": image.spec().width,
                 "returns": len(ranges),
-                "medianRangeM": ranges[len(ranges) // 2] if ranges else None})
+                "medianRangeM": ranges[len(ranges) // 2] if ranges else None,
+                "medianIntensity": intensities[len(intensities) // 2] if ranges else None})
     print(json.dumps(summary))
 
 
