@@ -13,7 +13,7 @@ namespace {
 // A sweep at `timestamp_us` of rings across a flat road (z = 0): points every
 // 2.5 cm in x from 0 to 20 m, rings at y = 0, 1, ..., 4 m; intensity 10 before
 // x = 10 m and 50 after (a painted band).
-LidarSweepData Road(int64_t timestamp_us) {
+LidarSweepData RoadSweep(int64_t timestamp_us) {
   LidarSweepData sweep;
   sweep.timestamp_us = timestamp_us;
   for (int ring = 0; ring <= 4; ++ring) {
@@ -41,8 +41,8 @@ GaussianScene Gaussians(const std::vector<Vec3>& means, const std::vector<uint32
 float Intensity(const GaussianScene& scene, size_t i) { return scene.features[4 * i + 3]; }
 
 TEST(LidarIntensity, AGaussianTakesTheReturnsAroundItAndTheCoarseGridsBetweenRings) {
-  const LidarSweepData road = Road(0);
-  LidarSweepData unknown = Road(0);  // No intensities: left out.
+  const LidarSweepData road = RoadSweep(0);
+  LidarSweepData unknown = RoadSweep(0);  // No intensities: left out.
   unknown.intensities.clear();
   GaussianScene scene = Gaussians({{3, 2, 0},      // On a ring, in the first band.
                                    {15, 1, 0.05},  // On a ring, in the second, 5 cm up.
@@ -82,7 +82,7 @@ TEST(LidarIntensity, AnActorsReturnsGoToItsGaussiansInItsCanonicalFrame) {
   track.id = "car";
   track.boxes.push_back({0, {3, 2, 0.75}, {2, 2, 1.5}, Quat{}});
   track.boxes.push_back({1000000, {13, 2, 0.75}, {2, 2, 1.5}, Quat{}});
-  LidarSweepData sweep = Road(1000000);
+  LidarSweepData sweep = RoadSweep(1000000);
   for (int i = 0; i <= 20; ++i) {
     for (int k = 0; k <= 10; ++k) {
       sweep.points.insert(sweep.points.end(),
