@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include "engine/render/lidar_testing.h"
+
 namespace pf {
 namespace {
 
@@ -155,13 +157,7 @@ TEST(LidarEval, OneHeadsSweepIsMeasuredPerBeamAndItsDropsCounted) {
 TEST(LidarEval, TheIntensityIsMeasuredAgainstTheBestConstant) {
   // The wall with an intensity channel of 10 + 5 y, as the sweep recorded.
   GaussianScene wall = Wall();
-  std::vector<float> features(4 * wall.size());
-  for (size_t i = 0; i < wall.size(); ++i) {
-    features[4 * i + 3] = 10 + 5 * wall.means[3 * i + 1];
-  }
-  wall.num_channels = 4;
-  wall.features = std::move(features);
-  wall.lidar_intensity_channel = 3;
+  testing::AddIntensityChannel(&wall, [&](size_t i) { return 10 + 5 * wall.means[3 * i + 1]; });
   absl::StatusOr<LidarSweepFigures> figures =
       EvaluateLidarRender(wall, Sweep(0), {ForwardCamera()});
   ASSERT_TRUE(figures.ok()) << figures.status();

@@ -8,6 +8,8 @@
 #include <cmath>
 #include <vector>
 
+#include "engine/render/lidar_testing.h"
+
 namespace pf {
 namespace {
 
@@ -118,15 +120,10 @@ TEST(LidarRender, AReturnsIntensityIsTheChannelOfTheWallItHits) {
   // The room with a fourth channel, the intensity: 10 and 20 on the walls at
   // x = +6 and -6, 30 and 40 at y = +4 and -4.
   GaussianScene room = Room(6, 4);
-  std::vector<float> features(4 * room.size());
-  for (size_t i = 0; i < room.size(); ++i) {
-    for (int c = 0; c < 3; ++c) features[4 * i + c] = room.features[3 * i + c];
+  testing::AddIntensityChannel(&room, [&](size_t i) {
     const float x = room.means[3 * i], y = room.means[3 * i + 1];
-    features[4 * i + 3] = std::abs(x) > 5.99f ? (x > 0 ? 10.f : 20.f) : (y > 0 ? 30.f : 40.f);
-  }
-  room.num_channels = 4;
-  room.features = std::move(features);
-  room.lidar_intensity_channel = 3;
+    return std::abs(x) > 5.99f ? (x > 0 ? 10.f : 20.f) : (y > 0 ? 30.f : 40.f);
+  });
   const std::vector<LidarRay> rays = SpinningRays();
   absl::StatusOr<std::vector<LidarReturn>> returns = RenderLidarRays(room, rays, {});
   ASSERT_TRUE(returns.ok()) << returns.status();

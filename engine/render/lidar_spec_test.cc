@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "common/file_util.h"
+#include "engine/render/lidar_testing.h"
 #include "tests/test_util.h"
 
 namespace pf {
@@ -158,14 +159,7 @@ TEST(LidarSpec, ASweepIsTheCylinderInTheRangeImageAndThePointRecord) {
 TEST(LidarSpec, TheIntensityChannelIsWrittenToBothFiles) {
   // The cylinder with a fourth channel, 5 + the disc's height, as its intensity.
   GaussianScene scene = Cylinder();
-  std::vector<float> features(4 * scene.size());
-  for (size_t i = 0; i < scene.size(); ++i) {
-    for (int c = 0; c < 3; ++c) features[4 * i + c] = scene.features[3 * i + c];
-    features[4 * i + 3] = 5 + scene.means[3 * i + 2];
-  }
-  scene.num_channels = 4;
-  scene.features = std::move(features);
-  scene.lidar_intensity_channel = 3;
+  testing::AddIntensityChannel(&scene, [&](size_t i) { return 5 + scene.means[3 * i + 2]; });
   const LidarSpec spec = SixteenBeams();
   absl::StatusOr<RenderedSweep> sweep = RenderLidarSweep(scene, spec, LidarSweepPose{});
   ASSERT_TRUE(sweep.ok()) << sweep.status();
