@@ -39,6 +39,7 @@ constexpr char kEvalUsage[] =
     "usage: pf eval CLIP.json --out DIR [--model analytic|pixel-aligned] [--ns N --nd N] "
     "[--fusion softmax|average|no-depth] [--lifespan] [--refine N] [--splat-sigma S] "
     "[--low-pass PX2] [--order-band B] [--hidden-band PX] [--no-ground-fill] [--no-facades] "
+    "[--no-ego-layer] "
     "[--device cpu|cuda[:N]] [--optimize-steps N [--optimize-seconds S]] "
     "[--allow-outside-paths] [--views VIEWS.json --truth TRUTH_DIR] "
     "[--lane-shift D1,D2,... --lane-shift-time-us T] (pf eval --help for more)";
@@ -69,10 +70,16 @@ the two nearest forward-warped into the target with the clip's depth maps or
 LiDAR (completed by IP-Basic), holes filled from the other frame, then from
 the nearest pixel. Moving actors are warped as if they stood still.
 
+The ego vehicle's body, where the reconstruction finds one in a camera's
+CONTEXT frames (the scene's ego layer; --no-ego-layer: none), is drawn over
+every render of that camera, as the frames show it; "egoBody" in report.json
+gives each such camera's share of pixels on the body. Pixels of a camera's
+own ego mask (Camera.egoMask) are left out of every figure.
+
 reconstruction flags (as pf reconstruct):
   --model analytic|pixel-aligned  --ns N --nd N  --fusion softmax|average|no-depth
   --lifespan  --refine N  --splat-sigma S  --low-pass PX2  --order-band B  --hidden-band PX
-  --no-ground-fill  --no-facades  --colour gradients|flat  --working-space srgb|linear
+  --no-ground-fill  --no-facades  --no-ego-layer  --colour gradients|flat  --working-space srgb|linear
   --completion nearest|ip-basic
   --device cpu|cuda[:N]  --allow-outside-paths
 

@@ -58,7 +58,7 @@ commands:
   reconstruct CLIP.json --out SCENE [--model analytic|pixel-aligned] [--ns N --nd N]
         [--fusion softmax|average|no-depth] [--lifespan] [--refine N] [--splat-sigma S]
         [--low-pass PX2] [--order-band B] [--hidden-band PX] [--no-ground-fill] [--no-facades]
-        [--device cpu|cuda[:N]]
+        [--no-ego-layer] [--device cpu|cuda[:N]]
         [--colour gradients|flat] [--working-space srgb|linear] [--completion nearest|ip-basic]
         [--optimize-steps N [--optimize-seconds S]] [--allow-outside-paths]
         check the clip as validate does, build a Gaussian scene from its CONTEXT frames
@@ -91,7 +91,7 @@ the token in PF_TOKEN):
          [--device D] [TUNING] --cameras VIEWS.json [--out DIR --wait] [--outputs LIST]
         submit a render job (of a clip: reconstructed first unless cached);
         TUNING: [--refine N] [--splat-sigma S] [--low-pass PX2] [--order-band B] [--hidden-band PX]
-        [--no-ground-fill] [--no-facades] [--colour gradients|flat] [--completion M]
+        [--no-ground-fill] [--no-facades] [--no-ego-layer] [--colour gradients|flat] [--completion M]
         [--working-space srgb|linear], as pf reconstruct's (unset: the worker's
         defaults; a scene made with other values is another scene);
         --wait waits and downloads every output file into DIR

@@ -1,7 +1,7 @@
 // pf reconstruct CLIP.json --out SCENE [--model analytic|pixel-aligned]
 //                [--ns N --nd N] [--fusion softmax|average|no-depth]
 //                [--lifespan] [--refine N] [--splat-sigma S] [--low-pass PX2] [--order-band B]
-//                [--hidden-band PX] [--no-ground-fill] [--no-facades]
+//                [--hidden-band PX] [--no-ground-fill] [--no-facades] [--no-ego-layer]
 //                [--device cpu|cuda[:N]] [--colour gradients|flat]
 //                [--working-space srgb|linear]
 //                [--optimize-steps N [--optimize-seconds S]] [--allow-outside-paths]
@@ -32,7 +32,7 @@ constexpr char kReconstructUsage[] =
     "usage: pf reconstruct CLIP.json --out SCENE [--model analytic|pixel-aligned] "
     "[--ns N --nd N] [--fusion softmax|average|no-depth] [--lifespan] [--refine N] "
     "[--splat-sigma S] [--low-pass PX2] [--order-band B] [--hidden-band PX] [--no-ground-fill] "
-    "[--no-facades] "
+    "[--no-facades] [--no-ego-layer] "
     "[--device cpu|cuda[:N]] [--colour gradients|flat] [--working-space srgb|linear] "
     "[--completion nearest|ip-basic] [--optimize-steps N [--optimize-seconds S]] "
     "[--allow-outside-paths]";

@@ -101,6 +101,13 @@ int Info(const std::string& path) {
                 per_owner[k + 1], track.boxes.size(), static_cast<long long>(begin),
                 static_cast<long long>(end), Seconds(end - begin).c_str());
   }
+  std::printf("ego layers:   %zu\n", scene.ego_layers.size());
+  for (const EgoLayer& layer : scene.ego_layers) {
+    size_t on = 0;
+    for (uint8_t m : layer.mask) on += m != 0;
+    std::printf("  %-12s %dx%d, %.1f %% of the pixels on the body\n", layer.camera_id.c_str(),
+                layer.width, layer.height, 100.0 * double(on) / double(layer.mask.size()));
+  }
   for (const auto& [key, value] : opened->metadata) {
     std::printf("metadata:     %s = %s\n", key.c_str(), value.c_str());
   }
@@ -129,6 +136,12 @@ int Export(const CommandLine& cl) {
   std::printf("wrote %s: %zu gaussians, sh degree %d, instances placed at %lld us\n", out.c_str(),
               opened->scene.size(), std::max(opened->scene.sh_degree, 0),
               static_cast<long long>(options.timestamp_us.value_or(opened->scene.time_origin_us)));
+  if (!opened->scene.ego_layers.empty()) {
+    std::printf(
+        "note: the scene's %zu ego layers (the ego body per camera) have no place in a "
+        "PLY and are left out\n",
+        opened->scene.ego_layers.size());
+  }
   return kExitOk;
 }
 

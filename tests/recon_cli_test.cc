@@ -543,8 +543,9 @@ int64_t MagentaGaussians(const GaussianScene& scene) {
 
 // A camera's ego mask (Camera.ego_mask): the front camera's bottom 24 rows
 // are painted magenta in every frame, as a hood would be. Without a mask
-// the hood becomes part of the scene; with one it is neither lifted, nor
-// fused, nor fitted, and eval leaves it out of its figures.
+// (and without the ego layer) the hood becomes part of the scene; the ego
+// layer finds it; with a mask it is neither lifted, nor fused, nor fitted,
+// and eval leaves it out of its figures.
 TEST_F(ReconCli, AnEgoMaskKeepsTheHoodOutOfTheSceneAndTheFigures) {
   constexpr int kW = 192, kH = 144, kHoodRows = 24;
   const std::string hood_dir = *dir_ + "/hood";
@@ -575,20 +576,41 @@ TEST_F(ReconCli, AnEgoMaskKeepsTheHoodOutOfTheSceneAndTheFigures) {
   }
   std::ofstream(hood_dir + "/masked.json") << clip.dump();
 
-  auto reconstruct = [&](const std::string& manifest) {
+  auto reconstruct = [&](const std::string& manifest, std::vector<std::string> extra = {}) {
     const std::string out = hood_dir + "/" + manifest + ".pfscene";
-    const CommandResult result =
-        RunCommand({Pf(), "reconstruct", hood_dir + "/" + manifest, "--out", out, "--ns", "2000"});
+    std::vector<std::string> argv = {Pf(),   "reconstruct", hood_dir + "/" + manifest, "--out", out,
+                                     "--ns", "2000"};
+    argv.insert(argv.end(), extra.begin(), extra.end());
+    const CommandResult result = RunCommand(argv);
     EXPECT_EQ(result.exit_code, 0) << result.err;
     absl::StatusOr<SceneFile> file = ReadSceneFile(out);
     EXPECT_TRUE(file.ok()) << file.status();
     return file.ok() ? file->scene : GaussianScene{};
   };
-  // Measured: 843 magenta Gaussians without the mask, 0 with it.
-  EXPECT_GT(MagentaGaussians(reconstruct("unmasked.json")), 200);
+  // Without the mask and without the ego layer the hood is lifted: measured
+  // 843 magenta Gaussians. The ego layer finds it by itself (ego_body.h).
+  const int lifted = MagentaGaussians(reconstruct("unmasked.json", {"--no-ego-layer"}));
+  EXPECT_GT(lifted, 200);
+  const GaussianScene found = reconstruct("unmasked.json");
+  EXPECT_LT(MagentaGaussians(found), lifted / 4);
+  ASSERT_EQ(found.ego_layers.size(), 1u);
+  EXPECT_EQ(found.ego_layers[0].camera_id, "cam_front");
+  int hood = 0, above = 0;
+  for (int y = 0; y < kH; ++y) {
+    for (int x = 0; x < kW; ++x) {
+      if (!found.ego_layers[0].on_body(size_t(y) * kW + x)) continue;
+      (y >= kH - kHoodRows ? hood : above) += 1;
+    }
+  }
+  // Measured: 88 % of the hood, and 538 pixels above it (its edge, grown).
+  EXPECT_GT(hood, 0.8 * kW * kHoodRows);
+  EXPECT_LT(above, 0.2 * kW * kHoodRows);
+  // With the mask: none of it in the scene; the layer is the mask.
   const GaussianScene masked = reconstruct("masked.json");
   ASSERT_GT(masked.size(), 0u);
   EXPECT_EQ(MagentaGaussians(masked), 0);
+  ASSERT_EQ(masked.ego_layers.size(), 1u);
+  EXPECT_EQ(masked.ego_layers[0].camera_id, "cam_front");
 
   const std::string out = hood_dir + "/eval";
   const CommandResult eval = RunCommand({Pf(), "eval", hood_dir + "/masked.json", "--out", out});

@@ -332,6 +332,54 @@ TEST(PfHelp, EveryCommandAnswersHelp) {
   EXPECT_EQ(render.out.find("reconstruct CLIP.json"), std::string::npos) << render.out;
 }
 
+// A scene with an ego layer for "cam" (the body in the bottom 8 rows):
+// every view of the camera shows it on top, whatever the pose; pf scene
+// info lists it and a PLY export says it is left out.
+TEST_F(RenderCliTest, TheEgoLayerIsDrawnOverEveryViewOfItsCamera) {
+  GaussianScene scene = MakeScene();
+  EgoLayer body{"cam", 64, 48, std::vector<uint8_t>(64 * 48, 0),
+                std::vector<float>(64 * 48 * 3, 0.f)};
+  for (size_t i = 40 * 64; i < body.mask.size(); ++i) {
+    body.mask[i] = 1;
+    body.rgb[i * 3] = 0.25f, body.rgb[i * 3 + 1] = 0.5f, body.rgb[i * 3 + 2] = 0.75f;
+  }
+  scene.ego_layers = {body};
+  const std::string with_body = dir_ + "/body.pfscene";
+  ASSERT_TRUE(SaveScene(scene, with_body, {{"model", "hand-made"}}).ok());
+  const testing::CommandResult result = Render("", dir_ + "/body", {}, with_body);
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  ASSERT_EQ(Render("", dir_ + "/plain").exit_code, 0);
+  for (const char* view : {"t0", "cam_1000000"}) {
+    const Exr e = ReadExr(absl::StrCat(dir_, "/body/", view, ".exr"));
+    const Exr plain = ReadExr(absl::StrCat(dir_, "/plain/", view, ".exr"));
+    for (int x : {0, 31, 63}) {
+      // Row 44 is on the body: its colour (scene-linear in the EXR), opaque,
+      // no depth, no instance, the colour in the first feature channels.
+      EXPECT_NEAR(e.at(x, 44, "R"), SrgbToLinear(0.25f), 2e-3) << view << " " << x;
+      EXPECT_NEAR(e.at(x, 44, "B"), SrgbToLinear(0.75f), 2e-3) << view << " " << x;
+      EXPECT_EQ(e.at(x, 44, "A"), 1.f);
+      EXPECT_EQ(e.at(x, 44, "Z"), 0.f);
+      EXPECT_EQ(e.instance[44 * 64 + x], 0u);
+      EXPECT_NEAR(e.at(x, 44, "feature.001"), 0.5f, 1e-3);
+      EXPECT_EQ(e.at(x, 44, "feature.003"), 0.f);
+      // Row 24 is the scene's, as without the layer.
+      for (const char* channel : {"R", "A", "Z", "feature.003"}) {
+        EXPECT_EQ(e.at(x, 24, channel), plain.at(x, 24, channel)) << view << " " << channel;
+      }
+    }
+  }
+  const testing::CommandResult info = RunCommand({BinPath("pf"), "scene", "info", with_body});
+  ASSERT_EQ(info.exit_code, 0) << info.err;
+  EXPECT_NE(
+      info.out.find("ego layers:   1\n  cam          64x48, 16.7 % of the pixels on the body"),
+      std::string::npos)
+      << info.out;
+  const testing::CommandResult exported =
+      RunCommand({BinPath("pf"), "scene", "export", with_body, "--ply", dir_ + "/body.ply"});
+  ASSERT_EQ(exported.exit_code, 0) << exported.err;
+  EXPECT_NE(exported.out.find("note: the scene's 1 ego layers"), std::string::npos) << exported.out;
+}
+
 TEST_F(RenderCliTest, SceneInfoAndPlyExportRenderTheSame) {
   testing::CommandResult info = RunCommand({BinPath("pf"), "scene", "info", scene_});
   ASSERT_EQ(info.exit_code, 0) << info.err;

@@ -229,10 +229,10 @@ absl::StatusOr<ReconstructOutput> RunReconstruction(
   absl::StatusOr<LoadedClip> loaded = LoadClip(manifest);
   if (!loaded.ok()) return StatusWithContext(loaded.status(), "clip.manifest");
   RETURN_IF_ERROR(CheckAllFilesUploaded(loaded->clip, work.clip()));
-  ASSIGN_OR_RETURN(const ReconInputs inputs, LoadReconInputs(*loaded, options));
+  ASSIGN_OR_RETURN(ReconInputs inputs, LoadReconInputs(*loaded, options));
   RETURN_IF_ERROR(CheckCancelled(cancelled, "before reconstructing"));
   stages.Begin("depth");
-  ASSIGN_OR_RETURN(const ReconResult result, ReconstructInputs(inputs, options));
+  ASSIGN_OR_RETURN(const ReconResult result, ReconstructInputs(std::move(inputs), options));
   if (work.max_gaussians() > 0 &&
       static_cast<int64_t>(result.scene.size()) > work.max_gaussians()) {
     return absl::InvalidArgumentError(

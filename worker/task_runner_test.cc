@@ -317,6 +317,7 @@ TEST(ReconOptionsFromProto, TuningFieldsMapOntoTheOptions) {
   EXPECT_EQ(options->hidden_band_px, defaults.hidden_band_px);
   EXPECT_TRUE(options->completion.ground_fill);
   EXPECT_TRUE(options->completion.facades);
+  EXPECT_TRUE(options->ego_layer);
   EXPECT_FALSE(options->colour_gradients.has_value());  // The model's default.
   EXPECT_TRUE(ColourGradientsFor(*options));
   EXPECT_FALSE(options->fusion.lifespan);  // Off unless asked for.
@@ -369,6 +370,7 @@ TEST(ReconOptionsFromProto, TuningFieldsMapOntoTheOptions) {
   proto.set_hidden_band(0);
   proto.set_no_ground_fill(true);
   proto.set_no_facades(true);
+  proto.set_no_ego_layer(true);
   options = ReconOptionsFromProto(proto);
   ASSERT_TRUE(options.ok()) << options.status();
   EXPECT_EQ(options->refinement.iterations, 0);
@@ -377,6 +379,7 @@ TEST(ReconOptionsFromProto, TuningFieldsMapOntoTheOptions) {
   EXPECT_EQ(options->hidden_band_px, 0);
   EXPECT_FALSE(options->completion.ground_fill);
   EXPECT_FALSE(options->completion.facades);
+  EXPECT_FALSE(options->ego_layer);
 
   proto.set_refine(65);
   EXPECT_EQ(ReconOptionsFromProto(proto).status().message(),

@@ -39,7 +39,8 @@ constexpr char kRemoteRenderUsage[] =
     "[--outputs rgb,alpha,depth,features,instance,filled] [--chunk-frames N] [--request-id ID]\n"
     "       pf --server ADDR render --clip CLIP.json [--model M] [--ns N] [--nd N] [--fusion F] "
     "[--lifespan] [--device D] [--refine N] [--splat-sigma S] [--low-pass PX2] "
-    "[--hidden-band PX] [--no-ground-fill] [--no-facades] [--colour gradients|flat] "
+    "[--hidden-band PX] [--no-ground-fill] [--no-facades] [--no-ego-layer] [--colour "
+    "gradients|flat] "
     "[--completion nearest|ip-basic] [--working-space srgb|linear] --cameras "
     "VIEWS.json [--out DIR --wait] "
     "...";

@@ -41,7 +41,7 @@ constexpr char kRemoteSceneUsage[] =
     "[--ns N] [--nd N] [--fusion F] [--lifespan] [--device D] [--request-id ID]\n"
     "         [--refine N] [--splat-sigma S] [--low-pass PX2] [--hidden-band PX] "
     "[--no-ground-fill] "
-    "[--no-facades] [--colour gradients|flat] [--completion nearest|ip-basic] "
+    "[--no-facades] [--no-ego-layer] [--colour gradients|flat] [--completion nearest|ip-basic] "
     "[--working-space srgb|linear]\n"
     "       pf --server ADDR scene get NAME | list [--page-size N [--page-token T]] | delete "
     "NAME\n"

@@ -19,6 +19,7 @@
 #include "engine/recon/recon_options.h"
 #include "engine/recon/scene_graph.h"
 #include "engine/render/device_renderer.h"
+#include "engine/render/ego_layer.h"
 #include "engine/render/hole_fill.h"
 #include "engine/render/rasterizer.h"
 #include "pointforward/v1/clip.pb.h"
@@ -261,6 +262,7 @@ absl::Status EvaluateExtraViews(const GaussianScene& scene, const DeviceRenderer
     absl::StatusOr<RenderBuffers> buffers =
         renderer.Render(view.camera, view.timestamp_us, checked.edits, render_options);
     if (!buffers.ok()) return StatusWithContext(buffers.status(), what);
+    if (const EgoLayer* ego = FindEgoLayer(scene, view.camera_id)) ApplyEgoLayer(*ego, &*buffers);
     const double render_seconds = SecondsSince(start);
     // With actor edits the tracked boxes are not where the movers are.
     std::vector<uint8_t> mask;
@@ -478,6 +480,9 @@ std::string EvalReportJson(const EvalReport& report) {
   j["groundFill"] = report.options.completion.ground_fill;
   j["groundPixels"] = report.stats.ground_pixels;
   j["facades"] = report.options.completion.facades;
+  j["egoLayer"] = report.options.ego_layer;
+  j["egoBody"] = nlohmann::json::object();
+  for (const auto& [camera, share] : report.stats.ego_body) j["egoBody"][camera] = share;
   j["facadePixels"] = report.stats.facade_pixels;
   j["splatSigma"] = report.options.decoder.tangent_sigma;
   j["lowPass"] = report.options.decoder.low_pass;
@@ -694,6 +699,7 @@ absl::StatusOr<EvalReport> EvaluateClip(const LoadedClip& loaded, const ReconOpt
     ASSIGN_OR_RETURN(RenderBuffers buffers,
                      renderer->Render({target.camera, target.world_from_camera},
                                       target.timestamp_us, {}, render_options));
+    if (const EgoLayer* ego = FindEgoLayer(scene, target.camera_id)) ApplyEgoLayer(*ego, &buffers);
     const double render_seconds = SecondsSince(start);
     const auto metrics_start = std::chrono::steady_clock::now();
     const std::vector<uint8_t> mask =

@@ -25,13 +25,13 @@ double Now() {
 
 }  // namespace
 
-Pipeline::Pipeline(const ReconInputs& inputs, const ReconOptions& options)
-    : inputs_(inputs), options_(options) {
+Pipeline::Pipeline(ReconInputs inputs, const ReconOptions& options)
+    : inputs_(std::move(inputs)), options_(options) {
   start_ = last_ = Now();
-  const std::vector<ContextView>& views = inputs.views;
+  const std::vector<ContextView>& views = inputs_.views;
   ReconStats& stats = result_.stats;
   stats.views = static_cast<int>(views.size());
-  stats.instances = static_cast<int>(inputs.tracks.size());
+  stats.instances = static_cast<int>(inputs_.tracks.size());
   const int width = views.empty() ? 0 : views[0].width();
   const int height = views.empty() ? 0 : views[0].height();
   stats.static_per_view = options.static_per_view > 0
@@ -68,6 +68,19 @@ absl::Status Pipeline::Depth() {
   stats.facade_pixels = depth_stage_.facade_pixels;
   depths_ = AddFarLayer(views, &depth_stage_);
   stats.views_without_depth = depth_stage_.views_without_depth;
+  std::string ego;
+  if (options_.ego_layer) {
+    ego_layers_ = DetectEgoBodies(views, depths_, inputs_.tracks);
+    SetEgoMasks(ego_layers_, &inputs_.views);
+    for (const EgoLayer& layer : ego_layers_) {
+      size_t on = 0;
+      for (uint8_t m : layer.mask) on += m != 0;
+      stats.ego_body.emplace_back(layer.camera_id, double(on) / double(layer.mask.size()));
+      absl::StrAppend(&ego, ego.empty() ? "" : ", ", layer.camera_id, " ",
+                      absl::SixDigits(100.0 * stats.ego_body.back().second), " %");
+    }
+    ego = ego.empty() ? ", no ego body found" : absl::StrCat(", ego body: ", ego);
+  }
   const std::string sparse_maps =
       depth_stage_.sparse_map_views > 0
           ? absl::StrCat(", ", depth_stage_.sparse_map_views, " from sparse depth maps, completed")
@@ -76,7 +89,7 @@ absl::Status Pipeline::Depth() {
        absl::StrCat(" (", stats.lidar_views, " of ", num_views, " views from LiDAR", sparse_maps,
                     ", ", stats.ground_pixels, " pixels from the ground plane, ",
                     stats.facade_pixels, " from facades, far layer radius ",
-                    depth_stage_.far.radius, " m)"));
+                    depth_stage_.far.radius, " m", ego, ")"));
   if (stats.views_without_depth > 0) {
     ReportNote(options_.progress, ReconStage::kDepth,
                absl::StrCat("warning: ", stats.views_without_depth, " of ", num_views,
@@ -287,6 +300,7 @@ absl::Status Pipeline::Optimize() {
 }
 
 ReconResult Pipeline::Finish() {
+  result_.scene.ego_layers = std::move(ego_layers_);
   result_.stats.colour_gradients = result_.scene.has_colour_gradients();
   result_.stats.total_seconds = Now() - start_;
   return std::move(result_);

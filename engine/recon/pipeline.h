@@ -22,6 +22,7 @@
 
 #include "absl/status/status.h"
 #include "engine/recon/depth_stage.h"
+#include "engine/recon/ego_body.h"
 #include "engine/recon/query_lifting.h"
 #include "engine/recon/query_set.h"
 #include "engine/recon/recon_stages.h"
@@ -31,10 +32,11 @@ namespace pf {
 
 class Pipeline {
  public:
-  // `inputs` and `options` must outlive the pipeline.
-  Pipeline(const ReconInputs& inputs, const ReconOptions& options);
+  // `options` must outlive the pipeline.
+  Pipeline(ReconInputs inputs, const ReconOptions& options);
 
-  // 1. Each view's depth: measured (map or LiDAR, completed), facades, the far layer.
+  // 1. Each view's depth: measured (map or LiDAR, completed), facades, the far
+  // layer; then the ego body of each camera (ego_body.h, when options.ego_layer).
   absl::Status Depth();
   // 2. Every pixel lifted to the world.
   void Lift();
@@ -60,7 +62,7 @@ class Pipeline {
  private:
   void Done(ReconStage stage, std::string detail = "");
 
-  const ReconInputs& inputs_;
+  ReconInputs inputs_;
   const ReconOptions& options_;
   ReconResult result_;
   double start_ = 0, last_ = 0;
@@ -69,6 +71,7 @@ class Pipeline {
   std::vector<LiftedView> lifted_;
   std::vector<std::vector<uint32_t>> owners_;
   std::vector<std::vector<uint8_t>> masks_;
+  std::vector<EgoLayer> ego_layers_;
   QuerySet queries_;
   FusedQueries fused_;
 };

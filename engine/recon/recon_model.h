@@ -26,7 +26,7 @@ class ReconModel {
   virtual bool DefaultColourGradients() const = 0;
 
   // Reconstructs `inputs` (at least one view; options.device usable).
-  virtual absl::StatusOr<ReconResult> Reconstruct(const ReconInputs& inputs,
+  virtual absl::StatusOr<ReconResult> Reconstruct(ReconInputs inputs,
                                                   const ReconOptions& options) const = 0;
 };
 

@@ -83,6 +83,7 @@ std::vector<Spec> MakeTable() {
       Number("optimize_seconds", Kind::kReal, 0, false, 604800, " seconds", Key::kHexWhenSet));
   table.push_back(
       Number("order_band", Kind::kReal, 0, false, kMaxOrderBand, "", Key::kHexFloatWhenSet));
+  table.push_back(Switch("no_ego_layer", Key::kOffWhenSet, "ego_layer"));
   Spec device{"device", Kind::kDevice};
   device.choices = {"cpu"};
   device.fills_default = true;

@@ -88,6 +88,7 @@ TEST(ReconOptionTable, FlagsFillTheMessage) {
                                                                "--hidden-band",
                                                                "0",
                                                                "--no-facades",
+                                                               "--no-ego-layer",
                                                                "--colour",
                                                                "flat",
                                                                "--completion",
@@ -110,6 +111,7 @@ TEST(ReconOptionTable, FlagsFillTheMessage) {
   ASSERT_TRUE(proto->has_hidden_band());
   EXPECT_EQ(proto->hidden_band(), 0);
   EXPECT_TRUE(proto->no_facades());
+  EXPECT_TRUE(proto->no_ego_layer());
   EXPECT_FALSE(proto->no_ground_fill());
   EXPECT_EQ(proto->colour(), "flat");
   EXPECT_EQ(proto->completion(), "ip-basic");
@@ -177,6 +179,7 @@ TEST(ReconOptionTable, TheCacheKeyListsTheDefaultsAlwaysAndTheRestWhenSet) {
   tuned.set_hidden_band(0);
   tuned.set_no_ground_fill(true);
   tuned.set_no_facades(true);
+  tuned.set_no_ego_layer(true);
   tuned.set_colour("flat");
   tuned.set_completion("ip-basic");
   tuned.set_working_space("linear");
@@ -194,7 +197,8 @@ TEST(ReconOptionTable, TheCacheKeyListsTheDefaultsAlwaysAndTheRestWhenSet) {
                                                 {"facades", "off"},
                                                 {"colour", "flat"},
                                                 {"completion", "ip-basic"},
-                                                {"working_space", "linear"}}));
+                                                {"working_space", "linear"},
+                                                {"ego_layer", "off"}}));
 }
 
 }  // namespace

@@ -28,6 +28,7 @@ absl::StatusOr<ReconOptions> ReconOptionsFromProto(const v1::ReconstructionOptio
   options.fusion.lifespan = p.lifespan();
   options.completion.ground_fill = !p.no_ground_fill();
   options.completion.facades = !p.no_facades();
+  options.ego_layer = !p.no_ego_layer();
   options.completion.method = p.completion() == "ip-basic" ? CompletionOptions::Method::kIpBasic
                                                            : CompletionOptions::Method::kNearest;
   if (p.has_refine()) options.refinement.iterations = p.refine();

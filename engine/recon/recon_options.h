@@ -15,6 +15,8 @@
 //                                    ablation)
 //   --no-facades                     LiDAR depth without facades above the top beam
 //                                    (facade_depth.h; ablation)
+//   --no-ego-layer                   find no ego body: lift every pixel, no ego layer
+//                                    in the scene (ego_body.h)
 //   --completion nearest|ip-basic    how LiDAR depth is completed (default nearest)
 //   --refine N                       colour-fit iterations (default 24; 0 off)
 //   --splat-sigma S                  Gaussian std-dev per query spacing (default 0.65)

@@ -34,13 +34,12 @@ absl::StatusOr<ReconInputs> LoadReconInputs(const LoadedClip& loaded, const Reco
   return inputs;
 }
 
-absl::StatusOr<ReconResult> ReconstructInputs(const ReconInputs& inputs,
-                                              const ReconOptions& options) {
+absl::StatusOr<ReconResult> ReconstructInputs(ReconInputs inputs, const ReconOptions& options) {
   if (inputs.views.empty()) return absl::InvalidArgumentError("no context views");
   const ReconModel* model = FindReconModel(options.model);
   if (model == nullptr) return CheckReconModel(options.model, "model");
   RETURN_IF_ERROR(CheckComputeDevice(options.device, "device"));
-  return model->Reconstruct(inputs, options);
+  return model->Reconstruct(std::move(inputs), options);
 }
 
 bool ColourGradientsFor(const ReconOptions& options) {
@@ -54,7 +53,7 @@ absl::StatusOr<ReconResult> Reconstruct(const LoadedClip& loaded, const ReconOpt
   ASSIGN_OR_RETURN(ReconInputs inputs, LoadReconInputs(loaded, options));
   const double load_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  ASSIGN_OR_RETURN(ReconResult result, ReconstructInputs(inputs, options));
+  ASSIGN_OR_RETURN(ReconResult result, ReconstructInputs(std::move(inputs), options));
   result.stats.stage_seconds.insert(result.stats.stage_seconds.begin(),
                                     {ReconStageName(ReconStage::kLoad), load_seconds});
   result.stats.total_seconds += load_seconds;

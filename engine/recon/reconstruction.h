@@ -51,6 +51,9 @@ struct ReconOptions {
   bool skip_covered = true;
   bool fill_static_budget = true;  // SamplingOptions::fill_static_budget.
   int hidden_band_px = 256;        // SamplingOptions::behind_band_px (0: none).
+  // Find each camera's ego body after the depth stage, lift none of it, and
+  // keep it as the scene's ego layer (ego_body.h).
+  bool ego_layer = true;
   bool allow_outside_paths = false;
   // The working colour encoding: the context images are decoded to it, and
   // the scene's colours are in it (GaussianScene::colour_encoding). Renders
@@ -80,6 +83,8 @@ struct ReconStats {
   int64_t ground_pixels = 0;    // Completed views' pixels set by the ground fill (view_depth.h).
   int64_t facade_pixels = 0;    // Completed views' pixels set by facades (facade_depth.h).
   int views_without_depth = 0;  // No depth map, no LiDAR point: all far layer.
+  // Each ego layer's camera and the share of its pixels on the body.
+  std::vector<std::pair<std::string, double>> ego_body;
   // The scene's colours carry gradients (the fit ran with them; a fit over
   // the memory bound with them falls back to flat colours).
   bool colour_gradients = false;
@@ -129,8 +134,7 @@ absl::StatusOr<ReconInputs> LoadReconInputs(const LoadedClip& loaded, const Reco
 // Reconstructs decoded inputs with the model options.model names.
 // INVALID_ARGUMENT for no views or an unknown model; FAILED_PRECONDITION for
 // a device this process cannot use.
-absl::StatusOr<ReconResult> ReconstructInputs(const ReconInputs& inputs,
-                                              const ReconOptions& options);
+absl::StatusOr<ReconResult> ReconstructInputs(ReconInputs inputs, const ReconOptions& options);
 
 // Returns whether the colour fit of `options` gives the Gaussians colour
 // gradients (ReconOptions::colour_gradients, else the model's default).

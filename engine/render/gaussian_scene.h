@@ -66,6 +66,19 @@ inline constexpr float kMaxLowPass = 4.f;
 // The largest GaussianScene::order_band ValidateScene accepts.
 inline constexpr float kMaxOrderBand = 0.05f;
 
+// The ego vehicle's body as one rig camera sees it: fixed in that camera's
+// image whatever the pose, so renders of the camera show it on top of the
+// scene (ApplyEgoLayer, ego_layer.h).
+struct EgoLayer {
+  std::string camera_id;  // The clip's Camera.id.
+  int width = 0, height = 0;
+  std::vector<uint8_t> mask;  // [H, W] 1 on the body.
+  // [H, W, 3] the body's colour, in the scene's colour_encoding; 0 off it.
+  std::vector<float> rgb;
+
+  bool on_body(size_t pixel) const { return mask[pixel] != 0; }
+};
+
 struct GaussianScene {
   int num_channels = 3;               // N_c, 3..256.
   int sh_degree = -1;                 // -1: no SH; 0..3 otherwise.
@@ -98,6 +111,8 @@ struct GaussianScene {
   std::vector<float> colour_gradients;
 
   std::vector<InstanceTrack> instances;
+  // At most one per camera id; empty for scenes of other sources.
+  std::vector<EgoLayer> ego_layers;
 
   size_t size() const { return opacity_logits.size(); }
   int sh_coeffs() const { return sh_degree < 0 ? 0 : (sh_degree + 1) * (sh_degree + 1); }

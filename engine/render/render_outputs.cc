@@ -20,6 +20,7 @@
 #include "common/version.h"
 #include "engine/image/image_io.h"
 #include "engine/image/oiio_write.h"
+#include "engine/render/ego_layer.h"
 #include "engine/render/hole_fill.h"
 
 #ifndef PF_SOFTWARE_VERSION
@@ -423,8 +424,11 @@ absl::StatusOr<ManifestEntry> RenderViewToFiles(
   options.depth = channels.depth;
   options.instance = channels.instance;
   const auto start = std::chrono::steady_clock::now();
-  ASSIGN_OR_RETURN(const RenderBuffers buffers,
+  ASSIGN_OR_RETURN(RenderBuffers buffers,
                    renderer.Render(view.camera, view.timestamp_us, edits, options));
+  if (const EgoLayer* ego = FindEgoLayer(renderer.scene(), view.camera_id)) {
+    ApplyEgoLayer(*ego, &buffers);
+  }
   ManifestEntry entry;
   entry.render_ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();

@@ -174,8 +174,9 @@ std::string ManifestLidarsJson(const std::vector<LidarManifestEntry>& lidars);
 
 // Renders `view` of the renderer's scene with `edits` and the layers of
 // `channels`, and writes <view.name>.exr and <view.name>.png into `out_dir`:
-// the step `pf render` and a worker's render chunk take for every view.
-// Returns the view's manifest entry (with its render time); errors are the
+// the step `pf render` and a worker's render chunk take for every view. A
+// view of a camera with an ego layer in the scene shows the body on top
+// (ApplyEgoLayer). Returns the view's manifest entry (with its render time); errors are the
 // render's or the writes'.
 absl::StatusOr<ManifestEntry> RenderViewToFiles(
     const DeviceRenderer& renderer, const RenderView& view, const std::vector<ActorEdit>& edits,

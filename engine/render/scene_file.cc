@@ -15,6 +15,7 @@
 #include "common/file_util.h"
 #include "common/hash.h"
 #include "common/status_macros.h"
+#include "engine/render/ego_layer.h"
 
 namespace pf {
 namespace {
@@ -27,6 +28,23 @@ static_assert(std::endian::native == std::endian::little,
 constexpr size_t kPrefixBytes = 16;    // magic, version, header size
 constexpr size_t kChecksumBytes = 32;  // SHA-256 trailer
 constexpr uint32_t kMaxHeaderBytes = 64u << 20;
+constexpr int64_t kMaxEgoLayerPixels = int64_t{1} << 28;
+
+uint64_t BodyPixels(const EgoLayer& layer) {
+  uint64_t on = 0;
+  for (uint8_t m : layer.mask) on += m != 0;
+  return on;
+}
+
+// The colours of the body pixels, in pixel order.
+std::vector<float> BodyColours(const EgoLayer& layer) {
+  std::vector<float> colours;
+  for (size_t i = 0; i < layer.mask.size(); ++i) {
+    if (!layer.mask[i]) continue;
+    colours.insert(colours.end(), &layer.rgb[i * 3], &layer.rgb[i * 3 + 3]);
+  }
+  return colours;
+}
 constexpr int kMaxChannels = 256;
 
 // Appends plain values to a header buffer.
@@ -152,6 +170,16 @@ absl::Status ValidateScene(const GaussianScene& scene) {
         absl::StrCat("lidar_intensity_channel: ", scene.lidar_intensity_channel,
                      " is neither -1 nor a channel of the ", scene.num_channels));
   }
+  for (size_t k = 0; k < scene.ego_layers.size(); ++k) {
+    const std::string where = absl::StrCat("ego_layers[", k, "]");
+    RETURN_IF_ERROR(CheckEgoLayer(scene.ego_layers[k], where));
+    for (size_t other = 0; other < k; ++other) {
+      if (scene.ego_layers[other].camera_id == scene.ego_layers[k].camera_id) {
+        return absl::InvalidArgumentError(absl::StrCat(where, ": a second layer of camera '",
+                                                       scene.ego_layers[k].camera_id, "'"));
+      }
+    }
+  }
   const size_t n = scene.size();
   RETURN_IF_ERROR(CheckArraySize("means", scene.means.size(), 3 * n));
   RETURN_IF_ERROR(CheckArraySize("rotations", scene.rotations.size(), 4 * n));
@@ -241,6 +269,13 @@ absl::Status SaveScene(const GaussianScene& scene, const std::string& path,
     header.PutString(key);
     header.PutString(value);
   }
+  header.Put<uint32_t>(static_cast<uint32_t>(scene.ego_layers.size()));
+  for (const EgoLayer& layer : scene.ego_layers) {
+    header.PutString(layer.camera_id);
+    header.Put<int32_t>(layer.width);
+    header.Put<int32_t>(layer.height);
+    header.Put<uint64_t>(BodyPixels(layer));
+  }
   if (header.bytes().size() > kMaxHeaderBytes) {
     return absl::InvalidArgumentError(absl::StrCat(
         path, ": scene header of ", header.bytes().size(), " bytes exceeds ", kMaxHeaderBytes));
@@ -268,6 +303,11 @@ absl::Status SaveScene(const GaussianScene& scene, const std::string& path,
     write(header.bytes().data(), header.bytes().size());
     for (const auto& array : Arrays(scene)) {
       write(array.data, array.per_gaussian * scene.size() * 4);
+    }
+    for (const EgoLayer& layer : scene.ego_layers) {
+      write(layer.mask.data(), layer.mask.size());
+      const std::vector<float> colours = BodyColours(layer);
+      write(colours.data(), colours.size() * 4);
     }
     const std::array<uint8_t, 32> digest = hasher.Finish();
     out.write(reinterpret_cast<const char*>(digest.data()), digest.size());
@@ -410,12 +450,42 @@ absl::StatusOr<SceneFile> ReadSceneFile(const std::string& path) {
     RETURN_IF_ERROR(header.GetString("metadata.value", &value));
     result.metadata[key] = std::move(value);
   }
+  // Version 7 added the ego layers: id, width, height, body pixels.
+  std::vector<uint64_t> body_pixels;
+  uint64_t ego_bytes = 0;
+  if (version >= 7) {
+    uint32_t num_layers = 0;
+    RETURN_IF_ERROR(header.Get("num_ego_layers", &num_layers));
+    if (num_layers > header.remaining() / 20) {
+      return invalid("header num_ego_layers ", num_layers, " does not fit in the header");
+    }
+    scene.ego_layers.resize(num_layers);
+    for (EgoLayer& layer : scene.ego_layers) {
+      uint64_t body = 0;
+      RETURN_IF_ERROR(header.GetString("ego_layer.camera_id", &layer.camera_id));
+      RETURN_IF_ERROR(header.Get("ego_layer.width", &layer.width));
+      RETURN_IF_ERROR(header.Get("ego_layer.height", &layer.height));
+      RETURN_IF_ERROR(header.Get("ego_layer.body_pixels", &body));
+      const int64_t pixels = int64_t{layer.width} * layer.height;
+      if (layer.width <= 0 || layer.height <= 0 || pixels > kMaxEgoLayerPixels ||
+          body > static_cast<uint64_t>(pixels)) {
+        return invalid("header ego layer '", layer.camera_id, "': ", layer.width, "x", layer.height,
+                       " with ", body, " body pixels");
+      }
+      body_pixels.push_back(body);
+      ego_bytes += static_cast<uint64_t>(pixels) + 12 * body;
+    }
+  }
   if (header.remaining() != 0) {
     return invalid("header has ", header.remaining(), " unexpected trailing bytes");
   }
 
   // Sizes: the arrays and the checksum must fill the rest of the file exactly.
-  const uint64_t available = file_size - kPrefixBytes - header_bytes;
+  if (ego_bytes > file_size - kPrefixBytes - header_bytes) {
+    return invalid("truncated: the header promises ego layers of ", ego_bytes,
+                   " bytes but the file has ", file_size, " bytes");
+  }
+  const uint64_t available = file_size - kPrefixBytes - header_bytes - ego_bytes;
   const uint64_t bytes_per_gaussian =
       4 * FloatsPerGaussian(num_channels, scene.sh_coeffs(), colour_gradients != 0);
   if (num_gaussians > available / bytes_per_gaussian) {
@@ -424,7 +494,7 @@ absl::StatusOr<SceneFile> ReadSceneFile(const std::string& path) {
                    " + ", kChecksumBytes, " bytes) but the file has ", file_size, " bytes");
   }
   const uint64_t expected_size =
-      kPrefixBytes + header_bytes + num_gaussians * bytes_per_gaussian + kChecksumBytes;
+      kPrefixBytes + header_bytes + num_gaussians * bytes_per_gaussian + ego_bytes + kChecksumBytes;
   if (expected_size != file_size) {
     return invalid(expected_size > file_size ? "truncated" : "trailing data", ": expected ",
                    expected_size, " bytes from the header, the file has ", file_size, " bytes");
@@ -438,6 +508,31 @@ absl::StatusOr<SceneFile> ReadSceneFile(const std::string& path) {
     in.read(static_cast<char*>(array.data), static_cast<std::streamsize>(bytes));
     if (!in) return invalid("read error in array '", array.name, "'");
     hasher.Update(array.data, bytes);
+  }
+  for (size_t k = 0; k < scene.ego_layers.size(); ++k) {
+    EgoLayer& layer = scene.ego_layers[k];
+    layer.mask.resize(static_cast<size_t>(layer.width) * layer.height);
+    in.read(reinterpret_cast<char*>(layer.mask.data()),
+            static_cast<std::streamsize>(layer.mask.size()));
+    std::vector<float> colours(body_pixels[k] * 3);
+    in.read(reinterpret_cast<char*>(colours.data()),
+            static_cast<std::streamsize>(colours.size() * 4));
+    if (!in) return invalid("read error in ego layer '", layer.camera_id, "'");
+    hasher.Update(layer.mask.data(), layer.mask.size());
+    hasher.Update(colours.data(), colours.size() * 4);
+    uint64_t on = 0;
+    for (uint8_t& m : layer.mask) on += m = m != 0;
+    if (on != body_pixels[k]) {
+      return invalid("ego layer '", layer.camera_id, "': its mask has ", on,
+                     " body pixels, the header says ", body_pixels[k]);
+    }
+    layer.rgb.assign(layer.mask.size() * 3, 0.f);
+    size_t next = 0;
+    for (size_t i = 0; i < layer.mask.size(); ++i) {
+      if (!layer.mask[i]) continue;
+      for (int c = 0; c < 3; ++c) layer.rgb[i * 3 + c] = colours[next * 3 + c];
+      ++next;
+    }
   }
   std::array<uint8_t, kChecksumBytes> stored{};
   in.read(reinterpret_cast<char*>(stored.data()), kChecksumBytes);

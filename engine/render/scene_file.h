@@ -30,8 +30,11 @@ inline constexpr char kSceneFileMagic[8] = {'P', 'F', 'S', 'C', 'E', 'N', 'E', '
 // (GaussianScene::colour_encoding, 0 sRGB, 1 linear) after that flag; older
 // files read as sRGB. Version 5 added the order band after the encoding
 // (older files: 0). Version 6 added the LiDAR intensity channel after the
-// order band (int32, -1 none; older files: -1).
-inline constexpr uint32_t kSceneFileVersion = 6;
+// order band (int32, -1 none; older files: -1). Version 7 added the ego
+// layers (GaussianScene::ego_layers): their ids, sizes and body pixel counts
+// after the metadata, their masks and colours after the arrays (older files:
+// none).
+inline constexpr uint32_t kSceneFileVersion = 7;
 inline constexpr uint32_t kOldestSceneFileVersion = 1;
 
 // A scene as stored: the Gaussians, free-form metadata (e.g. "model",
@@ -47,7 +50,8 @@ struct SceneFile {
 // Returns INVALID_ARGUMENT naming the array or field when `scene` is not
 // self-consistent: array sizes that do not match size(), num_channels outside
 // [1, 256], sh_degree outside [-1, 3], low_pass outside [0, kMaxLowPass],
-// a LiDAR intensity channel other than -1 or one of the channels,
+// a LiDAR intensity channel other than -1 or one of the channels, an ego
+// layer that fails CheckEgoLayer or repeats a camera,
 // colour gradients with SH or non-finite,
 // an owner beyond the instances, an
 // instance without boxes or with unsorted boxes, non-finite values in the

@@ -167,12 +167,12 @@ TEST_F(SceneFileTest, RejectsWrongMagic) {
 }
 
 TEST_F(SceneFileTest, RejectsWrongVersion) {
-  for (int version : {0, 7}) {
+  for (int version : {0, 8}) {
     const absl::Status status =
         LoadEdited([version](std::string& b) { b[8] = static_cast<char>(version); });
     EXPECT_EQ(status.code(), absl::StatusCode::kInvalidArgument);
     EXPECT_NE(status.message().find(absl::StrCat("unsupported scene file version ", version,
-                                                 " (this build reads versions 1 to 6)")),
+                                                 " (this build reads versions 1 to 7)")),
               absl::string_view::npos)
         << status;
   }
@@ -186,6 +186,10 @@ void RewriteAsVersion(const std::string& path, uint32_t version, size_t offset, 
   uint32_t header_bytes = 0;
   std::memcpy(&header_bytes, bytes.data() + 12, 4);
   header_bytes -= static_cast<uint32_t>(drop);
+  if (version < 7) {  // Nor the ego layer count (0) at the header's end.
+    bytes.erase(16 + header_bytes - 4, 4);
+    header_bytes -= 4;
+  }
   std::memcpy(bytes.data() + 8, &version, 4);
   std::memcpy(bytes.data() + 12, &header_bytes, 4);
   Sha256 hasher;
@@ -206,7 +210,7 @@ TEST_F(SceneFileTest, RoundTripWithColourGradients) {
   ASSERT_TRUE(SaveScene(scene, path_).ok());
   absl::StatusOr<SceneFile> loaded = ReadSceneFile(path_);
   ASSERT_TRUE(loaded.ok()) << loaded.status();
-  EXPECT_EQ(loaded->version, 6u);
+  EXPECT_EQ(loaded->version, 7u);
   ExpectScenesEqual(scene, loaded->scene);
   // 6 more floats per Gaussian than the same scene with flat colours.
   const std::string flat_path = path_ + ".flat";
@@ -300,6 +304,68 @@ TEST_F(SceneFileTest, RoundTripKeepsTheIntensityChannelAndVersionFiveFilesHaveNo
       status.message().find("header lidar_intensity_channel 9 is neither -1 nor one of the 4"),
       absl::string_view::npos)
       << status;
+}
+
+// Two layers: the body in the bottom rows of a 6x4 camera and one pixel of a
+// 3x2 one.
+std::vector<EgoLayer> TwoEgoLayers() {
+  EgoLayer front{"front", 6, 4, std::vector<uint8_t>(24, 0), std::vector<float>(72, 0.f)};
+  for (size_t i = 12; i < 24; ++i) {
+    front.mask[i] = 1;
+    for (int c = 0; c < 3; ++c) front.rgb[i * 3 + c] = 0.01f * float(i) + 0.1f * float(c);
+  }
+  EgoLayer back{"back", 3, 2, {0, 0, 0, 0, 1, 0}, std::vector<float>(18, 0.f)};
+  back.rgb[12] = 0.5f, back.rgb[13] = 0.25f, back.rgb[14] = 1.5f;
+  return {front, back};
+}
+
+TEST_F(SceneFileTest, RoundTripKeepsTheEgoLayersAndVersionSixFilesHaveNone) {
+  GaussianScene scene = MakeScene();
+  scene.ego_layers = TwoEgoLayers();
+  ASSERT_TRUE(SaveScene(scene, path_).ok());
+  absl::StatusOr<SceneFile> loaded = ReadSceneFile(path_);
+  ASSERT_TRUE(loaded.ok()) << loaded.status();
+  EXPECT_EQ(loaded->version, 7u);
+  ExpectScenesEqual(scene, loaded->scene);
+  ASSERT_EQ(loaded->scene.ego_layers.size(), 2u);
+  for (size_t k = 0; k < 2; ++k) {
+    EXPECT_EQ(loaded->scene.ego_layers[k].camera_id, scene.ego_layers[k].camera_id);
+    EXPECT_EQ(loaded->scene.ego_layers[k].width, scene.ego_layers[k].width);
+    EXPECT_EQ(loaded->scene.ego_layers[k].height, scene.ego_layers[k].height);
+    EXPECT_EQ(loaded->scene.ego_layers[k].mask, scene.ego_layers[k].mask);
+    EXPECT_EQ(loaded->scene.ego_layers[k].rgb, scene.ego_layers[k].rgb);
+  }
+  // The size: header, arrays, then per layer the mask and 3 floats per body pixel.
+  std::string bytes = *ReadFileToString(path_);
+  uint32_t header_bytes = 0;
+  std::memcpy(&header_bytes, bytes.data() + 12, 4);
+  EXPECT_EQ(bytes.size(), 16 + header_bytes + 7 * 30 * 4 + (24 + 12 * 12) + (6 + 12 * 1) + 32);
+  // A mask that disagrees with the header's body count: refused by name.
+  const size_t back_mask = 16 + header_bytes + 7 * 30 * 4 + 24 + 12 * 12;
+  bytes[back_mask] = 1;
+  ASSERT_TRUE(WriteFileAtomic(path_, bytes).ok());
+  const absl::Status status = ReadSceneFile(path_).status();
+  EXPECT_NE(
+      status.message().find("ego layer 'back': its mask has 2 body pixels, the header says 1"),
+      absl::string_view::npos)
+      << status;
+  // Two layers of one camera, or a mask of the wrong size: refused on save.
+  scene.ego_layers[1].camera_id = "front";
+  EXPECT_NE(
+      SaveScene(scene, path_).message().find("ego_layers[1]: a second layer of camera 'front'"),
+      absl::string_view::npos);
+  scene.ego_layers = TwoEgoLayers();
+  scene.ego_layers[0].mask.pop_back();
+  EXPECT_NE(SaveScene(scene, path_).message().find("ego_layers[0]: mask or colour is not 6x4"),
+            absl::string_view::npos);
+  // A version-6 file has no layers.
+  scene.ego_layers.clear();
+  ASSERT_TRUE(SaveScene(scene, path_).ok());
+  RewriteAsVersion(path_, 6, 0, 0);
+  loaded = ReadSceneFile(path_);
+  ASSERT_TRUE(loaded.ok()) << loaded.status();
+  EXPECT_EQ(loaded->version, 6u);
+  EXPECT_TRUE(loaded->scene.ego_layers.empty());
 }
 
 TEST_F(SceneFileTest, ReadsVersionThreeFilesAsSrgb) {

@@ -12,9 +12,9 @@ class AnalyticModel : public ReconModel {
  public:
   bool DefaultColourGradients() const override { return true; }
 
-  absl::StatusOr<ReconResult> Reconstruct(const ReconInputs& inputs,
+  absl::StatusOr<ReconResult> Reconstruct(ReconInputs inputs,
                                           const ReconOptions& options) const override {
-    Pipeline p(inputs, options);
+    Pipeline p(std::move(inputs), options);
     RETURN_IF_ERROR(p.Depth());
     p.Lift();
     p.SceneGraph();

@@ -14,9 +14,9 @@ class PixelAlignedModel : public ReconModel {
  public:
   bool DefaultColourGradients() const override { return false; }
 
-  absl::StatusOr<ReconResult> Reconstruct(const ReconInputs& inputs,
+  absl::StatusOr<ReconResult> Reconstruct(ReconInputs inputs,
                                           const ReconOptions& options) const override {
-    Pipeline p(inputs, options);
+    Pipeline p(std::move(inputs), options);
     RETURN_IF_ERROR(p.Depth());
     p.Lift();
     p.SceneGraph();

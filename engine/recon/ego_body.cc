@@ -1,0 +1,397 @@
+#include "engine/recon/ego_body.h"
+
+#include <algorithm>
+#include <cmath>
+#include <deque>
+#include <limits>
+#include <map>
+#include <string>
+
+#include "common/thread_pool.h"
+#include "engine/recon/scene_graph.h"
+
+namespace pf {
+namespace {
+
+constexpr float kNoEvidence = -1.f;  // A difference that could not be measured.
+constexpr int kBoxRadius = 2;        // The 5x5 mean, in blocks.
+constexpr int kCloseBlocks = 2;
+constexpr int kDenseRadius = 3;  // 7x7 blocks.
+constexpr float kDenseShare = 0.5f;
+constexpr float kSaturated = 0.9f;
+constexpr double kHiddenRatio = 0.9;  // A surface nearer than this share hides the point.
+
+// A view reduced to blocks of `step` x `step` pixels (their mean colour).
+struct Reduced {
+  int width = 0, height = 0, step = 1;
+  std::vector<float> rgb;  // [h, w, 3]
+
+  // Bilinear colour at continuous block coordinates; false outside.
+  bool Sample(double x, double y, float out[3]) const {
+    x -= 0.5;
+    y -= 0.5;
+    if (x < 0 || y < 0 || x > width - 1 || y > height - 1) return false;
+    const int x0 = std::min(static_cast<int>(x), width - 2 < 0 ? 0 : width - 2);
+    const int y0 = std::min(static_cast<int>(y), height - 2 < 0 ? 0 : height - 2);
+    const int x1 = std::min(x0 + 1, width - 1), y1 = std::min(y0 + 1, height - 1);
+    const float fx = static_cast<float>(x - x0), fy = static_cast<float>(y - y0);
+    for (int c = 0; c < 3; ++c) {
+      const float top = rgb[(size_t(y0) * width + x0) * 3 + c] * (1 - fx) +
+                        rgb[(size_t(y0) * width + x1) * 3 + c] * fx;
+      const float bottom = rgb[(size_t(y1) * width + x0) * 3 + c] * (1 - fx) +
+                           rgb[(size_t(y1) * width + x1) * 3 + c] * fx;
+      out[c] = top * (1 - fy) + bottom * fy;
+    }
+    return true;
+  }
+};
+
+Reduced Reduce(const ImageF& image, int step) {
+  Reduced r;
+  r.step = step;
+  r.width = image.width / step;
+  r.height = image.height / step;
+  r.rgb.assign(size_t(r.width) * r.height * 3, 0.f);
+  const float norm = 1.f / float(step * step);
+  for (int y = 0; y < r.height; ++y) {
+    for (int x = 0; x < r.width; ++x) {
+      for (int dy = 0; dy < step; ++dy) {
+        for (int dx = 0; dx < step; ++dx) {
+          for (int c = 0; c < 3; ++c) {
+            r.rgb[(size_t(y) * r.width + x) * 3 + c] +=
+                image.at(x * step + dx, y * step + dy, c) * norm;
+          }
+        }
+      }
+    }
+  }
+  return r;
+}
+
+// Every channel of block `i` near the top of the range: a clipped surface
+// (an overexposed road) looks the same from anywhere and says nothing (nor
+// does a white body).
+bool Saturated(const Reduced& r, size_t i) {
+  return r.rgb[i * 3] >= kSaturated && r.rgb[i * 3 + 1] >= kSaturated &&
+         r.rgb[i * 3 + 2] >= kSaturated;
+}
+
+float MeanAbs(const float* a, const float* b) {
+  return (std::abs(a[0] - b[0]) + std::abs(a[1] - b[1]) + std::abs(a[2] - b[2])) / 3.f;
+}
+
+// The mean of the measured (>= 0) values in the (2r+1)^2 window; kNoEvidence
+// where the window has none.
+std::vector<float> BoxMean(const std::vector<float>& v, int w, int h, int r) {
+  std::vector<float> out(v.size(), kNoEvidence);
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      float sum = 0;
+      int n = 0;
+      for (int yy = std::max(0, y - r); yy <= std::min(h - 1, y + r); ++yy) {
+        for (int xx = std::max(0, x - r); xx <= std::min(w - 1, x + r); ++xx) {
+          const float d = v[size_t(yy) * w + xx];
+          if (d >= 0) sum += d, ++n;
+        }
+      }
+      if (n > 0) out[size_t(y) * w + x] = sum / float(n);
+    }
+  }
+  return out;
+}
+
+// One frame of a pair: its view, depth, box mask and reduced image.
+struct PairFrame {
+  const ContextView* view;
+  const ViewDepth* depth;
+  const std::vector<uint8_t>* dynamic;
+  const Reduced* reduced;
+};
+
+// |colour of `from` at each block - colour of `to` where the block's centre,
+// lifted with `from`'s depth, lands|; kNoEvidence on the far layer or in a
+// box (in either frame), outside `to`, where `to` sees a nearer surface there
+// (hidden), or on a block that is the same in both frames (`still`, the same
+// grid) and not near-white: the body may hide the point there.
+std::vector<float> MovedDifference(const PairFrame& f, const PairFrame& t,
+                                   const std::vector<uint8_t>& still) {
+  const ContextView& from = *f.view;
+  const ViewDepth& depth = *f.depth;
+  const std::vector<uint8_t>& dynamic = *f.dynamic;
+  const Reduced& rf = *f.reduced;
+  const ContextView& to = *t.view;
+  const Reduced& rt = *t.reduced;
+  std::vector<float> diff(size_t(rf.width) * rf.height, kNoEvidence);
+  const Rigid to_from_world = to.world_from_camera.Inverse();
+  DefaultThreadPool().ParallelFor(0, rf.height, 8, [&](int64_t y0, int64_t y1) {
+    for (int y = static_cast<int>(y0); y < y1; ++y) {
+      for (int x = 0; x < rf.width; ++x) {
+        const int px = x * rf.step + rf.step / 2, py = y * rf.step + rf.step / 2;
+        const size_t i = size_t(py) * from.width() + px;
+        if (depth.is_far(i) || (!dynamic.empty() && dynamic[i] != 0)) continue;
+        Vec3 world;
+        if (!LiftPixel(from.camera, from.world_from_camera, px + 0.5, py + 0.5, depth.depth[i],
+                       &world)) {
+          continue;
+        }
+        double u, v;
+        const Vec3 in_to = to_from_world * world;
+        if (!to.camera.Project(in_to, &u, &v)) continue;
+        float seen[3];
+        if (!rt.Sample(u / rt.step, v / rt.step, seen)) continue;
+        const int tx = std::clamp(static_cast<int>(u), 0, to.width() - 1);
+        const int ty = std::clamp(static_cast<int>(v), 0, to.height() - 1);
+        const size_t j = size_t(ty) * to.width() + tx;
+        if (!t.dynamic->empty() && (*t.dynamic)[j] != 0) continue;
+        if (!t.depth->is_far(j) && t.depth->depth[j] < kHiddenRatio * in_to.z) continue;
+        const size_t landing =
+            size_t(std::clamp(static_cast<int>(v / rt.step), 0, rt.height - 1)) * rt.width +
+            std::clamp(static_cast<int>(u / rt.step), 0, rt.width - 1);
+        if (still[landing] && !Saturated(rt, landing)) continue;
+        diff[size_t(y) * rf.width + x] = MeanAbs(&rf.rgb[(size_t(y) * rf.width + x) * 3], seen);
+      }
+    }
+  });
+  return diff;
+}
+
+// 4-connected flood over `open` cells from `seeds`; returns the cells reached.
+std::vector<uint8_t> Flood(const std::vector<uint8_t>& open, const std::vector<size_t>& seeds,
+                           int w, int h) {
+  std::vector<uint8_t> reached(open.size(), 0);
+  std::deque<size_t> queue;
+  for (size_t s : seeds) {
+    if (open[s] && !reached[s]) reached[s] = 1, queue.push_back(s);
+  }
+  while (!queue.empty()) {
+    const size_t i = queue.front();
+    queue.pop_front();
+    const int x = static_cast<int>(i % w), y = static_cast<int>(i / w);
+    const size_t next[4] = {x > 0 ? i - 1 : i, x + 1 < w ? i + 1 : i, y > 0 ? i - w : i,
+                            y + 1 < h ? i + w : i};
+    for (size_t n : next) {
+      if (open[n] && !reached[n]) reached[n] = 1, queue.push_back(n);
+    }
+  }
+  return reached;
+}
+
+// Dilation (grow) or erosion (!grow) by a square of radius r.
+std::vector<uint8_t> Morph(const std::vector<uint8_t>& m, int w, int h, int r, bool grow) {
+  std::vector<uint8_t> out(m.size());
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      bool any = false, all = true;
+      for (int yy = std::max(0, y - r); yy <= std::min(h - 1, y + r); ++yy) {
+        for (int xx = std::max(0, x - r); xx <= std::min(w - 1, x + r); ++xx) {
+          const bool on = m[size_t(yy) * w + xx] != 0;
+          any |= on;
+          all &= on;
+        }
+      }
+      out[size_t(y) * w + x] = grow ? any : all;
+    }
+  }
+  return out;
+}
+
+// The body from the still blocks connected to the bottom row (`reached`)
+// and the blocks the world's motion does not explain (`moved`).
+std::vector<uint8_t> BodyShape(const std::vector<uint8_t>& reached,
+                               const std::vector<uint8_t>& moved,
+                               const std::vector<uint8_t>& still_here, int w, int h) {
+  // Evidence counts where it is dense: most blocks of the 7x7 around.
+  std::vector<float> evidence(size_t(w) * h);
+  for (size_t i = 0; i < evidence.size(); ++i) evidence[i] = reached[i] && moved[i] ? 1.f : 0.f;
+  evidence = BoxMean(evidence, w, h, kDenseRadius);
+  std::vector<uint8_t> body(size_t(w) * h);
+  for (size_t i = 0; i < body.size(); ++i) {
+    body[i] = reached[i] && moved[i] && evidence[i] >= kDenseShare;
+  }
+  body = Morph(Morph(body, w, h, kCloseBlocks, true), w, h, kCloseBlocks, false);
+  // The 5x5 mean stops short of the body's edge: grow into blocks still alone.
+  const std::vector<uint8_t> grown = Morph(body, w, h, kBoxRadius, true);
+  for (size_t i = 0; i < body.size(); ++i) body[i] = body[i] || (grown[i] && still_here[i]);
+  // The body rises from the bottom: a column whose span below its topmost
+  // body block is three quarters body is body all the way down.
+  for (int x = 0; x < w; ++x) {
+    int top = -1, on = 0;
+    for (int y = 0; y < h; ++y) {
+      if (body[size_t(y) * w + x]) {
+        if (top < 0) top = y;
+        ++on;
+      }
+    }
+    if (top >= 0 && on * 4 >= 3 * (h - top)) {
+      for (int y = top; y < h; ++y) body[size_t(y) * w + x] = 1;
+    }
+  }
+  // A gap in a row between two stretches of body, narrower than a fifth of
+  // the image, is body too (a window of reflections in a hood).
+  for (int y = 0; y < h; ++y) {
+    int last = -1;
+    for (int x = 0; x < w; ++x) {
+      if (!body[size_t(y) * w + x]) continue;
+      if (last >= 0 && x - last > 1 && (x - last - 1) * 5 <= w) {
+        for (int g = last + 1; g < x; ++g) body[size_t(y) * w + g] = 1;
+      }
+      last = x;
+    }
+  }
+  // Holes: what the top, left and right borders cannot reach.
+  std::vector<uint8_t> open(body.size());
+  for (size_t i = 0; i < body.size(); ++i) open[i] = !body[i];
+  std::vector<size_t> border;
+  for (int x = 0; x < w; ++x) border.push_back(size_t(x));
+  for (int y = 0; y < h; ++y)
+    border.push_back(size_t(y) * w), border.push_back(size_t(y) * w + w - 1);
+  const std::vector<uint8_t> outside = Flood(open, border, w, h);
+  for (size_t i = 0; i < body.size(); ++i) body[i] = !outside[i];
+  // Only what reaches the bottom row: the body is where the car is.
+  std::vector<size_t> bottom;
+  for (int x = 0; x < w; ++x) bottom.push_back(size_t(h - 1) * w + x);
+  return Flood(body, bottom, w, h);
+}
+
+// The body's blocks of one camera's views (indices into `views`).
+std::vector<uint8_t> BodyBlocks(const std::vector<ContextView>& views,
+                                const std::vector<ViewDepth>& depths,
+                                const std::vector<InstanceTrack>& tracks,
+                                const std::vector<size_t>& members, const EgoBodyOptions& options,
+                                int* w_out, int* h_out, int* step_out) {
+  const ContextView& first = views[members[0]];
+  const int step = std::max(1, (first.width() + options.work_width - 1) / options.work_width);
+  std::map<size_t, Reduced> reduced;
+  std::map<size_t, std::vector<uint8_t>> dynamic;
+  auto prepare = [&](size_t v) {
+    if (reduced.count(v)) return;
+    reduced[v] = Reduce(views[v].rgb, step);
+    dynamic[v] = DynamicMask(views[v].camera, views[v].world_from_camera, tracks,
+                             views[v].timestamp_us, 0.5);
+  };
+  // Each frame with the one farthest from it, when far enough.
+  std::vector<std::pair<size_t, size_t>> pairs;
+  for (size_t a : members) {
+    size_t best = a;
+    double best_d = options.min_travel_m;
+    for (size_t b : members) {
+      const double d =
+          Norm(views[a].world_from_camera.translation - views[b].world_from_camera.translation);
+      if (d >= best_d) best = b, best_d = d;
+    }
+    if (best == a) continue;
+    const std::pair<size_t, size_t> pair{std::min(a, best), std::max(a, best)};
+    if (std::find(pairs.begin(), pairs.end(), pair) == pairs.end()) pairs.push_back(pair);
+  }
+  if (pairs.empty()) return {};
+  prepare(members[0]);
+  const int w = reduced[members[0]].width, h = reduced[members[0]].height;
+  *w_out = w, *h_out = h, *step_out = step;
+  // still: by the 5x5 mean; still_here: the block alone.
+  std::vector<uint8_t> still(size_t(w) * h, 1), still_here(size_t(w) * h, 1);
+  std::vector<std::vector<float>> same(pairs.size());
+  std::vector<std::vector<uint8_t>> still_pair(pairs.size());
+  for (size_t k = 0; k < pairs.size(); ++k) {
+    const auto [a, b] = pairs[k];
+    prepare(a);
+    prepare(b);
+    same[k].resize(size_t(w) * h);
+    still_pair[k].resize(size_t(w) * h);
+    for (size_t i = 0; i < same[k].size(); ++i) {
+      same[k][i] = MeanAbs(&reduced[a].rgb[i * 3], &reduced[b].rgb[i * 3]);
+      still_pair[k][i] = same[k][i] < options.still_threshold;
+      if (!still_pair[k][i]) still_here[i] = 0;
+    }
+    same[k] = BoxMean(same[k], w, h, kBoxRadius);
+    for (size_t i = 0; i < same[k].size(); ++i) {
+      if (!(same[k][i] < options.still_threshold)) still[i] = 0;
+    }
+  }
+  std::vector<size_t> bottom;
+  for (int x = 0; x < w; ++x) bottom.push_back(size_t(h - 1) * w + x);
+  const std::vector<uint8_t> reached = Flood(still, bottom, w, h);
+  std::vector<uint8_t> moved(size_t(w) * h, 0);
+  for (size_t k = 0; k < pairs.size(); ++k) {
+    const auto [a, b] = pairs[k];
+    const PairFrame fa{&views[a], &depths[a], &dynamic[a], &reduced[a]};
+    const PairFrame fb{&views[b], &depths[b], &dynamic[b], &reduced[b]};
+    const std::vector<float> ab = BoxMean(MovedDifference(fa, fb, still_pair[k]), w, h, kBoxRadius);
+    const std::vector<float> ba = BoxMean(MovedDifference(fb, fa, still_pair[k]), w, h, kBoxRadius);
+    for (size_t i = 0; i < moved.size(); ++i) {
+      const float bar = std::max(options.moved_threshold, options.moved_ratio * same[k][i]);
+      if ((ab[i] > bar || ba[i] > bar) && !Saturated(reduced[a], i) && !Saturated(reduced[b], i)) {
+        moved[i] = 1;
+      }
+    }
+  }
+  const std::vector<uint8_t> body = BodyShape(reached, moved, still_here, w, h);
+  size_t area = 0;
+  for (uint8_t b : body) area += b;
+  if (double(area) < options.min_area * double(body.size())) return {};
+  return body;
+}
+
+}  // namespace
+
+std::vector<EgoLayer> DetectEgoBodies(const std::vector<ContextView>& views,
+                                      const std::vector<ViewDepth>& depths,
+                                      const std::vector<InstanceTrack>& tracks,
+                                      const EgoBodyOptions& options) {
+  std::vector<std::string> order;
+  std::map<std::string, std::vector<size_t>> by_camera;
+  for (size_t v = 0; v < views.size(); ++v) {
+    if (!by_camera.count(views[v].camera_id)) order.push_back(views[v].camera_id);
+    by_camera[views[v].camera_id].push_back(v);
+  }
+  std::vector<EgoLayer> layers;
+  for (const std::string& id : order) {
+    const std::vector<size_t>& members = by_camera[id];
+    const ContextView& first = views[members[0]];
+    EgoLayer layer;
+    layer.camera_id = id;
+    layer.width = first.width();
+    layer.height = first.height();
+    const size_t pixels = size_t(layer.width) * layer.height;
+    if (!first.ego.empty()) {
+      layer.mask = first.ego;
+    } else {
+      int w = 0, h = 0, step = 1;
+      const std::vector<uint8_t> blocks =
+          BodyBlocks(views, depths, tracks, members, options, &w, &h, &step);
+      if (blocks.empty()) continue;
+      layer.mask.assign(pixels, 0);
+      for (int y = 0; y < layer.height; ++y) {
+        const int by = std::min(y / step, h - 1);
+        for (int x = 0; x < layer.width; ++x) {
+          layer.mask[size_t(y) * layer.width + x] =
+              blocks[size_t(by) * w + std::min(x / step, w - 1)];
+        }
+      }
+    }
+    layer.rgb.assign(pixels * 3, 0.f);
+    const float norm = 1.f / float(members.size());
+    for (size_t v : members) {
+      if (views[v].width() != layer.width || views[v].height() != layer.height) continue;
+      const std::vector<float>& rgb = views[v].rgb.pixels;
+      for (size_t i = 0; i < pixels; ++i) {
+        if (!layer.on_body(i)) continue;
+        for (int c = 0; c < 3; ++c) layer.rgb[i * 3 + c] += rgb[i * 3 + c] * norm;
+      }
+    }
+    layers.push_back(std::move(layer));
+  }
+  return layers;
+}
+
+void SetEgoMasks(const std::vector<EgoLayer>& layers, std::vector<ContextView>* views) {
+  for (const EgoLayer& layer : layers) {
+    for (ContextView& view : *views) {
+      if (view.camera_id == layer.camera_id && view.width() == layer.width &&
+          view.height() == layer.height) {
+        view.ego = layer.mask;
+      }
+    }
+  }
+}
+
+}  // namespace pf

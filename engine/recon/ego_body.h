@@ -1,0 +1,70 @@
+// The ego vehicle's body in the context images, found from the images and
+// their depth: pixels that stay the same in a camera's frames while the rig
+// moves, where the scene behind them (the pixel's depth, lifted and seen from
+// the other frame) would have changed. The reconstruction lifts none of them
+// (ContextView::ego) and keeps them as the scene's ego layer of the camera
+// (EgoLayer, drawn over every render of it).
+//
+//   std::vector<EgoLayer> layers = DetectEgoBodies(views, depths, tracks);
+//
+// Per camera, over the pairs of its CONTEXT frames at least
+// `min_travel_m` apart (each frame with the one farthest from it), on images
+// reduced to about `work_width` pixels across (block means):
+// - still: the 5x5 mean of |frame a - frame b| at the same pixel is under
+//   `still_threshold` (sRGB-like units; every pair);
+// - moved: in either direction, the pixel lifted with its frame's depth and
+//   seen in the other frame differs by more than max(`moved_threshold`,
+//   `moved_ratio` x still) (5x5 mean; some pair). Says nothing: a pixel on
+//   the far layer or in a box (moving actors) in either frame, seen outside
+//   the other frame, hidden there (the other frame's depth is under 0.9 of
+//   the point's), seen on a block the same in both frames and not
+//   near-white (the body may hide it), or near-white itself (every channel
+//   >= 0.9 in either frame: an overexposed road, or a white body, looks the
+//   same from anywhere);
+// - the body: the still pixels connected to the image's bottom row, of those
+//   the moved ones where most (half) of the 7x7 blocks around are too (a
+//   lone block is noise: the edge of a thin line seen at two scales), closed
+//   by 2 blocks, grown by 2 blocks into blocks still on their own (not by
+//   the 5x5 mean), each column filled down from its topmost body block when
+//   at least three quarters of that span is body (the body rises from the
+//   bottom), gaps in a row between two stretches of body narrower than a
+//   fifth of the image filled, and the enclosed holes (a hole open only to
+//   the bottom row counts as enclosed); of that, the parts that reach the
+//   bottom row, kept when they hold at least `min_area` of the image.
+// A camera with a mask of its own (Camera.ego_mask) keeps it; its layer is
+// that mask. The layer's colour is the mean of the camera's CONTEXT images.
+#ifndef POINTFORWARD_ENGINE_RECON_EGO_BODY_H_
+#define POINTFORWARD_ENGINE_RECON_EGO_BODY_H_
+
+#include <vector>
+
+#include "engine/recon/context_views.h"
+#include "engine/recon/view_depth.h"
+#include "engine/render/gaussian_scene.h"
+
+namespace pf {
+
+struct EgoBodyOptions {
+  double min_travel_m = 1.0;
+  int work_width = 480;
+  float still_threshold = 0.03f;
+  float moved_threshold = 0.15f;
+  float moved_ratio = 2.f;
+  double min_area = 0.002;
+};
+
+// One layer per camera whose body was found (or that has its own mask), in
+// the order of the cameras' first views. `depths` are the views' (the depth
+// stage's, with the far layer).
+std::vector<EgoLayer> DetectEgoBodies(const std::vector<ContextView>& views,
+                                      const std::vector<ViewDepth>& depths,
+                                      const std::vector<InstanceTrack>& tracks,
+                                      const EgoBodyOptions& options = {});
+
+// Sets the ego mask of every view of a layer's camera to the layer's mask
+// (ContextView::ego).
+void SetEgoMasks(const std::vector<EgoLayer>& layers, std::vector<ContextView>* views);
+
+}  // namespace pf
+
+#endif  // POINTFORWARD_ENGINE_RECON_EGO_BODY_H_
