@@ -103,10 +103,8 @@ int Info(const std::string& path) {
   }
   std::printf("ego layers:   %zu\n", scene.ego_layers.size());
   for (const EgoLayer& layer : scene.ego_layers) {
-    size_t on = 0;
-    for (uint8_t m : layer.mask) on += m != 0;
     std::printf("  %-12s %dx%d, %.1f %% of the pixels on the body\n", layer.camera_id.c_str(),
-                layer.width, layer.height, 100.0 * double(on) / double(layer.mask.size()));
+                layer.width, layer.height, 100.0 * layer.body_share());
   }
   for (const auto& [key, value] : opened->metadata) {
     std::printf("metadata:     %s = %s\n", key.c_str(), value.c_str());

@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <deque>
-#include <limits>
 #include <map>
 #include <string>
 
@@ -155,6 +154,13 @@ std::vector<float> MovedDifference(const PairFrame& f, const PairFrame& t,
   return diff;
 }
 
+// The cells of the bottom row of a w x h grid.
+std::vector<size_t> BottomRow(int w, int h) {
+  std::vector<size_t> row;
+  for (int x = 0; x < w; ++x) row.push_back(size_t(h - 1) * w + x);
+  return row;
+}
+
 // 4-connected flood over `open` cells from `seeds`; returns the cells reached.
 std::vector<uint8_t> Flood(const std::vector<uint8_t>& open, const std::vector<size_t>& seeds,
                            int w, int h) {
@@ -248,9 +254,7 @@ std::vector<uint8_t> BodyShape(const std::vector<uint8_t>& reached,
   const std::vector<uint8_t> outside = Flood(open, border, w, h);
   for (size_t i = 0; i < body.size(); ++i) body[i] = !outside[i];
   // Only what reaches the bottom row: the body is where the car is.
-  std::vector<size_t> bottom;
-  for (int x = 0; x < w; ++x) bottom.push_back(size_t(h - 1) * w + x);
-  return Flood(body, bottom, w, h);
+  return Flood(body, BottomRow(w, h), w, h);
 }
 
 // The body's blocks of one camera's views (indices into `views`).
@@ -307,9 +311,7 @@ std::vector<uint8_t> BodyBlocks(const std::vector<ContextView>& views,
       if (!(same[k][i] < options.still_threshold)) still[i] = 0;
     }
   }
-  std::vector<size_t> bottom;
-  for (int x = 0; x < w; ++x) bottom.push_back(size_t(h - 1) * w + x);
-  const std::vector<uint8_t> reached = Flood(still, bottom, w, h);
+  const std::vector<uint8_t> reached = Flood(still, BottomRow(w, h), w, h);
   std::vector<uint8_t> moved(size_t(w) * h, 0);
   for (size_t k = 0; k < pairs.size(); ++k) {
     const auto [a, b] = pairs[k];

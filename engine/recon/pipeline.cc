@@ -73,9 +73,7 @@ absl::Status Pipeline::Depth() {
     ego_layers_ = DetectEgoBodies(views, depths_, inputs_.tracks);
     SetEgoMasks(ego_layers_, &inputs_.views);
     for (const EgoLayer& layer : ego_layers_) {
-      size_t on = 0;
-      for (uint8_t m : layer.mask) on += m != 0;
-      stats.ego_body.emplace_back(layer.camera_id, double(on) / double(layer.mask.size()));
+      stats.ego_body.emplace_back(layer.camera_id, layer.body_share());
       absl::StrAppend(&ego, ego.empty() ? "" : ", ", layer.camera_id, " ",
                       absl::SixDigits(100.0 * stats.ego_body.back().second), " %");
     }

@@ -77,6 +77,15 @@ struct EgoLayer {
   std::vector<float> rgb;
 
   bool on_body(size_t pixel) const { return mask[pixel] != 0; }
+  // How many pixels, and what share of the image, are on the body.
+  uint64_t body_pixels() const {
+    uint64_t on = 0;
+    for (uint8_t m : mask) on += m != 0;
+    return on;
+  }
+  double body_share() const {
+    return mask.empty() ? 0.0 : double(body_pixels()) / double(mask.size());
+  }
 };
 
 struct GaussianScene {

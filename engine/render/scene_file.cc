@@ -30,12 +30,6 @@ constexpr size_t kChecksumBytes = 32;  // SHA-256 trailer
 constexpr uint32_t kMaxHeaderBytes = 64u << 20;
 constexpr int64_t kMaxEgoLayerPixels = int64_t{1} << 28;
 
-uint64_t BodyPixels(const EgoLayer& layer) {
-  uint64_t on = 0;
-  for (uint8_t m : layer.mask) on += m != 0;
-  return on;
-}
-
 // The colours of the body pixels, in pixel order.
 std::vector<float> BodyColours(const EgoLayer& layer) {
   std::vector<float> colours;
@@ -274,7 +268,7 @@ absl::Status SaveScene(const GaussianScene& scene, const std::string& path,
     header.PutString(layer.camera_id);
     header.Put<int32_t>(layer.width);
     header.Put<int32_t>(layer.height);
-    header.Put<uint64_t>(BodyPixels(layer));
+    header.Put<uint64_t>(layer.body_pixels());
   }
   if (header.bytes().size() > kMaxHeaderBytes) {
     return absl::InvalidArgumentError(absl::StrCat(
