@@ -438,6 +438,20 @@ class ClipChecker {
                   camera);
       }
       CheckPose(Section::kFrames, i, at + ".worldFromCamera", frame.world_from_camera());
+      if (frame.has_rolling_shutter()) {
+        const pointforward::v1::RollingShutter& shutter = frame.rolling_shutter();
+        if (shutter.readout() == pointforward::v1::RollingShutter::READOUT_UNSPECIFIED) {
+          add(".rollingShutter.readout",
+              "missing (say which line is read first: TOP_TO_BOTTOM, BOTTOM_TO_TOP, "
+              "LEFT_TO_RIGHT or RIGHT_TO_LEFT)");
+        }
+        if (shutter.readout_us() < 0) {
+          add(".rollingShutter.readoutUs",
+              absl::StrCat("must be >= 0 (first line to last), got ", shutter.readout_us()));
+        }
+        CheckPose(Section::kFrames, i, at + ".rollingShutter.worldFromCameraEnd",
+                  shutter.world_from_camera_end());
+      }
       if (!frame.depth().empty()) {
         CheckPath(Section::kFrames, i, at + ".depth", frame.depth(), FileCheck::Kind::kDepth,
                   camera);

@@ -418,6 +418,26 @@ const BrokenClip kBrokenClips[] = {
      "frames[4].worldFromCamera", "not a rigid transform (det = 0.729"},
     {"PoseBadLastRow", [](Clip* c, auto) { c->mutable_frames(4)->set_world_from_camera(12, 1); },
      "frames[4].worldFromCamera", "not a rigid transform (det = 1,"},
+    {"RollingShutterWithoutReadout",
+     [](Clip* c, auto) {
+       pointforward::v1::RollingShutter* s = c->mutable_frames(3)->mutable_rolling_shutter();
+       *s->mutable_world_from_camera_end() = c->frames(3).world_from_camera();
+     },
+     "frames[3].rollingShutter.readout", "missing (say which line is read first"},
+    {"RollingShutterNegativeReadout",
+     [](Clip* c, auto) {
+       pointforward::v1::RollingShutter* s = c->mutable_frames(3)->mutable_rolling_shutter();
+       s->set_readout(pointforward::v1::RollingShutter::BOTTOM_TO_TOP);
+       s->set_readout_us(-5);
+       *s->mutable_world_from_camera_end() = c->frames(3).world_from_camera();
+     },
+     "frames[3].rollingShutter.readoutUs", "must be >= 0 (first line to last), got -5"},
+    {"RollingShutterWithoutEndPose",
+     [](Clip* c, auto) {
+       c->mutable_frames(2)->mutable_rolling_shutter()->set_readout(
+           pointforward::v1::RollingShutter::TOP_TO_BOTTOM);
+     },
+     "frames[2].rollingShutter.worldFromCameraEnd", "missing (16 numbers"},
     {"DepthFileMissing", [](Clip*, const std::string& dir) { Remove(dir + "/depth/front_2.exr"); },
      "frames[4].depth", "file not found"},
     {"DepthSizeDiffers",

@@ -138,10 +138,8 @@ absl::Status WaymoImport::AddFrame(const waymo::Frame& frame, int64_t record_ind
           image_where, ": JPEG is ", size.width, "x", size.height, " but the calibration says ",
           cal->second.width(), "x", cal->second.height()));
     }
-    ASSIGN_OR_RETURN(Rigid world_from_camera, WaymoWorldFromCamera(frame, image, cal->second));
-    const int64_t timestamp = image.pose_timestamp() > 0
-                                  ? std::llround(image.pose_timestamp() * 1e6)
-                                  : frame.timestamp_micros();
+    ASSIGN_OR_RETURN(WaymoFramePose pose, WaymoFramePoseOf(frame, image, cal->second));
+    const int64_t timestamp = pose.timestamp_us;
     const std::string relative = absl::StrCat("images/", camera, "_", timestamp, ".jpg");
     RETURN_IF_ERROR(WriteFileAtomic((std::filesystem::path(options_.out_dir) / relative).string(),
                                     image.image()));
@@ -149,7 +147,8 @@ absl::Status WaymoImport::AddFrame(const waymo::Frame& frame, int64_t record_ind
     out->set_camera(camera);
     out->set_timestamp_us(timestamp);
     out->set_image(relative);
-    SetRowMajor(world_from_camera, out->mutable_world_from_camera());
+    SetRowMajor(pose.world_from_camera, out->mutable_world_from_camera());
+    if (pose.rolling_shutter.has_value()) *out->mutable_rolling_shutter() = *pose.rolling_shutter;
     cameras_with_frames_.insert(image.name());
   }
   return AddBoxes(frame, where);
@@ -309,6 +308,69 @@ absl::StatusOr<Rigid> WaymoWorldFromCamera(const waymo::Frame& frame,
                                   : RigidFromWaymoTransform(frame.pose(), "pose"));
   const Rigid waymo_from_opencv{OpenCvToWaymoCamera(), Vec3{}};
   return world_from_vehicle * vehicle_from_camera * waymo_from_opencv;
+}
+
+absl::StatusOr<WaymoFramePose> WaymoFramePoseOf(const waymo::Frame& frame,
+                                                const waymo::CameraImage& image,
+                                                const waymo::CameraCalibration& calibration) {
+  ASSIGN_OR_RETURN(const Rigid world_from_camera, WaymoWorldFromCamera(frame, image, calibration));
+  WaymoFramePose out;
+  out.timestamp_us = image.pose_timestamp() > 0 ? std::llround(image.pose_timestamp() * 1e6)
+                                                : frame.timestamp_micros();
+  out.world_from_camera = world_from_camera;
+  std::optional<v1::RollingShutter::Readout> readout;
+  switch (calibration.rolling_shutter_direction()) {
+    case waymo::CameraCalibration::TOP_TO_BOTTOM:
+      readout = v1::RollingShutter::TOP_TO_BOTTOM;
+      break;
+    case waymo::CameraCalibration::BOTTOM_TO_TOP:
+      readout = v1::RollingShutter::BOTTOM_TO_TOP;
+      break;
+    case waymo::CameraCalibration::LEFT_TO_RIGHT:
+      readout = v1::RollingShutter::LEFT_TO_RIGHT;
+      break;
+    case waymo::CameraCalibration::RIGHT_TO_LEFT:
+      readout = v1::RollingShutter::RIGHT_TO_LEFT;
+      break;
+    default:  // Unknown or a global shutter.
+      break;
+  }
+  const bool has_image_pose = image.has_pose() && image.pose().transform_size() > 0;
+  const double first = image.camera_trigger_time() + 0.5 * image.shutter();
+  const double last = image.camera_readout_done_time() - 0.5 * image.shutter();
+  if (!readout.has_value() || !has_image_pose || !image.has_velocity() ||
+      !(image.pose_timestamp() > 0) || !(image.camera_trigger_time() > 0) || !(last >= first) ||
+      !std::isfinite(first) || !std::isfinite(last) || last - first > 1.0) {
+    return out;
+  }
+  // world_from_camera at time t: the vehicle moved on by its velocity.
+  const waymo::Velocity& velocity = image.velocity();
+  const Vec3 v{velocity.v_x(), velocity.v_y(), velocity.v_z()};
+  const Vec3 w{velocity.w_x(), velocity.w_y(), velocity.w_z()};
+  if (!std::isfinite(Norm(v)) || !std::isfinite(Norm(w))) return out;
+  ASSIGN_OR_RETURN(const Rigid world_from_vehicle,
+                   RigidFromWaymoTransform(image.pose(), "images.pose"));
+  const Rigid vehicle_from_camera = world_from_vehicle.Inverse() * world_from_camera;
+  auto at = [&](double t) {
+    const double dt = t - image.pose_timestamp();
+    const double angle = Norm(w) * dt;
+    Rigid moved = world_from_vehicle;
+    if (angle != 0) {
+      const Vec3 axis = w / Norm(w);
+      const double s = std::sin(0.5 * angle);
+      moved.rotation = ToMatrix(Quat{std::cos(0.5 * angle), s * axis.x, s * axis.y, s * axis.z}) *
+                       world_from_vehicle.rotation;
+    }
+    moved.translation = world_from_vehicle.translation + dt * v;
+    return moved * vehicle_from_camera;
+  };
+  out.timestamp_us = std::llround(first * 1e6);
+  out.world_from_camera = at(first);
+  v1::RollingShutter& shutter = out.rolling_shutter.emplace();
+  shutter.set_readout(*readout);
+  shutter.set_readout_us(std::llround(last * 1e6) - out.timestamp_us);
+  SetRowMajor(at(last), shutter.mutable_world_from_camera_end());
+  return out;
 }
 
 absl::StatusOr<ImportResult> ImportWaymo(const std::string& segment_path,

@@ -21,6 +21,7 @@
 #ifndef POINTFORWARD_ENGINE_IMPORTERS_WAYMO_IMPORTER_H_
 #define POINTFORWARD_ENGINE_IMPORTERS_WAYMO_IMPORTER_H_
 
+#include <optional>
 #include <string>
 
 #include "absl/status/statusor.h"
@@ -47,6 +48,25 @@ absl::StatusOr<pointforward::v1::Camera> CameraFromWaymoCalibration(
 // Returns world_from_camera (OpenCV axes) for `image` of `frame` taken by
 // the camera of `calibration`.
 absl::StatusOr<Rigid> WaymoWorldFromCamera(
+    const pointforward::waymo::Frame& frame, const pointforward::waymo::CameraImage& image,
+    const pointforward::waymo::CameraCalibration& calibration);
+
+// A camera image as a clip frame: its time, pose and (for a rolling-shutter
+// camera) readout.
+struct WaymoFramePose {
+  int64_t timestamp_us = 0;  // Of the first line read, with a rolling shutter.
+  Rigid world_from_camera;   // At timestamp_us (OpenCV axes).
+  // Set for a camera whose calibration names a readout direction, on an image
+  // with a velocity and trigger and readout-done times: the first line is
+  // read at the middle of its exposure (trigger + shutter / 2), the last at
+  // readout done - shutter / 2; the poses at those times are the image's
+  // pose extrapolated with its velocity (r + v dt, exp(W dt) R).
+  std::optional<pointforward::v1::RollingShutter> rolling_shutter;
+};
+
+// The frame `image` of `frame` gives (WaymoWorldFromCamera at the image's
+// pose_timestamp for a global shutter); errors as WaymoWorldFromCamera.
+absl::StatusOr<WaymoFramePose> WaymoFramePoseOf(
     const pointforward::waymo::Frame& frame, const pointforward::waymo::CameraImage& image,
     const pointforward::waymo::CameraCalibration& calibration);
 

@@ -87,8 +87,41 @@ TEST(WaymoImporter, ImportsFiveCamerasOneFrameAndLabels) {
     for (const auto& image : frame.images()) {
       if (waymo::CameraName::Name_Name(image.name()) != f.camera()) continue;
       EXPECT_EQ(*written, image.image());
-      EXPECT_EQ(f.timestamp_us(), std::llround(image.pose_timestamp() * 1e6));
       matched = true;
+      // The cameras are read line by line: the frame is at its first line's
+      // time and pose, the last line readoutUs later at the pose the
+      // image's velocity gives (docs/IMPORTERS.md, "Waymo").
+      const waymo::CameraCalibration* calibration = nullptr;
+      for (const auto& c : frame.context().camera_calibrations()) {
+        if (c.name() == image.name()) calibration = &c;
+      }
+      ASSERT_NE(calibration, nullptr);
+      ASSERT_TRUE(image.has_velocity());
+      ASSERT_TRUE(f.has_rolling_shutter()) << f.camera();
+      const v1::RollingShutter& shutter = f.rolling_shutter();
+      EXPECT_EQ(v1::RollingShutter::Readout_Name(shutter.readout()),
+                waymo::CameraCalibration::RollingShutterReadOutDirection_Name(
+                    calibration->rolling_shutter_direction()));
+      const double first = image.camera_trigger_time() + 0.5 * image.shutter();
+      const double last = image.camera_readout_done_time() - 0.5 * image.shutter();
+      EXPECT_NEAR(f.timestamp_us(), first * 1e6, 1.0);
+      EXPECT_NEAR(shutter.readout_us(), (last - first) * 1e6, 1.0);
+      EXPECT_GT(shutter.readout_us(), 1000);
+      EXPECT_LT(shutter.readout_us(), 100000);
+      // The camera centre moves by the velocity over the readout.
+      const Vec3 v{image.velocity().v_x(), image.velocity().v_y(), image.velocity().v_z()};
+      const Vec3 start{f.world_from_camera(3), f.world_from_camera(7), f.world_from_camera(11)};
+      const Vec3 end{shutter.world_from_camera_end(3), shutter.world_from_camera_end(7),
+                     shutter.world_from_camera_end(11)};
+      const Vec3 travel = end - start;
+      const Vec3 expected = (last - first) * v;
+      EXPECT_NEAR(Norm(travel - expected), 0.0, 0.02 * Norm(expected) + 1e-3)
+          << f.camera() << " travel " << Norm(travel) << " m";
+      // The image's own pose lies on the way, at its pose_timestamp.
+      auto pose = WaymoWorldFromCamera(frame, image, *calibration);
+      ASSERT_TRUE(pose.ok());
+      const double s = (image.pose_timestamp() - first) / (last - first);
+      EXPECT_LT(Norm(start + s * travel - pose->translation), 1e-3 + 0.02 * Norm(expected));
     }
     EXPECT_TRUE(matched) << f.camera();
   }
@@ -145,8 +178,14 @@ IouFigures MeasureIou(const v1::Clip& clip, const waymo::Frame& frame,
     edit(&cam);
     auto model = CameraModelFromProto(cam);
     EXPECT_TRUE(model.ok()) << model.status();
-    const Rigid camera_from_world =
-        Rigid::FromRowMajor(image->world_from_camera().data()).Inverse();
+    // A rolling-shutter frame: the pose of its middle line.
+    Rigid world_from_camera = Rigid::FromRowMajor(image->world_from_camera().data());
+    if (image->has_rolling_shutter()) {
+      world_from_camera = InterpolateRigid(
+          world_from_camera,
+          Rigid::FromRowMajor(image->rolling_shutter().world_from_camera_end().data()), 0.5);
+    }
+    const Rigid camera_from_world = world_from_camera.Inverse();
     double camera_sum = 0;
     int camera_count = 0;
     for (const waymo::Label& label : labels.labels()) {

@@ -217,8 +217,8 @@ absl::StatusOr<RecordedViews> RecordViews(const std::vector<ContextView>& views,
       weight_options.min_weight = options.min_weight;
       weight_options.local_coords = gradients;
       weight_options.pixel_stride = pixel_stride;
-      absl::StatusOr<CompositingWeights> a = ComputeCompositingWeights(
-          scene, {view.camera, view.world_from_camera}, view.timestamp_us, weight_options);
+      absl::StatusOr<CompositingWeights> a =
+          ComputeCompositingWeights(scene, view.render_camera(), view.timestamp_us, weight_options);
       if (!a.ok()) {
         errors[v] = a.status();
         continue;

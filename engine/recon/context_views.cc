@@ -11,6 +11,7 @@
 #include "absl/strings/str_cat.h"
 #include "common/status_macros.h"
 #include "engine/clip/clip_validator.h"
+#include "engine/render/views.h"
 #include "pointforward/v1/clip.pb.h"
 
 namespace pf {
@@ -104,6 +105,10 @@ absl::StatusOr<std::vector<ContextView>> LoadFrames(const LoadedClip& loaded,
     view.camera = camera->second;
     view.world_from_camera = Rigid::FromRowMajor(frame.world_from_camera().data());
     view.timestamp_us = frame.timestamp_us();
+    if (frame.has_rolling_shutter()) {
+      ASSIGN_OR_RETURN(view.rolling_shutter,
+                       RollingShutterFromProto(frame.rolling_shutter(), where + ".rollingShutter"));
+    }
     if (auto mask = ego_masks.find(frame.camera()); mask != ego_masks.end()) {
       view.ego = mask->second;
     }

@@ -11,6 +11,7 @@
 #define POINTFORWARD_ENGINE_RECON_CONTEXT_VIEWS_H_
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -20,6 +21,8 @@
 #include "engine/clip/clip_io.h"
 #include "engine/image/image_io.h"
 #include "engine/render/gaussian_scene.h"
+#include "engine/render/line_poses.h"
+#include "engine/render/rasterizer.h"
 
 namespace pf {
 
@@ -28,8 +31,14 @@ struct ContextView {
   int frame_index = -1;  // Index into clip.frames.
   std::string camera_id;
   CameraModel camera;
-  Rigid world_from_camera;
-  int64_t timestamp_us = 0;
+  Rigid world_from_camera;   // Of the first line read, with a rolling shutter.
+  int64_t timestamp_us = 0;  // Likewise.
+  // The frame's rolling shutter (Frame.rolling_shutter); unset, the whole
+  // image is at one pose and time. Reconstruction lifts each pixel from its
+  // line's pose and projects into the view onto the line that reads a point
+  // (lines()); box membership and canonical frames take each line's time
+  // (sparse_sampling.h LineTime), fusion the actors at timestamp_us.
+  std::optional<RollingShutter> rolling_shutter;
   ImageF rgb;    // [H, W, 3] in [0, 1], in LoadViewsOptions::colour_encoding.
   ImageF depth;  // [H, W, 1] metres along z, 0 unknown; empty (width 0) when the frame has none.
   // [H, W] 1 on the ego vehicle's body (Camera.ego_mask), 0 elsewhere; empty
@@ -43,6 +52,15 @@ struct ContextView {
 
   int width() const { return camera.width(); }
   int height() const { return camera.height(); }
+  LinePoses lines() const { return LinePoses(camera, world_from_camera, rolling_shutter); }
+  // The camera centre of the line through continuous pixel (u, v).
+  Vec3 centre_at(double u, double v) const {
+    if (!rolling_shutter.has_value()) return world_from_camera.translation;
+    const double f = ReadoutFraction(rolling_shutter->readout, width(), height(), u, v);
+    const Vec3& a = world_from_camera.translation;
+    return a + f * (rolling_shutter->world_from_camera_end.translation - a);
+  }
+  RenderCamera render_camera() const { return {camera, world_from_camera, rolling_shutter}; }
 };
 
 // Which frames LoadViews() reads.

@@ -33,6 +33,44 @@ TEST(ContextViews, LoadsContextAndUnspecifiedFramesWithDepthWhereGiven) {
   EXPECT_EQ((*targets)[0].timestamp_us, 100000);
 }
 
+TEST(ContextViews, AFramesRollingShutterIsLoadedWithItsEndPose) {
+  const std::string dir = testing::MakeTempDir();
+  auto clip = testing::MakeTestClip(dir);
+  pointforward::v1::RollingShutter* shutter = clip.mutable_frames(1)->mutable_rolling_shutter();
+  shutter->set_readout(pointforward::v1::RollingShutter::RIGHT_TO_LEFT);
+  shutter->set_readout_us(25000);
+  *shutter->mutable_world_from_camera_end() = clip.frames(1).world_from_camera();
+  shutter->set_world_from_camera_end(3, clip.frames(1).world_from_camera(3) + 0.4);
+  auto loaded = LoadClip(testing::WriteTestClip(dir, clip));
+  ASSERT_TRUE(loaded.ok()) << loaded.status();
+  auto views = LoadContextViews(*loaded);
+  ASSERT_TRUE(views.ok()) << views.status();
+  ASSERT_EQ(views->size(), 2u);
+  EXPECT_FALSE((*views)[0].rolling_shutter.has_value());
+  const ContextView& rolling = (*views)[1];
+  ASSERT_TRUE(rolling.rolling_shutter.has_value());
+  EXPECT_EQ(rolling.rolling_shutter->readout, RollingShutter::Readout::kRightToLeft);
+  EXPECT_EQ(rolling.rolling_shutter->readout_us, 25000);
+  EXPECT_NEAR(rolling.rolling_shutter->world_from_camera_end.translation.x,
+              rolling.world_from_camera.translation.x + 0.4, 1e-12);
+  // Read right to left: the right column at the first pose, the left at the end.
+  const double w = rolling.width();
+  EXPECT_NEAR(rolling.centre_at(w - 0.5, 3).x, rolling.world_from_camera.translation.x, 1e-12);
+  EXPECT_NEAR(rolling.centre_at(0.5, 3).x, rolling.world_from_camera.translation.x + 0.4, 1e-12);
+  EXPECT_NEAR(rolling.lines().WorldFromCameraAt(0.5, 3).translation.x,
+              rolling.world_from_camera.translation.x + 0.4, 1e-12);
+
+  // A rolling shutter without its readout is refused, naming the field.
+  shutter->clear_readout();
+  auto broken = LoadClip(testing::WriteTestClip(dir, clip));
+  ASSERT_TRUE(broken.ok()) << broken.status();  // Parsed; the validator names it too.
+  auto refused = LoadContextViews(*broken);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(std::string(refused.status().message()).find("frames[1].rollingShutter.readout"),
+            std::string::npos)
+      << refused.status();
+}
+
 TEST(ContextViews, MissingImageNamesTheFrame) {
   const std::string dir = testing::MakeTempDir();
   auto clip = testing::MakeTestClip(dir);

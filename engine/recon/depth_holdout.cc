@@ -148,8 +148,7 @@ absl::StatusOr<DepthHoldOutReport> EvaluateDepthHoldOut(ReconInputs inputs,
       const int s = NearestSweep(inputs.sweeps, view.timestamp_us);
       if (s < 0) continue;
       const auto project = [&](const LidarSweepData& sweep) {
-        return ProjectPoints(PointsAtTime(sweep, inputs.tracks, view.timestamp_us), view.camera,
-                             view.world_from_camera);
+        return ProjectPoints(PointsAtTime(sweep, inputs.tracks, view.timestamp_us), view.lines());
       };
       const ImageF all = project(inputs.sweeps[s]);
       truth[v] = project(hidden[s]);

@@ -121,7 +121,8 @@ std::vector<float> MovedDifference(const PairFrame& f, const PairFrame& t,
   const ContextView& to = *t.view;
   const Reduced& rt = *t.reduced;
   std::vector<float> diff(size_t(rf.width) * rf.height, kNoEvidence);
-  const Rigid to_from_world = to.world_from_camera.Inverse();
+  const LinePoses from_lines = from.lines();
+  const LinePoses to_lines = to.lines();
   DefaultThreadPool().ParallelFor(0, rf.height, 8, [&](int64_t y0, int64_t y1) {
     for (int y = static_cast<int>(y0); y < y1; ++y) {
       for (int x = 0; x < rf.width; ++x) {
@@ -129,13 +130,10 @@ std::vector<float> MovedDifference(const PairFrame& f, const PairFrame& t,
         const size_t i = size_t(py) * from.width() + px;
         if (depth.is_far(i) || (!dynamic.empty() && dynamic[i] != 0)) continue;
         Vec3 world;
-        if (!LiftPixel(from.camera, from.world_from_camera, px + 0.5, py + 0.5, depth.depth[i],
-                       &world)) {
-          continue;
-        }
+        if (!from_lines.Lift(px + 0.5, py + 0.5, depth.depth[i], &world)) continue;
         double u, v;
-        const Vec3 in_to = to_from_world * world;
-        if (!to.camera.Project(in_to, &u, &v)) continue;
+        Vec3 in_to;
+        if (!to_lines.Project(world, &u, &v, &in_to)) continue;
         float seen[3];
         if (!rt.Sample(u / rt.step, v / rt.step, seen)) continue;
         const int tx = std::clamp(static_cast<int>(u), 0, to.width() - 1);

@@ -476,6 +476,7 @@ std::string EvalReportJson(const EvalReport& report) {
   j["fusion"] = FusionWeightsName(report.options.fusion.weights);
   j["lifespan"] = report.options.fusion.lifespan;
   j["lidarViews"] = report.stats.lidar_views;
+  j["rollingShutterViews"] = report.stats.rolling_shutter_views;
   j["sparseDepthMapViews"] = report.stats.sparse_map_views;
   j["groundFill"] = report.options.completion.ground_fill;
   j["groundPixels"] = report.stats.ground_pixels;
@@ -696,14 +697,15 @@ absl::StatusOr<EvalReport> EvaluateClip(const LoadedClip& loaded, const ReconOpt
   for (size_t t = 0; t < targets.size(); ++t) {
     const ContextView& target = targets[t];
     const auto start = std::chrono::steady_clock::now();
-    ASSIGN_OR_RETURN(RenderBuffers buffers,
-                     renderer->Render({target.camera, target.world_from_camera},
-                                      target.timestamp_us, {}, render_options));
+    ASSIGN_OR_RETURN(
+        RenderBuffers buffers,
+        renderer->Render(target.render_camera(), target.timestamp_us, {}, render_options));
     if (const EgoLayer* ego = FindEgoLayer(scene, target.camera_id)) ApplyEgoLayer(*ego, &buffers);
     const double render_seconds = SecondsSince(start);
     const auto metrics_start = std::chrono::steady_clock::now();
     const std::vector<uint8_t> mask =
-        DynamicMask(target.camera, target.world_from_camera, scene.instances, target.timestamp_us);
+        DynamicMask(target.camera, target.lines().MiddleWorldFromCamera(), scene.instances,
+                    target.timestamp_us);
     ImageF render;
     FrameMetrics m = Measure(target.rgb, target.depth, buffers, scene.colour_encoding, mask,
                              target.ego, &render);

@@ -43,11 +43,11 @@ double PatchCost(const ContextView& a, int ax, int ay, const ContextView& b, int
   return sum / 27;
 }
 
-// The pixel of `view` that sees world point `p`; false when none does.
-bool PixelOf(const ContextView& view, const Rigid& camera_from_world, const Vec3& p, int* x,
-             int* y) {
+// The pixel of `view` (its line poses `lines`) that sees world point `p`;
+// false when none does.
+bool PixelOf(const ContextView& view, const LinePoses& lines, const Vec3& p, int* x, int* y) {
   double u, v;
-  if (!view.camera.Project(camera_from_world * p, &u, &v)) return false;
+  if (!lines.Project(p, &u, &v)) return false;
   return PixelInImage(u, v, view.width(), view.height(), x, y);
 }
 
@@ -105,9 +105,9 @@ int64_t ExtendFacades(const std::vector<ContextView>& views, const std::vector<b
     const Vec3 up = ground.normal;
     Vec3 e1, e2;
     LevelAxes(up, &e1, &e2);
-    const Vec3 origin = view.world_from_camera.translation;
-    std::vector<Rigid> partner_from_world;
-    for (size_t u : partners) partner_from_world.push_back(views[u].world_from_camera.Inverse());
+    const LinePoses lines = view.lines();
+    std::vector<LinePoses> partner_lines;
+    for (size_t u : partners) partner_lines.push_back(views[u].lines());
 
     // The highest known pixel of every column, and the world point of a pixel.
     std::vector<int> top(w, -1);
@@ -119,10 +119,13 @@ int64_t ExtendFacades(const std::vector<ContextView>& views, const std::vector<b
         }
       }
     }
-    auto ray_of = [&](int x, int y, Vec3* dir) {
+    // The ray through pixel (x, y) from its line's centre `origin`.
+    auto ray_of = [&](int x, int y, Vec3* origin, Vec3* dir) {
       Vec3 ray;
       if (!view.camera.Unproject(x + 0.5, y + 0.5, &ray)) return false;
-      *dir = view.world_from_camera.rotation * ray;  // z-scaled: z depth s gives o + s dir.
+      const Rigid pose = lines.WorldFromCameraAt(x + 0.5, y + 0.5);
+      *origin = pose.translation;
+      *dir = pose.rotation * ray;  // z-scaled: z depth s gives o + s dir.
       return true;
     };
 
@@ -140,10 +143,7 @@ int64_t ExtendFacades(const std::vector<ContextView>& views, const std::vector<b
           if (top[cx] < 0) continue;
           for (int y = top[cx]; y < std::min(h, top[cx] + options.band_px); ++y) {
             Vec3 p;
-            if (!LiftPixel(view.camera, view.world_from_camera, cx + 0.5, y + 0.5, before.at(cx, y),
-                           &p)) {
-              continue;
-            }
+            if (!lines.Lift(cx + 0.5, y + 0.5, before.at(cx, y), &p)) continue;
             const double height = Dot(up, p) - ground.offset;
             if (height < options.min_height) continue;
             const double a = Dot(p, e1), b = Dot(p, e2);
@@ -186,8 +186,8 @@ int64_t ExtendFacades(const std::vector<ContextView>& views, const std::vector<b
         int last_accept = -1, rejections = 0;
         for (int y = top[x] - 1; y >= 0; --y) {
           column[y] = 0.f;
-          Vec3 dir;
-          if (!ray_of(x, y, &dir)) break;
+          Vec3 origin, dir;
+          if (!ray_of(x, y, &origin, &dir)) break;
           const double denom = Dot(facade.normal, dir);
           if (std::abs(denom) < 1e-9) break;
           const double s = (facade.offset - Dot(facade.normal, origin)) / denom;
@@ -200,8 +200,8 @@ int64_t ExtendFacades(const std::vector<ContextView>& views, const std::vector<b
           for (size_t k = 0; k < partners.size(); ++k) {
             const ContextView& other = views[partners[k]];
             int px, py, fx, fy;
-            if (!PixelOf(other, partner_from_world[k], p, &px, &py) ||
-                !PixelOf(other, partner_from_world[k], far, &fx, &fy)) {
+            if (!PixelOf(other, partner_lines[k], p, &px, &py) ||
+                !PixelOf(other, partner_lines[k], far, &fx, &fy)) {
               continue;
             }
             const double cp = PatchCost(view, x, y, other, px, py);

@@ -4,13 +4,28 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
 
 #include "common/thread_pool.h"
 #include "engine/camera/image_pixel.h"
 #include "engine/render/instance_pose.h"
+#include "engine/render/line_poses.h"
 
 namespace pf {
 namespace {
+
+// Moves `pc`, a point in a rolling-shutter view's middle-line camera frame
+// projected to (u, v), to the camera of the line that reads it (twice, as
+// LinePoses::Project) and projects it again; false when that line does not
+// see it.
+bool OntoItsLine(const LinePoses& lines, Vec3* pc, double* u, double* v) {
+  const Vec3 middle = *pc;
+  for (int step = 0; step < 2; ++step) {
+    *pc = lines.LineFromMiddle(lines.Fraction(*u, *v)) * middle;
+    if (!lines.camera().Project(*pc, u, v)) return false;
+  }
+  return true;
+}
 
 // Bilinear colour of continuous pixel (u, v) of `view`, pixel centres at
 // +0.5. Pixels on the ego body get no weight (the others' weights are
@@ -82,8 +97,15 @@ FusedQueries FuseQueries(const QuerySet& queries, const std::vector<FusionView>&
   // camera_from_frame[k][v]: frame k = 0 world, k > 0 instance k's canonical.
   std::vector<std::vector<Rigid>> camera_from_frame(tracks.size() + 1,
                                                     std::vector<Rigid>(num_views));
+  // A rolling-shutter view's transforms are its middle line's; each point
+  // then moves to the line that reads it (LineFromMiddle).
+  std::vector<std::optional<LinePoses>> lines(num_views);
   for (size_t v = 0; v < num_views; ++v) {
-    const Rigid camera_from_world = views[v].view->world_from_camera.Inverse();
+    Rigid camera_from_world = views[v].view->world_from_camera.Inverse();
+    if (views[v].view->rolling_shutter.has_value()) {
+      lines[v] = views[v].view->lines();
+      camera_from_world = lines[v]->MiddleWorldFromCamera().Inverse();
+    }
     camera_from_frame[0][v] = camera_from_world;
     for (size_t k = 0; k < tracks.size(); ++k) {
       if (tracks[k].boxes.empty()) continue;
@@ -106,9 +128,10 @@ FusedQueries FuseQueries(const QuerySet& queries, const std::vector<FusionView>&
       int64_t max_gap_us = 0;
       for (size_t v = 0; v < num_views; ++v) {
         const FusionView& fv = views[v];
-        const Vec3 pc = camera_from_frame[owner][v] * p;
+        Vec3 pc = camera_from_frame[owner][v] * p;
         double u, vv;
         if (!fv.view->camera.Project(pc, &u, &vv)) continue;
+        if (lines[v].has_value() && !OntoItsLine(*lines[v], &pc, &u, &vv)) continue;
         int x, y;
         if (!PixelInImage(u, vv, fv.depth->width, fv.depth->height, &x, &y)) continue;
         const size_t j = static_cast<size_t>(y) * fv.depth->width + x;

@@ -68,6 +68,10 @@ absl::Status Pipeline::Depth() {
   stats.facade_pixels = depth_stage_.facade_pixels;
   depths_ = AddFarLayer(views, &depth_stage_);
   stats.views_without_depth = depth_stage_.views_without_depth;
+  stats.rolling_shutter_views =
+      static_cast<int>(std::count_if(views.begin(), views.end(), [](const ContextView& view) {
+        return view.rolling_shutter.has_value();
+      }));
   std::string ego;
   if (options_.ego_layer) {
     ego_layers_ = DetectEgoBodies(views, depths_, inputs_.tracks);
@@ -87,7 +91,12 @@ absl::Status Pipeline::Depth() {
        absl::StrCat(" (", stats.lidar_views, " of ", num_views, " views from LiDAR", sparse_maps,
                     ", ", stats.ground_pixels, " pixels from the ground plane, ",
                     stats.facade_pixels, " from facades, far layer radius ",
-                    depth_stage_.far.radius, " m", ego, ")"));
+                    depth_stage_.far.radius, " m", ego,
+                    stats.rolling_shutter_views > 0
+                        ? absl::StrCat(", ", stats.rolling_shutter_views,
+                                       " with a rolling shutter, lifted line by line")
+                        : "",
+                    ")"));
   if (stats.views_without_depth > 0) {
     ReportNote(options_.progress, ReconStage::kDepth,
                absl::StrCat("warning: ", stats.views_without_depth, " of ", num_views,
@@ -110,9 +119,10 @@ void Pipeline::SceneGraph() {
   owners_.resize(num_views);
   masks_.resize(num_views);
   for (size_t v = 0; v < num_views; ++v) {
-    owners_[v] = PixelOwners(lifted_[v], depths_[v], inputs_.tracks, views[v].timestamp_us);
-    masks_[v] = DynamicMask(views[v].camera, views[v].world_from_camera, inputs_.tracks,
-                            views[v].timestamp_us, kMembershipMargin.grow);
+    owners_[v] = PixelOwners(lifted_[v], depths_[v], inputs_.tracks, views[v].timestamp_us,
+                             views[v].rolling_shutter);
+    masks_[v] = DynamicMask(views[v].camera, views[v].lines().MiddleWorldFromCamera(),
+                            inputs_.tracks, views[v].timestamp_us, kMembershipMargin.grow);
   }
   Done(ReconStage::kSceneGraph);
 }

@@ -16,11 +16,10 @@ std::array<float, 6> PluckerRay(const Vec3& origin, const Vec3& direction) {
 bool LiftQuery(const ContextView& view, const ViewDepth& depth, int x, int y, Query12* query) {
   if (x < 0 || y < 0 || x >= view.width() || y >= view.height()) return false;
   const size_t i = static_cast<size_t>(y) * view.width() + x;
+  const LinePoses lines = view.lines();
   Vec3 p;
-  if (!LiftPixel(view.camera, view.world_from_camera, x + 0.5, y + 0.5, depth.depth[i], &p)) {
-    return false;
-  }
-  const Vec3 origin = view.world_from_camera.translation;
+  if (!lines.Lift(x + 0.5, y + 0.5, depth.depth[i], &p)) return false;
+  const Vec3 origin = lines.WorldFromCameraAt(x + 0.5, y + 0.5).translation;
   const std::array<float, 6> plucker = PluckerRay(origin, p - origin);
   Query12& q = *query;
   q = {float(p.x),           float(p.y),           float(p.z),
@@ -38,15 +37,19 @@ LiftedView LiftView(const ContextView& view, const ViewDepth& depth) {
   out.points.assign(n * 3, 0.f);
   out.normals.assign(n * 3, 0.f);
   out.valid.assign(n, 0);
+  const LinePoses lines = view.lines();
   const Vec3 origin = view.world_from_camera.translation;
+  // The centre of the line through pixel (x, y).
+  auto origin_at = [&](int x, int64_t y) {
+    return lines.rolling() ? lines.WorldFromCameraAt(x + 0.5, y + 0.5).translation : origin;
+  };
   DefaultThreadPool().ParallelFor(0, h, 16, [&](int64_t y0, int64_t y1) {
     for (int64_t y = y0; y < y1; ++y) {
       for (int x = 0; x < w; ++x) {
         const size_t i = static_cast<size_t>(y) * w + x;
         Vec3 p;
         if (view.is_ego(i)) continue;  // The ego vehicle's body: not the scene.
-        if (!LiftPixel(view.camera, view.world_from_camera, x + 0.5, y + 0.5, depth.depth[i], &p))
-          continue;
+        if (!lines.Lift(x + 0.5, y + 0.5, depth.depth[i], &p)) continue;
         out.points[3 * i] = float(p.x);
         out.points[3 * i + 1] = float(p.y);
         out.points[3 * i + 2] = float(p.z);
@@ -81,7 +84,7 @@ LiftedView LiftView(const ContextView& view, const ViewDepth& depth) {
         const size_t i = static_cast<size_t>(y) * w + x;
         if (!out.valid[i]) continue;
         const Vec3 p = point(i);
-        const Vec3 view_dir = Normalized(p - origin);
+        const Vec3 view_dir = Normalized(p - origin_at(x, y));
         Vec3 normal = -view_dir;
         Vec3 tx, ty;
         if (!depth.is_far(i) && tangent(i, i - 1, i + 1, x > 0, x + 1 < w, &tx) &&

@@ -82,6 +82,14 @@ absl::StatusOr<OptimizeStats> OptimizeScene(const std::vector<ContextView>& view
   if (views.empty())
     return absl::InvalidArgumentError("views: no context view to optimise against");
   if (absl::Status s = CheckRenderable(*scene); !s.ok()) return s;
+  for (const ContextView& view : views) {
+    if (view.rolling_shutter.has_value()) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          "frames[", view.frame_index,
+          "].rollingShutter: the optimisation (--optimize-steps) has no rolling shutter yet; "
+          "reconstruct this clip without it"));
+    }
+  }
   if (scene->sh_degree >= 0) {
     return absl::InvalidArgumentError(
         "scene.sh_degree: the optimisation needs feature colours (sh_degree -1)");

@@ -81,7 +81,8 @@ struct OptimizeStats {
 // options.steps steps or options.max_seconds, whichever ends first.
 // `fixed` ([N] or empty) marks Gaussians whose geometry stays. The scene
 // must be renderable with feature colours (no SH); INVALID_ARGUMENT
-// otherwise, or when `fixed` has the wrong size or a view is empty.
+// otherwise, or when `fixed` has the wrong size, a view is empty or has a
+// rolling shutter.
 absl::StatusOr<OptimizeStats> OptimizeScene(const std::vector<ContextView>& views,
                                             const std::vector<uint8_t>& fixed,
                                             const OptimizeOptions& options, GaussianScene* scene);

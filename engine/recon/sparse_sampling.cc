@@ -211,7 +211,7 @@ void Emit(const Candidate& c, const SamplingView& sv, uint32_t owner, const Rigi
   const int x = static_cast<int>(shown % view.width()), y = static_cast<int>(shown / view.width());
   const Vec3 world{sv.lifted->points[3 * i], sv.lifted->points[3 * i + 1],
                    sv.lifted->points[3 * i + 2]};
-  const Vec3 origin = view.world_from_camera.translation;
+  const Vec3 origin = view.centre_at(x + 0.5, y + 0.5);
   const Vec3 ray_world = Normalized(world - origin);
   const Vec3 normal_world{sv.lifted->normals[3 * shown], sv.lifted->normals[3 * shown + 1],
                           sv.lifted->normals[3 * shown + 2]};
@@ -274,18 +274,40 @@ int64_t ScaledBudget(int64_t at_768x576, int width, int height) {
   return std::max<int64_t>(1, static_cast<int64_t>(std::llround(double(at_768x576) * scale)));
 }
 
+int LineTimeSample(const std::optional<RollingShutter>& rolling_shutter, int width, int height,
+                   size_t pixel) {
+  if (!rolling_shutter.has_value() || width <= 0) return 0;
+  const double f = ReadoutFraction(rolling_shutter->readout, width, height,
+                                   static_cast<double>(pixel % width) + 0.5,
+                                   static_cast<double>(pixel / width) + 0.5);
+  return static_cast<int>(std::lround(f * (kLineTimeSamples - 1)));
+}
+
+int64_t LineTime(int64_t timestamp_us, const std::optional<RollingShutter>& rolling_shutter,
+                 int sample) {
+  if (!rolling_shutter.has_value()) return timestamp_us;
+  return timestamp_us + std::llround(static_cast<double>(rolling_shutter->readout_us) * sample /
+                                     (kLineTimeSamples - 1));
+}
+
 std::vector<uint32_t> PixelOwners(const LiftedView& lifted, const ViewDepth& depth,
-                                  const std::vector<InstanceTrack>& tracks, int64_t timestamp_us) {
+                                  const std::vector<InstanceTrack>& tracks, int64_t timestamp_us,
+                                  const std::optional<RollingShutter>& rolling_shutter) {
   const size_t n = static_cast<size_t>(lifted.width) * lifted.height;
   std::vector<uint32_t> owners(n, 0);
   if (tracks.empty()) return owners;
-  const BoxesAt boxes(tracks, timestamp_us);
+  std::vector<BoxesAt> boxes;
+  const int samples = rolling_shutter.has_value() ? kLineTimeSamples : 1;
+  for (int k = 0; k < samples; ++k) {
+    boxes.emplace_back(tracks, LineTime(timestamp_us, rolling_shutter, k));
+  }
   DefaultThreadPool().ParallelFor(0, static_cast<int64_t>(n), 8192, [&](int64_t b, int64_t e) {
     for (int64_t i = b; i < e; ++i) {
       if (!lifted.valid[i] || depth.is_far(i)) continue;
+      const int k = LineTimeSample(rolling_shutter, lifted.width, lifted.height, size_t(i));
       owners[i] =
-          boxes.Owner({lifted.points[3 * i], lifted.points[3 * i + 1], lifted.points[3 * i + 2]},
-                      kMembershipMargin);
+          boxes[k].Owner({lifted.points[3 * i], lifted.points[3 * i + 1], lifted.points[3 * i + 2]},
+                         kMembershipMargin);
     }
   });
   return owners;
@@ -298,7 +320,17 @@ struct ViewResolution {
   Rigid camera_from_world;
   const PixelFootprints* footprints = nullptr;
   double stride = 1;
+  std::optional<LinePoses> lines;  // With a rolling shutter.
 };
+
+// World point `p` in view `r`'s camera frame (of the line that reads it, with
+// a rolling shutter); behind the camera where no line sees it.
+Vec3 InCamera(const ViewResolution& r, const Vec3& p) {
+  if (!r.lines.has_value()) return r.camera_from_world * p;
+  Vec3 pc;
+  double u, v;
+  return r.lines->Project(p, &u, &v, &pc) ? pc : Vec3{0, 0, -1};
+}
 
 // Sets `pixel` to the index of the pixel of `sv` that camera point `pc`
 // projects into; false when it projects nowhere or outside the image.
@@ -319,7 +351,7 @@ bool FinerViewSees(const Vec3& p, double footprint, size_t self, double ratio,
                    const std::vector<ViewResolution>& resolution) {
   for (size_t u = 0; u < views.size(); ++u) {
     if (u == self) continue;
-    const Vec3 pc = resolution[u].camera_from_world * p;
+    const Vec3 pc = InCamera(resolution[u], p);
     if (pc.z <= 0) continue;
     // A pinhole camera's footprint is the same at every pixel: tested
     // before finding the pixel.
@@ -349,7 +381,7 @@ bool OtherViewSeesOrPasses(const Vec3& p, bool far, size_t self,
                            const std::vector<ViewResolution>& resolution) {
   for (size_t u = 0; u < views.size(); ++u) {
     if (u == self) continue;
-    const Vec3 pc = resolution[u].camera_from_world * p;
+    const Vec3 pc = InCamera(resolution[u], p);
     size_t j;
     if (pc.z <= 0 || !PixelOf(views[u], pc, &j)) continue;
     if ((*views[u].owners)[j] != 0 || views[u].view->is_ego(j)) continue;
@@ -439,7 +471,7 @@ bool HiddenCandidate(const SamplingView& sv, int v, size_t i, int32_t source, do
   if (source < 0 || !sv.lifted->valid[i] || sv.depth->is_far(i)) return false;
   const size_t j = static_cast<size_t>(source);
   if (!sv.lifted->valid[j] || (*sv.owners)[j] != 0) return false;
-  const Vec3 origin = sv.view->world_from_camera.translation;
+  const Vec3 origin = sv.view->centre_at(i % sv.view->width() + 0.5, i / sv.view->width() + 0.5);
   const Vec3 p_i{sv.lifted->points[3 * i], sv.lifted->points[3 * i + 1],
                  sv.lifted->points[3 * i + 2]};
   const Vec3 p_j{sv.lifted->points[3 * j], sv.lifted->points[3 * j + 1],
@@ -746,6 +778,7 @@ size_t SampleStatic(const std::vector<SamplingView>& views,
     const double stride = StaticStride(views[v], options);
     resolution[v] = {views[v].view->world_from_camera.Inverse(), &footprints[v],
                      options.dense ? stride : std::max(1.0, stride * refine)};
+    if (views[v].view->rolling_shutter.has_value()) resolution[v].lines = views[v].view->lines();
   }
   const bool prefer_finer = !options.dense && options.finer_view_ratio > 0;
   absl::flat_hash_set<uint64_t> covered;
@@ -880,16 +913,27 @@ QuerySet SampleQueries(const std::vector<SamplingView>& views,
     if (tracks[k].boxes.empty()) continue;
     const uint32_t owner = static_cast<uint32_t>(k + 1);
     std::vector<Candidate> candidates;
-    std::vector<Rigid> to_canonical(views.size());
+    // Per view, canonical-from-world at its time (at each LineTime of a
+    // rolling-shutter view); a pixel takes its line's.
+    std::vector<std::vector<Rigid>> to_canonical(views.size());
+    auto canonical_of = [&](size_t v, size_t pixel) -> const Rigid& {
+      const ContextView& view = *views[v].view;
+      return to_canonical[v]
+                         [LineTimeSample(view.rolling_shutter, view.width(), view.height(), pixel)];
+    };
     for (size_t v = 0; v < views.size(); ++v) {
       const SamplingView& sv = views[v];
-      to_canonical[v] = CanonicalFromWorld(tracks[k], sv.view->timestamp_us);
+      const int samples = sv.view->rolling_shutter.has_value() ? kLineTimeSamples : 1;
+      for (int t = 0; t < samples; ++t) {
+        to_canonical[v].push_back(CanonicalFromWorld(
+            tracks[k], LineTime(sv.view->timestamp_us, sv.view->rolling_shutter, t)));
+      }
       const size_t n = sv.owners->size();
       for (size_t i = 0; i < n; ++i) {
         if ((*sv.owners)[i] != owner) continue;
         const Vec3 p{sv.lifted->points[3 * i], sv.lifted->points[3 * i + 1],
                      sv.lifted->points[3 * i + 2]};
-        candidates.push_back({static_cast<int>(v), static_cast<int>(i), to_canonical[v] * p,
+        candidates.push_back({static_cast<int>(v), static_cast<int>(i), canonical_of(v, i) * p,
                               float(footprints[v].Of(sv.depth->depth[i], i))});
       }
     }
@@ -921,7 +965,7 @@ QuerySet SampleQueries(const std::vector<SamplingView>& views,
     for (size_t index : kept) {
       Candidate c = candidates[index];
       c.footprint = std::max(c.footprint, float(side));
-      Emit(c, views[c.view], owner, to_canonical[c.view], options, &out);
+      Emit(c, views[c.view], owner, canonical_of(c.view, c.pixel), options, &out);
     }
   }
   return out;

@@ -49,6 +49,7 @@
 #define POINTFORWARD_ENGINE_RECON_SPARSE_SAMPLING_H_
 
 #include <cstdint>
+#include <optional>
 #include <vector>
 
 #include "engine/recon/context_views.h"
@@ -129,10 +130,23 @@ QuerySet SampleQueries(const std::vector<SamplingView>& views,
                        const std::vector<InstanceTrack>& tracks, const SamplingOptions& options);
 
 // Returns the owner of every lifted pixel of a view: box membership of its
-// point at `timestamp_us` with kMembershipMargin (scene_graph.h); far-layer and invalid pixels are
-// 0.
+// point at `timestamp_us` with kMembershipMargin (scene_graph.h); far-layer
+// and invalid pixels are 0. With the view's `rolling_shutter`, at the time of
+// the pixel's line (LineTime).
 std::vector<uint32_t> PixelOwners(const LiftedView& lifted, const ViewDepth& depth,
-                                  const std::vector<InstanceTrack>& tracks, int64_t timestamp_us);
+                                  const std::vector<InstanceTrack>& tracks, int64_t timestamp_us,
+                                  const std::optional<RollingShutter>& rolling_shutter = {});
+
+// The boxes of a rolling-shutter view are taken at this many evenly spaced
+// times of its readout; a pixel's line takes the nearest (LineTime).
+inline constexpr int kLineTimeSamples = 9;
+
+// Which of the kLineTimeSamples times stands for pixel `pixel` of a width x
+// height view read by `rolling_shutter` (0 without one), and that time.
+int LineTimeSample(const std::optional<RollingShutter>& rolling_shutter, int width, int height,
+                   size_t pixel);
+int64_t LineTime(int64_t timestamp_us, const std::optional<RollingShutter>& rolling_shutter,
+                 int sample);
 
 }  // namespace pf
 

@@ -561,5 +561,55 @@ TEST(SparseSampling, SurfacesAreLeftToTheViewThatSeesThemClosest) {
   EXPECT_GT(plain_inside, 300);
 }
 
+// A rolling-shutter view read top to bottom over 100 ms while the car
+// drives 3 m to +x: each pixel is tested against the box at its line's time,
+// and its query goes to the canonical frame of that time.
+TEST(SparseSampling, ARollingShutterViewTakesEachLinesActors) {
+  PlaneView plane(192, 144, Rigid{}, /*t=*/1000000);
+  InstanceTrack car;
+  car.boxes = {{0, {-5, 0, 10}, {4, 4, 1}, Quat{}},
+               {1000000, {0, 0, 10}, {4, 4, 1}, Quat{}},
+               {1100000, {3, 0, 10}, {4, 4, 1}, Quat{}}};
+  const std::vector<InstanceTrack> tracks = {car};
+  const RollingShutter shutter{RollingShutter::Readout::kTopToBottom, 100000, Rigid{}};
+  // The mean column of the car's pixels in row `y`.
+  auto centre_of_row = [&](const std::vector<uint32_t>& owners, int y) {
+    double sum = 0, count = 0;
+    for (int x = 0; x < 192; ++x) {
+      if (owners[size_t(y) * 192 + x] == 1) {
+        sum += x + 0.5;
+        ++count;
+      }
+    }
+    return count > 0 ? sum / count : -1.0;
+  };
+  const std::vector<uint32_t> global =
+      PixelOwners(plane.lifted, plane.depth, tracks, 1000000, std::nullopt);
+  EXPECT_NEAR(centre_of_row(global, 40), 96, 1);
+  EXPECT_NEAR(centre_of_row(global, 105), 96, 1);
+  plane.view.rolling_shutter = shutter;
+  plane.owners = PixelOwners(plane.lifted, plane.depth, tracks, 1000000, shutter);
+  // Row 40 is read 27.8 ms in (the time sample at 25 ms: the box at
+  // x = 0.75 m, 14.4 px right), row 105 at 73.1 ms (75 ms: x = 2.25 m,
+  // 43.2 px right).
+  EXPECT_NEAR(centre_of_row(plane.owners, 40), 96 + 14.4, 1);
+  EXPECT_NEAR(centre_of_row(plane.owners, 105), 96 + 43.2, 1);
+  EXPECT_EQ(LineTime(1000000, shutter, LineTimeSample(shutter, 192, 144, 105 * 192 + 7)), 1075000);
+
+  SamplingOptions options;
+  options.static_per_view = 1000;
+  options.dynamic_per_instance = 500;
+  const QuerySet q = SampleQueries({plane.sampling()}, tracks, options);
+  int dynamic = 0;
+  for (size_t i = 0; i < q.size(); ++i) {
+    if (q.owners[i] == 0) continue;
+    ++dynamic;
+    // Canonical = the box at t = 0 (x = -5), whichever line saw the point.
+    EXPECT_GE(q.positions[3 * i], -7.16f);
+    EXPECT_LE(q.positions[3 * i], -2.84f);
+  }
+  EXPECT_GE(dynamic, 400);
+}
+
 }  // namespace
 }  // namespace pf

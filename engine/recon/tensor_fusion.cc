@@ -11,6 +11,7 @@
 #include <exception>
 #include <limits>
 #include <mutex>
+#include <optional>
 #include <stdexcept>
 #include <string>
 
@@ -18,6 +19,7 @@
 #include "common/status_macros.h"
 #include "common/thread_pool.h"
 #include "engine/render/instance_pose.h"
+#include "engine/render/line_poses.h"
 
 namespace pf {
 namespace {
@@ -46,6 +48,10 @@ struct DeviceView {
   const CameraModel* camera = nullptr;
   int width = 0, height = 0;
   int64_t timestamp_us = 0;
+  // With a rolling shutter: the readout, and LinePoses::line_from_middle_samples
+  // as [kSamples, 12] float64 (row-major rotation, then translation).
+  std::optional<RollingShutter::Readout> readout;
+  Tensor line_from_middle;
 };
 
 DeviceView UploadView(const FusionView& view, const at::Device& device) {
@@ -55,6 +61,17 @@ DeviceView UploadView(const FusionView& view, const at::Device& device) {
   out.width = depth.width;
   out.height = depth.height;
   out.timestamp_us = view.view->timestamp_us;
+  if (view.view->rolling_shutter.has_value()) {
+    out.readout = view.view->rolling_shutter->readout;
+    std::vector<double> samples;
+    for (const Rigid& x : view.view->lines().line_from_middle_samples()) {
+      for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c) samples.push_back(x.rotation.m[r][c]);
+      samples.insert(samples.end(), {x.translation.x, x.translation.y, x.translation.z});
+    }
+    out.line_from_middle =
+        ToDevice(samples, at::kDouble, at::kDouble, device).view({LinePoses::kSamples, 12});
+  }
   out.rgb = ToDevice(view.view->rgb.pixels, at::kFloat, at::kFloat, device).view({-1, 3});
   out.depth = ToDevice(depth.depth, at::kFloat, at::kFloat, device);
   out.far =
@@ -148,6 +165,45 @@ void Project(const CameraModel& camera, const Tensor& x, const Tensor& y, const 
   }
   *u = camera.fx() * xd + camera.cx();
   *v = camera.fy() * yd + camera.cy();
+}
+
+// Moves camera-frame points (x, y, z) of a rolling-shutter view's middle
+// line, projected to (u, v), to the camera of the line that reads each
+// (twice, as OntoItsLine of fusion.cc) and projects them again.
+void OntoTheirLines(const DeviceView& view, Tensor* x, Tensor* y, Tensor* z, Tensor* u, Tensor* v,
+                    Tensor* valid) {
+  const Tensor mx = *x, my = *y, mz = *z;
+  const double rows = std::max(view.height - 1, 1), columns = std::max(view.width - 1, 1);
+  for (int step = 0; step < 2; ++step) {
+    Tensor f;
+    switch (*view.readout) {
+      case RollingShutter::Readout::kTopToBottom:
+        f = (*v - 0.5) / rows;
+        break;
+      case RollingShutter::Readout::kBottomToTop:
+        f = 1 - (*v - 0.5) / rows;
+        break;
+      case RollingShutter::Readout::kLeftToRight:
+        f = (*u - 0.5) / columns;
+        break;
+      case RollingShutter::Readout::kRightToLeft:
+        f = 1 - (*u - 0.5) / columns;
+        break;
+    }
+    // Points that project nowhere are masked out by `valid`; any line will do.
+    const Tensor s = f.nan_to_num(0.5, 0.5, 0.5).clamp(0.0, 1.0) * (LinePoses::kSamples - 1);
+    const Tensor k = s.floor().clamp_max(LinePoses::kSamples - 2);
+    const Tensor w = (s - k).unsqueeze(1);
+    const Tensor index = k.to(at::kLong);
+    const Tensor a = view.line_from_middle.index_select(0, index);
+    const Tensor d = a + w * (view.line_from_middle.index_select(0, index + 1) - a);
+    *x = d.select(1, 0) * mx + d.select(1, 1) * my + d.select(1, 2) * mz + d.select(1, 9);
+    *y = d.select(1, 3) * mx + d.select(1, 4) * my + d.select(1, 5) * mz + d.select(1, 10);
+    *z = d.select(1, 6) * mx + d.select(1, 7) * my + d.select(1, 8) * mz + d.select(1, 11);
+    Tensor seen;
+    Project(*view.camera, *x, *y, *z, u, v, &seen);
+    *valid = valid->logical_and(seen);
+  }
 }
 
 // Bilinear colours [B, 3] float of continuous pixels (u, v) [B] float64 of a
@@ -271,6 +327,7 @@ void FuseBatch(const QuerySet& queries, int64_t begin, int64_t end,
     }
     Tensor u, w_pixel, valid;
     Project(*view.camera, cx, cy, cz, &u, &w_pixel, &valid);
+    if (view.readout.has_value()) OntoTheirLines(view, &cx, &cy, &cz, &u, &w_pixel, &valid);
     // NaN or infinite pixels of invalid projections fail these tests too.
     Tensor fx = u.floor(), fy = w_pixel.floor();
     valid = valid.logical_and(fx.ge(0))
@@ -437,7 +494,11 @@ absl::StatusOr<FusedQueries> FuseQueriesOnDevice(const QuerySet& queries,
     std::vector<int64_t> times;
     for (const FusionView& view : views) {
       device_views.push_back(UploadView(view, on));
-      camera_from_world.push_back(view.view->world_from_camera.Inverse());
+      // A rolling-shutter view's middle line (OntoTheirLines moves each point
+      // to its own line).
+      camera_from_world.push_back(view.view->rolling_shutter.has_value()
+                                      ? view.view->lines().MiddleWorldFromCamera().Inverse()
+                                      : view.view->world_from_camera.Inverse());
       times.push_back(view.view->timestamp_us);
     }
     const Tensor camera_from_frame = CameraFromFrames(views, camera_from_world, tracks, on);

@@ -117,21 +117,27 @@ ImageF KnownDepthOnly(const ImageF& depth) {
   return out;
 }
 
-ImageF ProjectPoints(const std::vector<float>& points, const CameraModel& camera,
-                     const Rigid& world_from_camera) {
+ImageF ProjectPoints(const std::vector<float>& points, const LinePoses& lines) {
+  const CameraModel& camera = lines.camera();
   ImageF depth(camera.width(), camera.height(), 1);
-  const Rigid camera_from_world = world_from_camera.Inverse();
   const size_t n = points.size() / 3;
   for (size_t i = 0; i < n; ++i) {
-    const Vec3 pc = camera_from_world * Vec3{points[3 * i], points[3 * i + 1], points[3 * i + 2]};
+    Vec3 pc;
     double u, v;
-    if (!camera.Project(pc, &u, &v)) continue;
+    if (!lines.Project(Vec3{points[3 * i], points[3 * i + 1], points[3 * i + 2]}, &u, &v, &pc)) {
+      continue;
+    }
     int x, y;
     if (!PixelInImage(u, v, depth.width, depth.height, &x, &y)) continue;
     float& d = depth.at(x, y);
     if (d == 0.f || pc.z < d) d = static_cast<float>(pc.z);
   }
   return depth;
+}
+
+ImageF ProjectPoints(const std::vector<float>& points, const CameraModel& camera,
+                     const Rigid& world_from_camera) {
+  return ProjectPoints(points, LinePoses(camera, world_from_camera));
 }
 
 int CompletionRadius(int height) {
@@ -362,19 +368,25 @@ GroundPlane FitGroundPlane(const LidarSweepData& sweep) {
   return best;
 }
 
-int64_t FillFromGround(const GroundPlane& ground, const Vec3& sensor_origin,
-                       const CameraModel& camera, const Rigid& world_from_camera,
+int64_t FillFromGround(const GroundPlane& ground, const Vec3& sensor_origin, const LinePoses& lines,
                        const std::vector<int32_t>& sources, ImageF* depth) {
   if (!ground.valid) return 0;
-  const Vec3& o = world_from_camera.translation;
-  const double height = Dot(ground.normal, o) - ground.offset;
-  if (height <= 0) return 0;  // A camera under the road sees no road from above.
-  // The z depth at which pixel centre (x, y)'s ray meets the plane, 0 when
-  // it does not (at or above the horizon).
-  auto plane_depth = [&](int x, int y, Vec3* dir) {
+  const CameraModel& camera = lines.camera();
+  // A camera under the road sees no road from above.
+  if (Dot(ground.normal, lines.WorldFromCamera(0).translation) - ground.offset <= 0 &&
+      Dot(ground.normal, lines.WorldFromCamera(1).translation) - ground.offset <= 0) {
+    return 0;
+  }
+  // The z depth at which pixel centre (x, y)'s ray from its line's centre
+  // `origin` meets the plane, 0 when it does not (at or above the horizon).
+  auto plane_depth = [&](int x, int y, Vec3* dir, Vec3* origin) {
     Vec3 ray;
     if (!camera.Unproject(x + 0.5, y + 0.5, &ray)) return 0.0;
-    *dir = world_from_camera.rotation * ray;  // z-scaled: s is the z depth.
+    const Rigid pose = lines.WorldFromCameraAt(x + 0.5, y + 0.5);
+    *origin = pose.translation;
+    const double height = Dot(ground.normal, *origin) - ground.offset;
+    if (height <= 0) return 0.0;
+    *dir = pose.rotation * ray;  // z-scaled: s is the z depth.
     const double down = -Dot(ground.normal, *dir);
     return down > 1e-9 ? height / down : 0.0;
   };
@@ -396,10 +408,10 @@ int64_t FillFromGround(const GroundPlane& ground, const Vec3& sensor_origin,
     if (sources[i] != static_cast<int32_t>(i)) continue;
     Vec3 p;
     const int x = static_cast<int>(i % w), y = static_cast<int>(i / w);
-    if (!LiftPixel(camera, world_from_camera, x + 0.5, y + 0.5, depth->pixels[i], &p)) continue;
+    if (!lines.Lift(x + 0.5, y + 0.5, depth->pixels[i], &p)) continue;
     on_ground[i] = std::abs(Dot(ground.normal, p) - ground.offset) < kGroundOnPlane;
-    Vec3 dir;
-    const double s = on_ground[i] ? plane_depth(x, y, &dir) : 0.0;
+    Vec3 dir, origin;
+    const double s = on_ground[i] ? plane_depth(x, y, &dir, &origin) : 0.0;
     if (s > 0 && std::abs(depth->pixels[i] - s) <= kGroundSnap * s) {
       ratio_sum[at(x + 1, y + 1)] = depth->pixels[i] / s - 1.0;
       count[at(x + 1, y + 1)] = 1.0;
@@ -430,10 +442,10 @@ int64_t FillFromGround(const GroundPlane& ground, const Vec3& sensor_origin,
         const size_t i = static_cast<size_t>(y) * depth->width + x;
         if (sources[i] == static_cast<int32_t>(i)) continue;  // Measured.
         float& d = depth->at(x, static_cast<int>(y));
-        Vec3 dir;
-        const double s = plane_depth(x, static_cast<int>(y), &dir);
+        Vec3 dir, origin;
+        const double s = plane_depth(x, static_cast<int>(y), &dir, &origin);
         if (s <= 0) continue;
-        if (ReachOf(o + s * dir, sensor_origin, ground.normal) > ground.reach) continue;
+        if (ReachOf(origin + s * dir, sensor_origin, ground.normal) > ground.reach) continue;
         const bool from_road = sources[i] >= 0 && on_ground[sources[i]];
         if (d > 0.f && !(from_road && std::abs(d - s) <= kGroundSnap * s)) {
           continue;  // Completed from another surface.
@@ -490,12 +502,13 @@ LidarSweepData SweepFromDepthMap(const ContextView& view, const ImageF& sparse) 
   sweep.timestamp_us = view.timestamp_us;
   sweep.sensor_origin = view.world_from_camera.translation;
   sweep.sensor_up = Normalized(view.world_from_camera.rotation * Vec3{0, -1, 0});
+  const LinePoses lines = view.lines();
   for (int y = 0; y < sparse.height; ++y) {
     for (int x = 0; x < sparse.width; ++x) {
       const float d = sparse.at(x, y);
       Vec3 ray;
       if (!(d > 0.f) || !view.camera.Unproject(x + 0.5, y + 0.5, &ray)) continue;
-      const Vec3 p = view.world_from_camera * (ray * double(d));
+      const Vec3 p = lines.WorldFromCameraAt(x + 0.5, y + 0.5) * (ray * double(d));
       sweep.points.insert(sweep.points.end(), {float(p.x), float(p.y), float(p.z)});
     }
   }
@@ -521,8 +534,8 @@ ImageF CompleteMeasured(const ImageF& sparse, const LidarSweepData& sweep, const
       options.ground_fill || options.facades ? FitGroundPlane(sweep) : GroundPlane{};
   if (ground != nullptr) *ground = plane;
   if (options.ground_fill) {
-    const int64_t filled = FillFromGround(plane, sweep.sensor_origin, view.camera,
-                                          view.world_from_camera, sources, &depth);
+    const int64_t filled =
+        FillFromGround(plane, sweep.sensor_origin, view.lines(), sources, &depth);
     if (ground_pixels != nullptr) *ground_pixels = filled;
   }
   return depth;
@@ -551,7 +564,7 @@ ImageF MeasuredDepth(const ContextView& view, const std::vector<LidarSweepData>&
   if (source != nullptr) *source = MeasuredSource::kLidar;
   const LidarSweepData& sweep = sweeps[nearest];
   const std::vector<float> points = PointsAtTime(sweep, tracks, view.timestamp_us);
-  const ImageF projected = ProjectPoints(points, view.camera, view.world_from_camera);
+  const ImageF projected = ProjectPoints(points, view.lines());
   return CompleteMeasured(projected, sweep, view, options, ground_pixels, ground);
 }
 
@@ -565,6 +578,7 @@ ViewDepth WithFarLayer(const ImageF& measured, bool completed, const ContextView
   out.source.resize(n);
   const uint8_t measured_source =
       uint8_t(completed ? DepthSource::kCompleted : DepthSource::kDepthMap);
+  const LinePoses lines = view.lines();
   DefaultThreadPool().ParallelFor(0, out.height, 16, [&](int64_t y0, int64_t y1) {
     for (int64_t y = y0; y < y1; ++y) {
       for (int x = 0; x < out.width; ++x) {
@@ -574,8 +588,8 @@ ViewDepth WithFarLayer(const ImageF& measured, bool completed, const ContextView
           out.depth[i] = d;
           out.source[i] = measured_source;
         } else {
-          out.depth[i] = static_cast<float>(
-              FarDepth(far, view.camera, view.world_from_camera, x + 0.5, y + 0.5));
+          out.depth[i] = static_cast<float>(FarDepth(
+              far, view.camera, lines.WorldFromCameraAt(x + 0.5, y + 0.5), x + 0.5, y + 0.5));
           out.source[i] = uint8_t(DepthSource::kFar);
         }
       }

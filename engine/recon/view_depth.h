@@ -20,6 +20,7 @@
 #include "engine/clip/clip_io.h"
 #include "engine/recon/context_views.h"
 #include "engine/render/gaussian_scene.h"
+#include "engine/render/line_poses.h"
 
 namespace pf {
 
@@ -56,7 +57,9 @@ std::vector<float> PointsAtTime(const LidarSweepData& sweep,
 ImageF KnownDepthOnly(const ImageF& depth);
 
 // Projects world points into a camera: [H, W] z depth of the nearest point
-// per pixel, 0 where none falls.
+// per pixel, 0 where none falls. Through `lines`, each point lands on the
+// line that reads it, its depth that line's.
+ImageF ProjectPoints(const std::vector<float>& points, const LinePoses& lines);
 ImageF ProjectPoints(const std::vector<float>& points, const CameraModel& camera,
                      const Rigid& world_from_camera);
 
@@ -120,8 +123,8 @@ GroundPlane FitGroundPlane(const LidarSweepData& sweep);
 // `sources` is CompleteDepth's (measured pixels are their own source).
 // Measured pixels and other surfaces are kept. Returns how many pixels it
 // set.
-int64_t FillFromGround(const GroundPlane& ground, const Vec3& sensor_origin,
-                       const CameraModel& camera, const Rigid& world_from_camera,
+// Each pixel's ray leaves from its line's pose (`lines`).
+int64_t FillFromGround(const GroundPlane& ground, const Vec3& sensor_origin, const LinePoses& lines,
                        const std::vector<int32_t>& sources, ImageF* depth);
 
 // Returns the automatic completion radius: max(12, 4 % of `height`) pixels.

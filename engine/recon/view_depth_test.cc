@@ -396,7 +396,8 @@ TEST(ViewDepth, GroundFillSetsRoadPixelsWithinItsReach) {
   // Completed from the point above the road: another surface, kept.
   depth.at(20, 28) = 3.f;
   sources[at(20, 28)] = at(20, 25);
-  const int64_t filled = FillFromGround(ground, Vec3{0, 0, 1.9}, kCamera, pose, sources, &depth);
+  const int64_t filled =
+      FillFromGround(ground, Vec3{0, 0, 1.9}, LinePoses(kCamera, pose), sources, &depth);
   EXPECT_NEAR(depth.at(20, 29), road(29), 1e-4);  // Unknown: the road.
   EXPECT_NEAR(depth.at(20, 27), road(27), 1e-4);
   EXPECT_FLOAT_EQ(depth.at(20, 24), float(road(26)));
@@ -413,8 +414,9 @@ TEST(ViewDepth, GroundFillSetsRoadPixelsWithinItsReach) {
   // No plane, or a camera under it: nothing set.
   const std::vector<int32_t> none(40 * 30, -1);
   ImageF untouched(40, 30, 1);
-  EXPECT_EQ(FillFromGround(GroundPlane{}, Vec3{}, kCamera, pose, none, &untouched), 0);
-  EXPECT_EQ(FillFromGround(ground, Vec3{}, kCamera, LevelCameraLookingAlongX(-1), none, &untouched),
+  EXPECT_EQ(FillFromGround(GroundPlane{}, Vec3{}, LinePoses(kCamera, pose), none, &untouched), 0);
+  EXPECT_EQ(FillFromGround(ground, Vec3{}, LinePoses(kCamera, LevelCameraLookingAlongX(-1)), none,
+                           &untouched),
             0);
   for (float d : untouched.pixels) EXPECT_EQ(d, 0.f);
 }

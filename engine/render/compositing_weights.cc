@@ -8,9 +8,11 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <optional>
 
 #include "absl/strings/str_cat.h"
 #include "engine/render/instance_pose.h"
+#include "engine/render/raster_frame.h"
 #include "engine/render/splat_projection.h"
 
 namespace pf {
@@ -30,9 +32,16 @@ constexpr uint64_t kPrefetchAhead = 8;
 // instance k) the camera-from-owner transform: row-major r, then t.
 struct ViewFrame : raster::ProjectionCamera {
   std::vector<float> camera_from_owner;  // [K+1, 12]
+  // A rolling-shutter camera's frame as the rasterizer sets it up (its
+  // projection then the rasterizer's: ProjectSplatAtItsLine).
+  std::optional<raster::RenderFrame> rolling;
 };
 
 bool ProjectSplat(const GaussianScene& scene, const ViewFrame& frame, size_t i, Splat* out) {
+  if (frame.rolling.has_value()) {
+    if (!frame.rolling->owner_live[scene.owners[i]]) return false;
+    return raster::ProjectSplatAtItsLine(scene, i, *frame.rolling, out);
+  }
   const float* r = &frame.camera_from_owner[12 * scene.owners[i]];
   return raster::ProjectSplatGeometry(scene, i, frame, r, r + 9, out);
 }
@@ -43,9 +52,6 @@ absl::StatusOr<CompositingWeights> ComputeCompositingWeights(const GaussianScene
                                                              const RenderCamera& camera,
                                                              int64_t timestamp_us,
                                                              const WeightOptions& options) {
-  if (camera.rolling_shutter.has_value()) {
-    return absl::InvalidArgumentError("camera: the colour fit's weights have no rolling shutter");
-  }
   const CameraModel& model = camera.model;
   if (model.width() <= 0 || model.height() <= 0) {
     return absl::InvalidArgumentError(
@@ -72,6 +78,16 @@ absl::StatusOr<CompositingWeights> ComputeCompositingWeights(const GaussianScene
     for (int a = 0; a < 3; ++a) {
       for (int b = 0; b < 3; ++b) f[3 * a + b] = static_cast<float>(x.rotation.m[a][b]);
       f[9 + a] = static_cast<float>(x.translation[a]);
+    }
+  }
+
+  if (camera.rolling_shutter.has_value()) {
+    frame.rolling.emplace();
+    if (absl::Status status =
+            raster::SetUpRenderFrame(scene.instances, scene.time_origin_us, camera, timestamp_us,
+                                     {}, options.near_plane, &*frame.rolling);
+        !status.ok()) {
+      return status;
     }
   }
 

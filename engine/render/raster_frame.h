@@ -75,6 +75,26 @@ inline Transform ReadoutCameraFromOwner(const RenderFrame& frame, uint32_t owner
   return out;
 }
 
+// Projects Gaussian `i` through rolling-shutter `frame` whole from the pose
+// (and the actors at the time) of the line its centre is read on: from the
+// middle of the readout (else its first or last line), then from the line
+// the centre landed on. False when it cannot be seen.
+inline bool ProjectSplatAtItsLine(const GaussianScene& scene, size_t i, const RenderFrame& frame,
+                                  SplatGeometry* g) {
+  const uint32_t owner = scene.owners[i];
+  float f = -1;
+  for (float guess : {0.5f, 0.f, 1.f}) {
+    const Transform cam = ReadoutCameraFromOwner(frame, owner, guess);
+    if (ProjectSplatGeometry(scene, i, frame, cam.r, cam.t, g)) {
+      f = ReadoutFraction(frame, g->mx, g->my);
+      break;
+    }
+  }
+  if (f < 0) return false;
+  const Transform cam = ReadoutCameraFromOwner(frame, owner, f);
+  return ProjectSplatGeometry(scene, i, frame, cam.r, cam.t, g);
+}
+
 // Fills `frame` for rendering a scene with `instances` (and time origin
 // `time_origin_us`) through `camera` at `timestamp_us` with `edits` (with a
 // rolling shutter, the readout's poses too: the actors at each line's time).

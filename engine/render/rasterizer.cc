@@ -71,19 +71,7 @@ bool ProjectGaussian(const GaussianScene& scene, const RenderFrame& frame, size_
   if (!frame.owner_live[owner]) return false;
   raster::SplatGeometry g;
   if (frame.readout.has_value()) {
-    // From the middle of the readout (else its first or last line), then
-    // from the line the centre landed on.
-    float f = -1;
-    for (float guess : {0.5f, 0.f, 1.f}) {
-      const Transform cam = raster::ReadoutCameraFromOwner(frame, owner, guess);
-      if (raster::ProjectSplatGeometry(scene, i, frame, cam.r, cam.t, &g)) {
-        f = raster::ReadoutFraction(frame, g.mx, g.my);
-        break;
-      }
-    }
-    if (f < 0) return false;
-    const Transform cam = raster::ReadoutCameraFromOwner(frame, owner, f);
-    if (!raster::ProjectSplatGeometry(scene, i, frame, cam.r, cam.t, &g)) return false;
+    if (!raster::ProjectSplatAtItsLine(scene, i, frame, &g)) return false;
   } else {
     const Transform& cam = frame.camera_from_owner[owner];
     if (!raster::ProjectSplatGeometry(scene, i, frame, cam.r, cam.t, &g)) return false;

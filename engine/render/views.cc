@@ -101,36 +101,6 @@ absl::StatusOr<Rigid> PoseFromNumbers(const google::protobuf::RepeatedField<doub
   return pose;
 }
 
-absl::StatusOr<RollingShutter> RollingShutterFromProto(const v1::RollingShutter& message,
-                                                       const std::string& field) {
-  RollingShutter out;
-  switch (message.readout()) {
-    case v1::RollingShutter::TOP_TO_BOTTOM:
-      out.readout = RollingShutter::Readout::kTopToBottom;
-      break;
-    case v1::RollingShutter::BOTTOM_TO_TOP:
-      out.readout = RollingShutter::Readout::kBottomToTop;
-      break;
-    case v1::RollingShutter::LEFT_TO_RIGHT:
-      out.readout = RollingShutter::Readout::kLeftToRight;
-      break;
-    case v1::RollingShutter::RIGHT_TO_LEFT:
-      out.readout = RollingShutter::Readout::kRightToLeft;
-      break;
-    default:
-      return Invalid(field + ".readout",
-                     "say which line is read first: TOP_TO_BOTTOM, BOTTOM_TO_TOP, LEFT_TO_RIGHT "
-                     "or RIGHT_TO_LEFT");
-  }
-  if (message.readout_us() < 0) {
-    return Invalid(field + ".readoutUs", absl::StrCat("must be >= 0, got ", message.readout_us()));
-  }
-  out.readout_us = message.readout_us();
-  ASSIGN_OR_RETURN(out.world_from_camera_end,
-                   PoseFromNumbers(message.world_from_camera_end(), field + ".worldFromCameraEnd"));
-  return out;
-}
-
 absl::StatusOr<TrackBox> BoxFromProto(const v1::Box& box, const std::string& field) {
   if (box.center_size() != 3) {
     return Invalid(field + ".center", absl::StrCat("expected 3 numbers, got ", box.center_size()));
@@ -186,6 +156,36 @@ std::vector<double> DistortionCoefficients(const v1::Distortion& d, const Camera
 }
 
 }  // namespace
+
+absl::StatusOr<RollingShutter> RollingShutterFromProto(const v1::RollingShutter& message,
+                                                       const std::string& field) {
+  RollingShutter out;
+  switch (message.readout()) {
+    case v1::RollingShutter::TOP_TO_BOTTOM:
+      out.readout = RollingShutter::Readout::kTopToBottom;
+      break;
+    case v1::RollingShutter::BOTTOM_TO_TOP:
+      out.readout = RollingShutter::Readout::kBottomToTop;
+      break;
+    case v1::RollingShutter::LEFT_TO_RIGHT:
+      out.readout = RollingShutter::Readout::kLeftToRight;
+      break;
+    case v1::RollingShutter::RIGHT_TO_LEFT:
+      out.readout = RollingShutter::Readout::kRightToLeft;
+      break;
+    default:
+      return Invalid(field + ".readout",
+                     "say which line is read first: TOP_TO_BOTTOM, BOTTOM_TO_TOP, LEFT_TO_RIGHT "
+                     "or RIGHT_TO_LEFT");
+  }
+  if (message.readout_us() < 0) {
+    return Invalid(field + ".readoutUs", absl::StrCat("must be >= 0, got ", message.readout_us()));
+  }
+  out.readout_us = message.readout_us();
+  ASSIGN_OR_RETURN(out.world_from_camera_end,
+                   PoseFromNumbers(message.world_from_camera_end(), field + ".worldFromCameraEnd"));
+  return out;
+}
 
 std::string RenderViewName(const v1::View& view) {
   return view.name().empty() ? DefaultViewName(view.camera(), view.timestamp_us()) : view.name();

@@ -73,6 +73,13 @@ inline int64_t RenderItemCount(const pointforward::v1::RenderViews& views) {
 // its name, else "lidar_<timestamp_us>".
 std::string RenderLidarName(const pointforward::v1::LidarView& lidar);
 
+// The rolling shutter of a view or a clip frame. INVALID_ARGUMENT naming the
+// field (`field` + ".readout", ".readoutUs", ".worldFromCameraEnd") for an
+// unset readout, a negative readoutUs or an end pose that is not 16 finite
+// numbers of a rigid transform.
+absl::StatusOr<RollingShutter> RollingShutterFromProto(
+    const pointforward::v1::RollingShutter& message, const std::string& field);
+
 // Checks `views` and turns it into what the rasterizer takes: cameras valid
 // and with unique ids, each view's camera known and its pose a rigid 4x4
 // (16 numbers), view names unique and usable as file names, LiDAR sweeps
