@@ -53,6 +53,13 @@ struct ContextView {
   int width() const { return camera.width(); }
   int height() const { return camera.height(); }
   LinePoses lines() const { return LinePoses(camera, world_from_camera, rolling_shutter); }
+  // The middle line's time (timestamp_us without a rolling shutter): the one
+  // time for uses that take a single time per image, with
+  // lines().MiddleWorldFromCamera().
+  int64_t middle_time_us() const {
+    return rolling_shutter.has_value() ? timestamp_us + rolling_shutter->readout_us / 2
+                                       : timestamp_us;
+  }
   // The camera centre of the line through continuous pixel (u, v).
   Vec3 centre_at(double u, double v) const {
     if (!rolling_shutter.has_value()) return world_from_camera.translation;

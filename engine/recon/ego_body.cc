@@ -268,8 +268,8 @@ std::vector<uint8_t> BodyBlocks(const std::vector<ContextView>& views,
   auto prepare = [&](size_t v) {
     if (reduced.count(v)) return;
     reduced[v] = Reduce(views[v].rgb, step);
-    dynamic[v] = DynamicMask(views[v].camera, views[v].world_from_camera, tracks,
-                             views[v].timestamp_us, 0.5);
+    dynamic[v] = DynamicMask(views[v].camera, views[v].lines().MiddleWorldFromCamera(), tracks,
+                             views[v].middle_time_us(), 0.5);
   };
   // Each frame with the one farthest from it, when far enough.
   std::vector<std::pair<size_t, size_t>> pairs;

@@ -88,7 +88,7 @@ ImageF SweepDepth(const ContextView& view, const std::vector<LidarSweepData>& sw
   ImageF sparse(view.width(), view.height(), 1);
   for (const LidarSweepData& sweep : sweeps) {
     if (std::abs(sweep.timestamp_us - view.timestamp_us) > gap + kSweepTieUs) continue;
-    const ImageF projected = ProjectPoints(sweep.points, view.camera, view.world_from_camera);
+    const ImageF projected = ProjectPoints(sweep.points, view.lines());
     for (size_t i = 0; i < sparse.pixels.size(); ++i) {
       const float d = projected.pixels[i];
       if (d > 0.f && (sparse.pixels[i] == 0.f || d < sparse.pixels[i])) sparse.pixels[i] = d;

@@ -705,7 +705,7 @@ absl::StatusOr<EvalReport> EvaluateClip(const LoadedClip& loaded, const ReconOpt
     const auto metrics_start = std::chrono::steady_clock::now();
     const std::vector<uint8_t> mask =
         DynamicMask(target.camera, target.lines().MiddleWorldFromCamera(), scene.instances,
-                    target.timestamp_us);
+                    target.middle_time_us());
     ImageF render;
     FrameMetrics m = Measure(target.rgb, target.depth, buffers, scene.colour_encoding, mask,
                              target.ego, &render);
@@ -755,8 +755,13 @@ absl::StatusOr<EvalReport> EvaluateClip(const LoadedClip& loaded, const ReconOpt
     }
     for (const pointforward::v1::Frame& frame : loaded.clip.frames()) {
       if (frame.role() == pointforward::v1::Frame::TARGET) continue;
-      context_cameras.push_back(
-          {models.at(frame.camera()), Rigid::FromRowMajor(frame.world_from_camera().data())});
+      // A rolling-shutter frame by its middle line's pose.
+      Rigid pose = Rigid::FromRowMajor(frame.world_from_camera().data());
+      if (frame.has_rolling_shutter()) {
+        pose = InterpolateRigid(
+            pose, Rigid::FromRowMajor(frame.rolling_shutter().world_from_camera_end().data()), 0.5);
+      }
+      context_cameras.push_back({models.at(frame.camera()), pose});
       context_sweeps.insert(NearestSweep(sweeps, frame.timestamp_us()));
     }
   }

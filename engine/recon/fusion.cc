@@ -15,9 +15,10 @@ namespace pf {
 namespace {
 
 // Moves `pc`, a point in a rolling-shutter view's middle-line camera frame
-// projected to (u, v), to the camera of the line that reads it (twice, as
-// LinePoses::Project) and projects it again; false when that line does not
-// see it.
+// projected to (u, v), to the camera of the line that reads it and projects
+// it again, twice (LinePoses::Project iterates further and also tries the
+// first and last lines for points the middle line cannot see); false when
+// that line does not see it.
 bool OntoItsLine(const LinePoses& lines, Vec3* pc, double* u, double* v) {
   const Vec3 middle = *pc;
   for (int step = 0; step < 2; ++step) {

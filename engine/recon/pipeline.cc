@@ -122,7 +122,7 @@ void Pipeline::SceneGraph() {
     owners_[v] = PixelOwners(lifted_[v], depths_[v], inputs_.tracks, views[v].timestamp_us,
                              views[v].rolling_shutter);
     masks_[v] = DynamicMask(views[v].camera, views[v].lines().MiddleWorldFromCamera(),
-                            inputs_.tracks, views[v].timestamp_us, kMembershipMargin.grow);
+                            inputs_.tracks, views[v].middle_time_us(), kMembershipMargin.grow);
   }
   Done(ReconStage::kSceneGraph);
 }

@@ -168,8 +168,8 @@ void Project(const CameraModel& camera, const Tensor& x, const Tensor& y, const 
 }
 
 // Moves camera-frame points (x, y, z) of a rolling-shutter view's middle
-// line, projected to (u, v), to the camera of the line that reads each
-// (twice, as OntoItsLine of fusion.cc) and projects them again.
+// line, projected to (u, v), to the camera of the line that reads each and
+// projects them again, twice (as OntoItsLine of fusion.cc).
 void OntoTheirLines(const DeviceView& view, Tensor* x, Tensor* y, Tensor* z, Tensor* u, Tensor* v,
                     Tensor* valid) {
   const Tensor mx = *x, my = *y, mz = *z;
@@ -280,7 +280,8 @@ void FuseBatch(const QuerySet& queries, int64_t begin, int64_t end,
     // A float32 pass culls the static queries that surely miss the image,
     // with margins far beyond float rounding (1 m in depth, 10 % + 2 px of
     // the image sideways; sideways only for pinhole cameras and points over
-    // 0.5 m ahead); the exact float64 test below runs on the rest.
+    // 0.5 m ahead; none for a rolling-shutter view, whose lines see from
+    // other poses); the exact float64 test below runs on the rest.
     const Tensor czf =
         pxf * float(r.m[2][0]) + pyf * float(r.m[2][1]) + pzf * float(r.m[2][2]) + float(t.z);
     Tensor maybe = czf.gt(-1.f);
@@ -300,6 +301,7 @@ void FuseBatch(const QuerySet& queries, int64_t begin, int64_t end,
                                 .logical_and(vf.lt(view.height + mv));
       maybe = maybe.logical_and(ahead.logical_not().logical_or(inside));
     }
+    if (view.readout.has_value()) maybe = at::ones_like(maybe);
     maybe = maybe.logical_or(is_static.logical_not());
     const Tensor candidates = maybe.nonzero().squeeze(1);
     if (candidates.numel() == 0) continue;

@@ -563,7 +563,7 @@ ImageF MeasuredDepth(const ContextView& view, const std::vector<LidarSweepData>&
   if (nearest < 0) return ImageF(view.width(), view.height(), 1);
   if (source != nullptr) *source = MeasuredSource::kLidar;
   const LidarSweepData& sweep = sweeps[nearest];
-  const std::vector<float> points = PointsAtTime(sweep, tracks, view.timestamp_us);
+  const std::vector<float> points = PointsAtTime(sweep, tracks, view.middle_time_us());
   const ImageF projected = ProjectPoints(points, view.lines());
   return CompleteMeasured(projected, sweep, view, options, ground_pixels, ground);
 }

@@ -107,8 +107,9 @@ struct WeightOptions {
 
 // Records A for `scene` seen through `camera` at scene time `timestamp_us`
 // (no actor edits; through a rolling shutter each Gaussian from its line's
-// pose, as Render()). INVALID_ARGUMENT if the camera has no pixels, or the
-// scene has more than 2^32 Gaussians or its arrays disagree in size.
+// pose, as Render()). INVALID_ARGUMENT if the camera has no pixels (or, with
+// a rolling shutter, more than kMaxRenderPixels), or the scene has more than
+// 2^32 Gaussians or its arrays disagree in size.
 absl::StatusOr<CompositingWeights> ComputeCompositingWeights(const GaussianScene& scene,
                                                              const RenderCamera& camera,
                                                              int64_t timestamp_us,

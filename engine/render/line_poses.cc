@@ -107,7 +107,9 @@ bool LinePoses::Project(const Vec3& p, double* u, double* v, Vec3* in_camera) co
   if (!seen) return false;
   // The line a point lands on moves less each step; a hundredth of a line
   // apart is converged.
-  const double close = 0.01 / std::max(std::max(camera_.width(), camera_.height()) - 1, 1);
+  const bool rows = *readout_ == RollingShutter::Readout::kTopToBottom ||
+                    *readout_ == RollingShutter::Readout::kBottomToTop;
+  const double close = 0.01 / std::max((rows ? camera_.height() : camera_.width()) - 1, 1);
   double fraction = -1;
   for (int step = 0; step < kProjectSteps; ++step) {
     const double next = Fraction(*u, *v);

@@ -98,7 +98,7 @@ TEST(LinePoses, ARollingShutterPointLandsOnTheLineThatReadsIt) {
         }
       }
     }
-    EXPECT_LT(worst_pixel, 0.02);
+    EXPECT_LT(worst_pixel, 0.005);
     EXPECT_LT(worst_lift, 2e-4);
     EXPECT_GT(moved, 5);  // The readout matters at this speed.
   }
