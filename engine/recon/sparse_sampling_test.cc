@@ -484,6 +484,21 @@ TEST(SparseSampling, DiscsOnTheNearSideOfAnOccludingEdgeAreSmaller) {
   }
 }
 
+// Counts the instance queries of `q`, each expected in the canonical frame
+// of the tests' car: its first box (t = 0) centred at x = -5 on the z = 10
+// plane, so within the grown box's 2.16 m of x = -5 and at z = 10.
+int InstanceQueriesInTheFirstBox(const QuerySet& q) {
+  int dynamic = 0;
+  for (size_t i = 0; i < q.size(); ++i) {
+    if (q.owners[i] == 0) continue;
+    ++dynamic;
+    EXPECT_GE(q.positions[3 * i], -7.16f);
+    EXPECT_LE(q.positions[3 * i], -2.84f);
+    EXPECT_NEAR(q.positions[3 * i + 2], 10.f, 1e-4);
+  }
+  return dynamic;
+}
+
 TEST(SparseSampling, InstanceQueriesAreCanonicalAndWithinBudget) {
   PlaneView plane(192, 144, Rigid{}, /*t=*/1000000);
   // An instance whose box at t = 1 s is centred on the plane; its first box
@@ -501,15 +516,7 @@ TEST(SparseSampling, InstanceQueriesAreCanonicalAndWithinBudget) {
   options.static_per_view = 1000;
   options.dynamic_per_instance = 500;
   const QuerySet q = SampleQueries({plane.sampling()}, tracks, options);
-  int dynamic = 0;
-  for (size_t i = 0; i < q.size(); ++i) {
-    if (q.owners[i] == 0) continue;
-    ++dynamic;
-    // Canonical = world moved 5 m to -x.
-    EXPECT_GE(q.positions[3 * i], -7.16f);
-    EXPECT_LE(q.positions[3 * i], -2.84f);
-    EXPECT_NEAR(q.positions[3 * i + 2], 10.f, 1e-4);
-  }
+  const int dynamic = InstanceQueriesInTheFirstBox(q);
   EXPECT_LE(dynamic, 500);
   EXPECT_GE(dynamic, 450);  // The bisection lands near the budget.
   for (size_t i = 0; i < q.size(); ++i)
@@ -600,15 +607,8 @@ TEST(SparseSampling, ARollingShutterViewTakesEachLinesActors) {
   options.static_per_view = 1000;
   options.dynamic_per_instance = 500;
   const QuerySet q = SampleQueries({plane.sampling()}, tracks, options);
-  int dynamic = 0;
-  for (size_t i = 0; i < q.size(); ++i) {
-    if (q.owners[i] == 0) continue;
-    ++dynamic;
-    // Canonical = the box at t = 0 (x = -5), whichever line saw the point.
-    EXPECT_GE(q.positions[3 * i], -7.16f);
-    EXPECT_LE(q.positions[3 * i], -2.84f);
-  }
-  EXPECT_GE(dynamic, 400);
+  // Canonical = the box at t = 0, whichever line saw the point.
+  EXPECT_GE(InstanceQueriesInTheFirstBox(q), 400);
 }
 
 }  // namespace

@@ -173,6 +173,7 @@ void Project(const CameraModel& camera, const Tensor& x, const Tensor& y, const 
 void OntoTheirLines(const DeviceView& view, Tensor* x, Tensor* y, Tensor* z, Tensor* u, Tensor* v,
                     Tensor* valid) {
   const Tensor mx = *x, my = *y, mz = *z;
+  // ReadoutFractionOf (rasterizer.h) on tensors.
   const double rows = std::max(view.height - 1, 1), columns = std::max(view.width - 1, 1);
   for (int step = 0; step < 2; ++step) {
     Tensor f;

@@ -24,27 +24,6 @@ Rigid Lerp(const std::vector<Rigid>& samples, double fraction) {
 
 }  // namespace
 
-double ReadoutFraction(RollingShutter::Readout readout, int width, int height, double u, double v) {
-  const double rows = std::max(height - 1, 1);
-  const double columns = std::max(width - 1, 1);
-  double f = 0;
-  switch (readout) {
-    case RollingShutter::Readout::kTopToBottom:
-      f = (v - 0.5) / rows;
-      break;
-    case RollingShutter::Readout::kBottomToTop:
-      f = 1 - (v - 0.5) / rows;
-      break;
-    case RollingShutter::Readout::kLeftToRight:
-      f = (u - 0.5) / columns;
-      break;
-    case RollingShutter::Readout::kRightToLeft:
-      f = 1 - (u - 0.5) / columns;
-      break;
-  }
-  return std::clamp(f, 0.0, 1.0);
-}
-
 LinePoses::LinePoses(const CameraModel& camera, const Rigid& world_from_camera,
                      const std::optional<RollingShutter>& rolling_shutter)
     : camera_(camera),

@@ -24,7 +24,10 @@ namespace pf {
 
 // The fraction of a readout (0 the first line, 1 the last) at which the line
 // through continuous pixel (u, v) of a width x height image is read.
-double ReadoutFraction(RollingShutter::Readout readout, int width, int height, double u, double v);
+inline double ReadoutFraction(RollingShutter::Readout readout, int width, int height, double u,
+                              double v) {
+  return ReadoutFractionOf<double>(readout, width, height, u, v);
+}
 
 class LinePoses {
  public:

@@ -41,24 +41,7 @@ struct RenderFrame : ProjectionCamera {
 // The fraction of the readout (0 first line, 1 last) at which the line
 // through pixel-space point (x, y) is read.
 inline float ReadoutFraction(const RenderFrame& frame, float x, float y) {
-  const float rows = static_cast<float>(frame.height - 1 > 0 ? frame.height - 1 : 1);
-  const float columns = static_cast<float>(frame.width - 1 > 0 ? frame.width - 1 : 1);
-  float f = 0;
-  switch (*frame.readout) {
-    case RollingShutter::Readout::kTopToBottom:
-      f = (y - 0.5f) / rows;
-      break;
-    case RollingShutter::Readout::kBottomToTop:
-      f = 1 - (y - 0.5f) / rows;
-      break;
-    case RollingShutter::Readout::kLeftToRight:
-      f = (x - 0.5f) / columns;
-      break;
-    case RollingShutter::Readout::kRightToLeft:
-      f = 1 - (x - 0.5f) / columns;
-      break;
-  }
-  return ClampTo(f, 0.f, 1.f);
+  return ReadoutFractionOf<float>(*frame.readout, frame.width, frame.height, x, y);
 }
 
 // camera_from_owner of `owner` at readout fraction `f` (a rolling-shutter

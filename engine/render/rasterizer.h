@@ -40,6 +40,33 @@ struct RollingShutter {
   Rigid world_from_camera_end;
 };
 
+// The fraction of `readout` (0 the first line, 1 the last, clamped) at which
+// the line through pixel-space point (x, y) of a width x height image is
+// read: line k of n at k / (n - 1), its centre at k + 0.5. In the precision
+// of T (float for the rasterizer, double for reconstruction).
+template <typename T>
+T ReadoutFractionOf(RollingShutter::Readout readout, int width, int height, T x, T y) {
+  const T rows = static_cast<T>(height - 1 > 0 ? height - 1 : 1);
+  const T columns = static_cast<T>(width - 1 > 0 ? width - 1 : 1);
+  const T half = static_cast<T>(0.5);
+  T f = 0;
+  switch (readout) {
+    case RollingShutter::Readout::kTopToBottom:
+      f = (y - half) / rows;
+      break;
+    case RollingShutter::Readout::kBottomToTop:
+      f = 1 - (y - half) / rows;
+      break;
+    case RollingShutter::Readout::kLeftToRight:
+      f = (x - half) / columns;
+      break;
+    case RollingShutter::Readout::kRightToLeft:
+      f = 1 - (x - half) / columns;
+      break;
+  }
+  return f < 0 ? T(0) : (T(1) < f ? T(1) : f);
+}
+
 // A camera to render through: its model and pose (of the first line read,
 // with a rolling shutter).
 struct RenderCamera {
