@@ -1,8 +1,9 @@
 // Recording the compositing weights of one render (the colour-linear map).
 //
 // The projection is the rasterizer's own (splat_projection.h: the same
-// centres, conics and extents); the compositing repeats
-// raster_tile_kernel.h's per-row spans and tests in scalar form.
+// centres, conics and extents); the compositing runs raster_tile_kernel.h's
+// per-row spans, pixel groups and lane arithmetic, 4 lanes wide, so the
+// weights are the ones the render blends with, to the bit.
 #include "engine/render/compositing_weights.h"
 
 #include <algorithm>
@@ -11,8 +12,11 @@
 #include <optional>
 
 #include "absl/strings/str_cat.h"
+#include "engine/render/compositing_weights_avx2.h"
 #include "engine/render/instance_pose.h"
 #include "engine/render/raster_frame.h"
+#include "engine/render/raster_tile.h"
+#include "engine/render/raster_tile_kernel.h"
 #include "engine/render/splat_projection.h"
 
 namespace pf {
@@ -22,6 +26,12 @@ using raster::kMaxAlpha;
 using raster::kMinAlpha;
 using raster::kMinTransmittance;
 using raster::kTile;
+using raster::kTilePixels;
+
+// The recording runs the tile kernel's lanes at the x86-64 baseline's width.
+constexpr int kLanes = 4;
+using LaneFloats = raster::Lanes<kLanes>::F;
+using LaneInts = raster::Lanes<kLanes>::I;
 
 using Splat = raster::SplatGeometry;
 
@@ -152,20 +162,26 @@ absl::StatusOr<CompositingWeights> ComputeCompositingWeights(const GaussianScene
     uint8_t pixel;
   };
   std::vector<Entry> tile_entries;
-  float trans[kTile * kTile];
-  bool recorded[kTile * kTile];  // The tile's pixels on the lattice (pixel_stride).
-  uint32_t counts[kTile * kTile];
+  // Padded by a group: the last row's lanes past the tile read and write back
+  // (unchanged) the padding, as the tile kernel's do.
+  alignas(16) float trans[kTilePixels + kLanes];
+  // -1 for the tile's pixels on the lattice (pixel_stride), else 0; padded
+  // as `trans`.
+  alignas(16) int32_t recorded[kTilePixels + kLanes] = {};
+  uint32_t counts[kTilePixels];
+  LaneFloats lane;
+  for (int l = 0; l < kLanes; ++l) lane[l] = static_cast<float>(l);
   for (int ty = 0; ty < tiles_y; ++ty) {
     for (int tx = 0; tx < tiles_x; ++tx) {
       const size_t t = static_cast<size_t>(ty) * tiles_x + tx;
       const int x_begin = tx * kTile, y_begin = ty * kTile;
       const int x_end = std::min(x_begin + kTile, frame.width);
       const int y_end = std::min(y_begin + kTile, frame.height);
-      std::fill(trans, trans + kTile * kTile, 1.f);
+      std::fill(trans, trans + kTilePixels + kLanes, 1.f);
       for (int row = y_begin; row < y_end; ++row) {
         for (int col = x_begin; col < x_end; ++col) {
           recorded[(row - y_begin) * kTile + (col - x_begin)] =
-              OnPixelLattice(col, row, options.pixel_stride);
+              OnPixelLattice(col, row, options.pixel_stride) ? -1 : 0;
         }
       }
       tile_entries.clear();
@@ -181,6 +197,9 @@ absl::StatusOr<CompositingWeights> ComputeCompositingWeights(const GaussianScene
         const float inv_ca = 1.f / g.ca;
         const int row0 = std::max(y_begin, static_cast<int>(std::ceil(g.my - g.ext_y - 0.5f)));
         const int row1 = std::min(y_end - 1, static_cast<int>(std::floor(g.my + g.ext_y - 0.5f)));
+        const LaneFloats opacity = LaneFloats{} + g.opacity;
+        const float dx_origin = x_begin + 0.5f - g.mx;  // dx at tile column 0.
+        LaneInts done{};
         for (int row = row0; row <= row1; ++row) {
           const float dy = row + 0.5f - g.my;
           const float disc = g.ca * g.span_d2 - det * dy * dy;
@@ -191,31 +210,46 @@ absl::StatusOr<CompositingWeights> ComputeCompositingWeights(const GaussianScene
               std::max(x_begin, static_cast<int>(std::ceil(std::max(mid - half, -1e9f))));
           const int col1 =
               std::min(x_end - 1, static_cast<int>(std::floor(std::min(mid + half, 1e9f))));
+          if (col0 > col1) continue;
           const float row_term = g.cc * dy * dy;
           const float cross = 2.f * g.cb * dy;
-          for (int col = col0; col <= col1; ++col) {
-            const int p = (row - y_begin) * kTile + (col - x_begin);
-            const float tp = trans[p];
-            if (!(tp >= kMinTransmittance)) continue;
-            const float dx = col + 0.5f - g.mx;
-            const float d2 = g.ca * dx * dx + cross * dx + row_term;
-            const float alpha = std::min(kMaxAlpha, g.opacity * std::exp(-0.5f * d2));
-            if (!(alpha >= kMinAlpha)) continue;
-            const float weight = alpha * tp;
-            if (weight >= options.min_weight && recorded[p]) {
-              tile_entries.push_back({i, weight, static_cast<uint8_t>(p)});
+          const float lx0 = static_cast<float>(col0 - x_begin);
+          const float lx1 = static_cast<float>(col1 - x_begin);
+          const int row_base = (row - y_begin) * kTile;
+          // The tile kernel's groups and arithmetic (raster_tile_kernel.h),
+          // so each weight has the bits the render blends with.
+          for (int gx = col0 - x_begin; gx <= col1 - x_begin; gx += kLanes) {
+            const int p = row_base + gx;
+            const LaneFloats lx = lane + static_cast<float>(gx);
+            const LaneFloats tp = raster::Load<LaneFloats>(trans + p);
+            const LaneInts live = (lx >= lx0) & (lx <= lx1) & (tp >= kMinTransmittance);
+            if (raster::MoveMask<kLanes>(live) == 0) continue;
+            const LaneFloats dx = lx + dx_origin;
+            const LaneFloats d2 = g.ca * dx * dx + cross * dx + row_term;
+            LaneFloats alpha = opacity * raster::FastExp2<kLanes>(d2 * raster::kMinusHalfLog2e);
+            alpha = alpha < kMaxAlpha ? alpha : LaneFloats{} + kMaxAlpha;
+            const LaneInts blend = live & (alpha >= kMinAlpha);
+            if (raster::MoveMask<kLanes>(blend) == 0) continue;
+            const LaneFloats weight = alpha * tp;
+            const LaneFloats next = blend ? tp * (1.f - alpha) : tp;
+            raster::Store(trans + p, next);
+            done += blend & (next < kMinTransmittance);  // -1 per newly done pixel.
+            unsigned bits = raster::MoveMask<kLanes>(blend & (weight >= options.min_weight) &
+                                                     raster::Load<LaneInts>(recorded + p));
+            for (; bits != 0; bits &= bits - 1) {
+              const int l = __builtin_ctz(bits);
+              tile_entries.push_back({i, weight[l], static_cast<uint8_t>(p + l)});
             }
-            trans[p] = tp * (1.f - alpha);
-            active -= trans[p] < kMinTransmittance;
           }
         }
+        for (int l = 0; l < kLanes; ++l) active += done[l];
       }
       // Regroup by pixel (stable: front to back within a pixel).
-      std::fill(counts, counts + kTile * kTile, 0u);
+      std::fill(counts, counts + kTilePixels, 0u);
       for (const Entry& e : tile_entries) ++counts[e.pixel];
       uint64_t start = ranked.size();
-      uint64_t cursor[kTile * kTile];
-      for (int p = 0; p < kTile * kTile; ++p) {
+      uint64_t cursor[kTilePixels];
+      for (int p = 0; p < kTilePixels; ++p) {
         cursor[p] = start;
         start += counts[p];
         const int x = x_begin + p % kTile, y = y_begin + p / kTile;
@@ -369,11 +403,19 @@ void AccumulateNormal(const CompositingWeights& a, const std::vector<uint8_t>& m
     }
     return;
   }
-  // Per pixel, (A x)_p then out += (row p of A)^T (A x)_p, with each entry's
-  // (w, w u, w v) worked out once for both and the three channels in 4-wide
-  // vectors: channel c's (colour, g_u, g_v) are params[3c .. 3c+2].
-  // Pixels go tile by tile, as the entries are stored, so a tile's Gaussians
-  // stay in cache.
+#if defined(PF_RENDER_HAVE_AVX2_KERNEL)
+  // The AVX2 build where the render's tile kernel is not the baseline (the
+  // same bits either way; PF_RENDER_KERNEL=baseline picks the baseline).
+  static const bool avx2 = __builtin_cpu_supports("avx2");
+  if (avx2 && std::strcmp(raster::TileKernelName(), "baseline") != 0) {
+    AccumulateNormalTexturedAvx2(a, mask, x, out);
+    return;
+  }
+#endif
+  // The baseline. Per pixel, (A x)_p then out += (row p of A)^T (A x)_p,
+  // with each entry's (w, w u, w v) worked out once for both and the three
+  // channels in 4-wide vectors: channel c's (colour, g_u, g_v) are
+  // params[3c .. 3c+2].
   typedef float V4 __attribute__((vector_size(16)));
   auto load = [](const float* p) {
     V4 v;
@@ -387,47 +429,32 @@ void AccumulateNormal(const CompositingWeights& a, const std::vector<uint8_t>& m
     float w, wu, wv;
   };
   std::vector<Entry> row;
-  const size_t width = static_cast<size_t>(a.width), height = static_cast<size_t>(a.height);
-  for (size_t tile_y = 0; tile_y < height; tile_y += kTile) {
-    for (size_t tile_x = 0; tile_x < width; tile_x += kTile) {
-      for (size_t y = tile_y; y < std::min(height, tile_y + kTile); ++y) {
-        for (size_t p = y * width + tile_x; p < y * width + std::min(width, tile_x + kTile); ++p) {
-          if (!mask[p]) continue;
-          const uint64_t begin = a.pixel_begin[p], count = a.pixel_count[p];
-          if (row.size() < count) row.resize(count);
-          float px, py;
-          a.PixelCentre(p, &px, &py);
-          // Channels 0 and 1 from params[0..3] and [3..6] under (w, wu, wv,
-          // 0); channel 2 from params[5..8] under (0, w, wu, wv), so no load
-          // passes the Gaussian's 9 floats.
-          V4 c0 = {0, 0, 0, 0}, c1 = c0, c2 = c0;
-          for (uint64_t k = 0; k < count; ++k) {
-            const uint64_t e = begin + k;
-            float u, v;
-            a.LocalCoords(e, px, py, &u, &v);
-            const float w = a.weights[e], wu = w * u, wv = w * v;
-            const size_t offset = static_cast<size_t>(a.local[e]) * 9;
-            const float* src = x + offset;
-            const V4 lead = {w, wu, wv, 0.f}, tail = {0.f, w, wu, wv};
-            c0 += lead * load(src);
-            c1 += lead * load(src + 3);
-            c2 += tail * load(src + 5);
-            row[k] = {out + offset, w, wu, wv};
-          }
-          const float v0 = sum(c0), v1 = sum(c1), v2 = sum(c2);
-          for (uint64_t k = 0; k < count; ++k) {
-            const Entry& entry = row[k];
-            float* dst = entry.out;
-            const V4 first = {entry.w * v0, entry.wu * v0, entry.wv * v0, entry.w * v1};
-            const V4 second = {entry.wu * v1, entry.wv * v1, entry.w * v2, entry.wu * v2};
-            store(dst, load(dst) + first);
-            store(dst + 4, load(dst + 4) + second);
-            dst[8] += entry.wv * v2;
-          }
-        }
-      }
+  ForEachMaskedPixelByTile(a, mask, [&](uint64_t begin, uint64_t count, float px, float py) {
+    if (row.size() < count) row.resize(count);
+    // Channels 0 and 1 from params[0..3] and [3..6] under (w, wu, wv,
+    // 0); channel 2 from params[5..8] under (0, w, wu, wv), so no load
+    // passes the Gaussian's 9 floats.
+    V4 c0 = {0, 0, 0, 0}, c1 = c0, c2 = c0;
+    for (uint64_t k = 0; k < count; ++k) {
+      const auto [w, wu, wv, offset] = TexturedEntryAt(a, begin + k, px, py);
+      const float* src = x + offset;
+      const V4 lead = {w, wu, wv, 0.f}, tail = {0.f, w, wu, wv};
+      c0 += lead * load(src);
+      c1 += lead * load(src + 3);
+      c2 += tail * load(src + 5);
+      row[k] = {out + offset, w, wu, wv};
     }
-  }
+    const float v0 = sum(c0), v1 = sum(c1), v2 = sum(c2);
+    for (uint64_t k = 0; k < count; ++k) {
+      const Entry& entry = row[k];
+      float* dst = entry.out;
+      const V4 first = {entry.w * v0, entry.wu * v0, entry.wv * v0, entry.w * v1};
+      const V4 second = {entry.wu * v1, entry.wv * v1, entry.w * v2, entry.wu * v2};
+      store(dst, load(dst) + first);
+      store(dst + 4, load(dst + 4) + second);
+      dst[8] += entry.wv * v2;
+    }
+  });
 }
 
 void Composite(const CompositingWeights& a, const float* colours, int channels, float* image) {

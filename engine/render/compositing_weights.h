@@ -6,13 +6,14 @@
 // where alpha_ip is Gaussian i's opacity times its 2D footprint at p. With
 // geometry, opacity and time fixed, the rendered image is linear in the
 // colours: rgb = A c. ComputeCompositingWeights() records the sparse A of one
-// view by the rasterizer's own rules (EWA projection with the scene's
-// low-pass, opacity-aware extent, depth order with ties in index order, the
-// same per-row pixel spans, alpha clamped to 0.99, contributions under 1/255
-// skipped, a pixel done once its transmittance is under 1e-4), so
-// Composite(A, c) reproduces Render()'s premultiplied rgb for feature colours
-// (to float rounding: the rasterizer's exp is a polynomial) on the pixels
-// it records, and AccumulateTransposed() is the colour-only backward pass:
+// view by the rasterizer's own rules and arithmetic (EWA projection with the
+// scene's low-pass, opacity-aware extent, depth order with ties in index
+// order, the tile kernel's per-row pixel spans, lanes and exp, alpha clamped
+// to 0.99, contributions under 1/255 skipped, a pixel done once its
+// transmittance is under 1e-4), so each weight has the bits the render
+// blends with, Composite(A, c) reproduces Render()'s premultiplied rgb for
+// flat feature colours to the bit on the pixels it records, and
+// AccumulateTransposed() is the colour-only backward pass:
 // the gradient of sum_p |rgb_p - image_p|^2 / 2 with respect to the colours
 // is A^T (A c - image). Least-squares colour fits (recon/colour_refinement.h)
 // apply both without re-rendering. The forward rasterizer is not touched.
@@ -138,7 +139,9 @@ void AccumulateTransposedTextured(const CompositingWeights& a, const float* resi
 // pixel's entries are read from memory once and, still in cache, again for
 // the transposed product, where Composite then AccumulateTransposed read
 // them all twice (the colour fit's iterations are mostly this). Pixels are
-// taken tile by tile, so the sums into `out` run in that order.
+// taken tile by tile, so the sums into `out` run in that order. The textured
+// product has an AVX2 build (compositing_weights_avx2.h), used where the
+// render's tile kernel is not the baseline; both give the same bits.
 void AccumulateNormal(const CompositingWeights& a, const std::vector<uint8_t>& mask, const float* x,
                       float* out);
 

@@ -1,8 +1,10 @@
 // The tile compositing kernel, written once over W float lanes with GCC/Clang
 // vector extensions; raster_tile_baseline.cc, raster_tile_avx2.cc and
 // raster_tile_avx512.cc instantiate it with W = 4, 8 and 16 under their own
-// compiler flags. Include only from those files: everything here has
-// internal linkage so the builds never mix.
+// compiler flags; compositing_weights.cc records the colour fit's weights
+// with its W = 4 lanes at the baseline's flags. Include only from such files
+// (no -ffp-contract other than off where FMA is enabled): everything here
+// has internal linkage so the builds never mix.
 //
 // Per Gaussian and tile row, only the W-pixel groups that cover the
 // ellipse's span are visited; lanes outside the span or whose pixel is done
