@@ -4,12 +4,9 @@
 // same terms in the same order, so both give the same bits.
 #include "engine/render/compositing_weights_avx2.h"
 
-#include <algorithm>
 #include <cstdint>
 #include <cstring>
 #include <vector>
-
-#include "engine/render/raster_tile.h"
 
 namespace pf {
 namespace {

@@ -2,7 +2,7 @@
 // AVX2, for CPUs that have it: compositing_weights_avx2.cc, compiled with
 // -mavx2 and no fused multiply-adds on x86-64 builds only. The same bits as
 // the baseline in compositing_weights.cc; both walk the pixels with
-// ForEachMaskedPixelByTile.
+// ForEachMaskedPixelByTile. Include only from those two files.
 #ifndef POINTFORWARD_ENGINE_RENDER_COMPOSITING_WEIGHTS_AVX2_H_
 #define POINTFORWARD_ENGINE_RENDER_COMPOSITING_WEIGHTS_AVX2_H_
 
@@ -15,6 +15,10 @@
 #include "engine/render/raster_tile.h"
 
 namespace pf {
+
+// Internal linkage: the AVX2 file's copies of these must never stand in for
+// the baseline's (raster_tile_kernel.h does the same).
+namespace {
 
 // Calls body(begin, count, px, py) for every pixel p of `a` where mask[p] is
 // non-zero (its entries [begin, begin + count), its centre (px, py)), tile by
@@ -52,6 +56,8 @@ inline TexturedEntry TexturedEntryAt(const CompositingWeights& a, uint64_t e, fl
   const float w = a.weights[e];
   return {w, w * u, w * v, static_cast<size_t>(a.local[e]) * 9};
 }
+
+}  // namespace
 
 // Adds A^T M A x to `out` for weights `a` with local coordinates; `x` and
 // `out` are [a.gaussians.size(), 3, 3], M the pixels where `mask` is non-zero.
