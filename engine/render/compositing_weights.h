@@ -73,8 +73,11 @@ struct CompositingWeights {
 
   size_t entries() const { return weights.size(); }
   bool has_local_coords() const { return !local_frames.empty(); }
+  // PixelCentre and LocalCoords are always inlined: the AVX2 build of the
+  // normal product (compositing_weights_avx2.cc) calls them too, and an
+  // out-of-line copy of its own could stand in for the baseline's.
   // The centre (x + 0.5, y + 0.5) of pixel p = y * width + x.
-  void PixelCentre(size_t pixel, float* px, float* py) const {
+  [[gnu::always_inline]] void PixelCentre(size_t pixel, float* px, float* py) const {
     *px = static_cast<float>(pixel % static_cast<size_t>(width)) + 0.5f;
     *py = static_cast<float>(pixel / static_cast<size_t>(width)) + 0.5f;
   }
@@ -84,7 +87,8 @@ struct CompositingWeights {
   }
   // (u, v) of entry `e` at the pixel whose centre is (px, py) (x + 0.5,
   // y + 0.5): the values Render() gives the Gaussian's colour gradients.
-  void LocalCoords(uint64_t e, float px, float py, float* u, float* v) const {
+  [[gnu::always_inline]] void LocalCoords(uint64_t e, float px, float py, float* u,
+                                          float* v) const {
     const float* f = &local_frames[6 * static_cast<size_t>(local[e])];
     const float dx = px - f[0], dy = py - f[1];
     *u = f[2] * dx + f[3] * dy;
