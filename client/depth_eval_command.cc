@@ -1,5 +1,6 @@
 // pf depth-eval CLIP.json [--hide half|top] [--top-share F] [--json FILE]
 //               [--completion nearest|ip-basic] [--no-ground-fill] [--no-facades]
+//               [--no-stereo]
 //               [--working-space srgb|linear] [--allow-outside-paths]
 // Hides a part of the clip's LiDAR (and sparse depth maps) from the depth
 // stage and measures each method's dense depth at the hidden points
@@ -30,7 +31,7 @@ namespace {
 constexpr char kDepthEvalHelp[] =
     R"(usage: pf depth-eval CLIP.json [--hide half|top] [--top-share F] [--json FILE]
                      [--completion nearest|ip-basic] [--no-ground-fill] [--no-facades]
-                     [--working-space srgb|linear] [--allow-outside-paths]
+                     [--no-stereo] [--working-space srgb|linear] [--allow-outside-paths]
 
 Measures the dense depth of the clip's CONTEXT views where the clip measured
 depth that the depth stage was not given. A part of every LiDAR sweep (and of
@@ -46,13 +47,15 @@ Methods, on the same kept points:
             completion radius (LiDAR completion alone)
   ipBasic   IP-Basic with its upward extension (pf eval's warp baseline)
   ours      the reconstruction's depth stage with the flags given: completion,
-            ground plane, facades; pixels left to the far layer are missing
+            ground plane, facades, stereo; pixels left to the far layer are
+            missing
 Per method: points (hidden points with a depth), coverage (their share), AbsRel
 (mean |depth - truth| / truth), RMSE (m), within5 (share within 5 %), over its
 own points and over the points every method covers ("common").
 
   --json FILE   {"clip", "hide", "topShare", "views", "hiddenPoints",
-                "keptMeasurements", "facadePixels", "groundPixels", "seconds",
+                "keptMeasurements", "facadePixels", "stereoPixels", "groundPixels",
+                "seconds",
                 "methods": {"nearest"|"ipBasic"|"ours": {"points", "missing",
                 "coverage", "absRel", "rmse", "within5", "common": {"points",
                 "absRel", "rmse", "within5"}}}}
@@ -126,9 +129,10 @@ absl::Status DepthEvalCommand(const CommandLine& cl) {
     j["common"] = ErrorsJson(common, false);
     methods[method.name] = j;
   }
-  std::printf("  ours: %lld pixels from the ground plane, %lld from facades\n",
+  std::printf("  ours: %lld pixels from the ground plane, %lld from facades, %lld from stereo\n",
               static_cast<long long>(report.ground_pixels),
-              static_cast<long long>(report.facade_pixels));
+              static_cast<long long>(report.facade_pixels),
+              static_cast<long long>(report.stereo_pixels));
   if (cl.Has("json")) {
     nlohmann::ordered_json j;
     j["clip"] = clip_path;
@@ -138,6 +142,7 @@ absl::Status DepthEvalCommand(const CommandLine& cl) {
     j["hiddenPoints"] = report.hidden_points;
     j["keptMeasurements"] = report.kept_measurements;
     j["facadePixels"] = report.facade_pixels;
+    j["stereoPixels"] = report.stereo_pixels;
     j["groundPixels"] = report.ground_pixels;
     j["seconds"] = report.seconds;
     j["methods"] = methods;

@@ -39,7 +39,7 @@ constexpr char kEvalUsage[] =
     "usage: pf eval CLIP.json --out DIR [--model analytic|pixel-aligned] [--ns N --nd N] "
     "[--fusion softmax|average|no-depth] [--lifespan] [--refine N] [--splat-sigma S] "
     "[--low-pass PX2] [--order-band B] [--hidden-band PX] [--no-ground-fill] [--no-facades] "
-    "[--no-ego-layer] "
+    "[--no-stereo] [--no-ego-layer] "
     "[--device cpu|cuda[:N]] [--optimize-steps N [--optimize-seconds S]] "
     "[--allow-outside-paths] [--views VIEWS.json --truth TRUTH_DIR] "
     "[--lane-shift D1,D2,... --lane-shift-time-us T] (pf eval --help for more)";
@@ -79,7 +79,7 @@ own ego mask (Camera.egoMask) are left out of every figure.
 reconstruction flags (as pf reconstruct):
   --model analytic|pixel-aligned  --ns N --nd N  --fusion softmax|average|no-depth
   --lifespan  --refine N  --splat-sigma S  --low-pass PX2  --order-band B  --hidden-band PX
-  --no-ground-fill  --no-facades  --no-ego-layer  --colour gradients|flat  --working-space srgb|linear
+  --no-ground-fill  --no-facades  --no-stereo  --no-ego-layer  --colour gradients|flat  --working-space srgb|linear
   --completion nearest|ip-basic
   --device cpu|cuda[:N]  --allow-outside-paths
 

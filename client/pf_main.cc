@@ -58,7 +58,7 @@ commands:
   reconstruct CLIP.json --out SCENE [--model analytic|pixel-aligned] [--ns N --nd N]
         [--fusion softmax|average|no-depth] [--lifespan] [--refine N] [--splat-sigma S]
         [--low-pass PX2] [--order-band B] [--hidden-band PX] [--no-ground-fill] [--no-facades]
-        [--no-ego-layer] [--device cpu|cuda[:N]]
+        [--no-stereo] [--no-ego-layer] [--device cpu|cuda[:N]]
         [--colour gradients|flat] [--working-space srgb|linear] [--completion nearest|ip-basic]
         [--optimize-steps N [--optimize-seconds S]] [--allow-outside-paths]
         check the clip as validate does, build a Gaussian scene from its CONTEXT frames
@@ -67,7 +67,7 @@ commands:
         reconstruct, render the TARGET frames (and extra or lane-shifted views), write
         DIR/report.json and contact sheets; pf eval --help for the details
   depth-eval CLIP.json [--hide half|top] [--top-share F] [--json FILE] [--completion ...]
-             [--no-ground-fill] [--no-facades]
+             [--no-ground-fill] [--no-facades] [--no-stereo]
         hide part of the LiDAR from the depth stage and measure each method's dense
         depth at the hidden points; pf depth-eval --help for the details
   help  this text; pf COMMAND --help shows one command's lines
@@ -91,7 +91,8 @@ the token in PF_TOKEN):
          [--device D] [TUNING] --cameras VIEWS.json [--out DIR --wait] [--outputs LIST]
         submit a render job (of a clip: reconstructed first unless cached);
         TUNING: [--refine N] [--splat-sigma S] [--low-pass PX2] [--order-band B] [--hidden-band PX]
-        [--no-ground-fill] [--no-facades] [--no-ego-layer] [--colour gradients|flat] [--completion M]
+        [--no-ground-fill] [--no-facades] [--no-stereo] [--no-ego-layer] [--colour gradients|flat]
+        [--completion M]
         [--working-space srgb|linear], as pf reconstruct's (unset: the worker's
         defaults; a scene made with other values is another scene);
         --wait waits and downloads every output file into DIR

@@ -1,7 +1,8 @@
 // pf reconstruct CLIP.json --out SCENE [--model analytic|pixel-aligned]
 //                [--ns N --nd N] [--fusion softmax|average|no-depth]
 //                [--lifespan] [--refine N] [--splat-sigma S] [--low-pass PX2] [--order-band B]
-//                [--hidden-band PX] [--no-ground-fill] [--no-facades] [--no-ego-layer]
+//                [--hidden-band PX] [--no-ground-fill] [--no-facades] [--no-stereo]
+//                [--no-ego-layer]
 //                [--device cpu|cuda[:N]] [--colour gradients|flat]
 //                [--working-space srgb|linear]
 //                [--optimize-steps N [--optimize-seconds S]] [--allow-outside-paths]
@@ -32,7 +33,7 @@ constexpr char kReconstructUsage[] =
     "usage: pf reconstruct CLIP.json --out SCENE [--model analytic|pixel-aligned] "
     "[--ns N --nd N] [--fusion softmax|average|no-depth] [--lifespan] [--refine N] "
     "[--splat-sigma S] [--low-pass PX2] [--order-band B] [--hidden-band PX] [--no-ground-fill] "
-    "[--no-facades] [--no-ego-layer] "
+    "[--no-facades] [--no-stereo] [--no-ego-layer] "
     "[--device cpu|cuda[:N]] [--colour gradients|flat] [--working-space srgb|linear] "
     "[--completion nearest|ip-basic] [--optimize-steps N [--optimize-seconds S]] "
     "[--allow-outside-paths]";
@@ -61,16 +62,18 @@ absl::Status ReconstructCommand(const CommandLine& cl) {
       "reconstructed %s (%s) -> %s\n"
       "  gaussians: %zu (static %lld incl. far layer %lld, dynamic %lld)\n"
       "  instances: %d, context views: %d (%d with depth from LiDAR, %d from sparse depth maps, "
-      "%lld pixels of them from the ground plane and %lld from facades, %d without depth), "
+      "%lld pixels of them from the ground plane, %lld from facades and %lld from stereo, %d "
+      "without depth), "
       "N_s %lld, N_d %lld\n"
       "  time: %s; total %.2f s\n",
       clip_path.c_str(), options.model.c_str(), cl.Get("out").c_str(), result.scene.size(),
       static_cast<long long>(s.static_gaussians), static_cast<long long>(s.far_gaussians),
       static_cast<long long>(s.dynamic_gaussians), s.instances, s.views, s.lidar_views,
       s.sparse_map_views, static_cast<long long>(s.ground_pixels),
-      static_cast<long long>(s.facade_pixels), s.views_without_depth,
-      static_cast<long long>(s.static_per_view), static_cast<long long>(s.dynamic_per_instance),
-      absl::StrJoin(stages, ", ").c_str(), s.total_seconds);
+      static_cast<long long>(s.facade_pixels), static_cast<long long>(s.stereo_pixels),
+      s.views_without_depth, static_cast<long long>(s.static_per_view),
+      static_cast<long long>(s.dynamic_per_instance), absl::StrJoin(stages, ", ").c_str(),
+      s.total_seconds);
   return absl::OkStatus();
 }
 

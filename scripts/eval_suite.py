@@ -151,7 +151,7 @@ def evaluate(pf, clip_json, out_dir, model, log, eval_args):
     }
 
 
-DEPTH_STAGE_FLAGS = {"--completion": 1, "--no-ground-fill": 0, "--no-facades": 0,
+DEPTH_STAGE_FLAGS = {"--completion": 1, "--no-ground-fill": 0, "--no-facades": 0, "--no-stereo": 0,
                      "--working-space": 1, "--allow-outside-paths": 0}
 
 

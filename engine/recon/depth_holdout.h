@@ -76,6 +76,7 @@ struct DepthHoldOutReport {
   int64_t kept_measurements = 0;            // Pixels the kept measurements mark, over all views.
   std::vector<DepthHoldOutMethod> methods;  // nearest, ipBasic, ours.
   int64_t facade_pixels = 0;                // Set by "ours"' facades.
+  int64_t stereo_pixels = 0;                // Set by "ours"' plane sweep.
   int64_t ground_pixels = 0;                // Set by "ours"' ground fill.
   double seconds = 0;
 };

@@ -1,9 +1,10 @@
-// The depth stage: measured depth per view, facades, the far layer.
+// The depth stage: measured depth per view, facades, stereo, the far layer.
 #include "engine/recon/depth_stage.h"
 
 #include <algorithm>
 
 #include "engine/recon/facade_depth.h"
+#include "engine/recon/stereo_depth.h"
 
 namespace pf {
 
@@ -28,6 +29,9 @@ DepthStage MeasureViewDepths(const std::vector<ContextView>& views,
   }
   if (options.facades) {
     stage.facade_pixels = ExtendFacades(views, completed, stage.grounds, &stage.measured);
+  }
+  if (options.stereo) {
+    stage.stereo_pixels = ExtendByStereo(views, completed, &stage.measured).pixels;
   }
   return stage;
 }

@@ -1,7 +1,8 @@
 // The reconstruction's depth stage (DESIGN.md section 3, step 1) as one
 // call: each CONTEXT view's measured depth (view_depth.h: a dense depth map,
 // or sparse measurements completed with the ground plane), facades above the
-// highest measurements (facade_depth.h), then the far layer for the rest.
+// highest measurements (facade_depth.h), a plane sweep over the pixels still
+// unknown (stereo_depth.h), then the far layer for the rest.
 // The reconstruction and `pf depth-eval` (depth_holdout.h) both run it.
 //
 //   DepthStage stage = MeasureViewDepths(views, sweeps, tracks, options);
@@ -25,6 +26,7 @@ struct DepthStage {
   int sparse_map_views = 0;             // Views completed from a sparse depth map.
   int64_t ground_pixels = 0;            // Pixels the ground fill set, in all views.
   int64_t facade_pixels = 0;            // Pixels facades set, in all views.
+  int64_t stereo_pixels = 0;            // Pixels the plane sweep set, in all views.
   // Set by AddFarLayer: views with no known pixel off the ego body, and the
   // far layer.
   int views_without_depth = 0;
@@ -32,7 +34,8 @@ struct DepthStage {
 };
 
 // Measures the depth of every view: MeasuredDepth by `options`, then, with
-// `options.facades`, ExtendFacades over the completed views.
+// `options.facades`, ExtendFacades over the completed views, and with
+// `options.stereo`, ExtendByStereo over them.
 DepthStage MeasureViewDepths(const std::vector<ContextView>& views,
                              const std::vector<LidarSweepData>& sweeps,
                              const std::vector<InstanceTrack>& tracks,

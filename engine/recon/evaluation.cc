@@ -485,6 +485,8 @@ std::string EvalReportJson(const EvalReport& report) {
   j["egoBody"] = nlohmann::json::object();
   for (const auto& [camera, share] : report.stats.ego_body) j["egoBody"][camera] = share;
   j["facadePixels"] = report.stats.facade_pixels;
+  j["stereo"] = report.options.completion.stereo;
+  j["stereoPixels"] = report.stats.stereo_pixels;
   j["splatSigma"] = report.options.decoder.tangent_sigma;
   j["lowPass"] = report.options.decoder.low_pass;
   j["orderBand"] = report.options.decoder.order_band;

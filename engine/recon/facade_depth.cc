@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <limits>
 
 #include "common/thread_pool.h"
 #include "engine/camera/camera_model.h"
@@ -51,35 +52,6 @@ bool PixelOf(const ContextView& view, const LinePoses& lines, const Vec3& p, int
   return PixelInImage(u, v, view.width(), view.height(), x, y);
 }
 
-// The views that check view `v`: cameras at least `min_baseline` away that
-// look the same half-space's way, the same camera's first, nearest first.
-std::vector<size_t> Partners(const std::vector<ContextView>& views, size_t v,
-                             const FacadeOptions& options) {
-  struct Candidate {
-    bool other_camera;
-    double baseline;
-    size_t index;
-  };
-  std::vector<Candidate> candidates;
-  const Vec3 forward = views[v].world_from_camera.rotation * Vec3{0, 0, 1};
-  for (size_t u = 0; u < views.size(); ++u) {
-    if (u == v) continue;
-    const double baseline =
-        Norm(views[u].world_from_camera.translation - views[v].world_from_camera.translation);
-    const Vec3 other = views[u].world_from_camera.rotation * Vec3{0, 0, 1};
-    if (baseline < options.min_baseline || Dot(forward, other) <= 0) continue;
-    candidates.push_back({views[u].camera_id != views[v].camera_id, baseline, u});
-  }
-  std::sort(candidates.begin(), candidates.end(), [](const Candidate& a, const Candidate& b) {
-    if (a.other_camera != b.other_camera) return !a.other_camera;
-    return a.baseline < b.baseline;
-  });
-  std::vector<size_t> out;
-  for (size_t i = 0; i < candidates.size() && static_cast<int>(i) < options.partners; ++i)
-    out.push_back(candidates[i].index);
-  return out;
-}
-
 // A vertical plane: the points p with Dot(normal, p) = offset.
 struct Facade {
   Vec3 normal;  // Horizontal.
@@ -95,7 +67,9 @@ int64_t ExtendFacades(const std::vector<ContextView>& views, const std::vector<b
   int64_t total = 0;
   for (size_t v = 0; v < views.size(); ++v) {
     if (!extend[v] || !grounds[v].valid) continue;
-    const std::vector<size_t> partners = Partners(views, v, options);
+    const std::vector<size_t> partners =
+        CheckingViews(views, v, options.min_baseline, std::numeric_limits<double>::infinity(), 0.0,
+                      options.partners);
     if (partners.empty()) continue;
     const ContextView& view = views[v];
     const GroundPlane& ground = grounds[v];

@@ -70,6 +70,7 @@ std::vector<Spec> MakeTable() {
   table.push_back(Number("hidden_band", Kind::kInt, 0, false, 256, " pixels", Key::kTextWhenSet));
   table.push_back(Switch("no_ground_fill", Key::kOffWhenSet, "ground_fill"));
   table.push_back(Switch("no_facades", Key::kOffWhenSet, "facades"));
+  table.push_back(Switch("no_stereo", Key::kOffWhenSet, "stereo"));
   table.push_back(Choice("colour", "colour model", {"gradients", "flat"}, Key::kTextWhenSet));
   Spec completion = Choice("completion", "method", {"nearest", "ip-basic"}, Key::kTextWhenSet);
   completion.clear_default = true;

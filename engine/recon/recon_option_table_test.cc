@@ -88,6 +88,7 @@ TEST(ReconOptionTable, FlagsFillTheMessage) {
                                                                "--hidden-band",
                                                                "0",
                                                                "--no-facades",
+                                                               "--no-stereo",
                                                                "--no-ego-layer",
                                                                "--colour",
                                                                "flat",
@@ -111,6 +112,7 @@ TEST(ReconOptionTable, FlagsFillTheMessage) {
   ASSERT_TRUE(proto->has_hidden_band());
   EXPECT_EQ(proto->hidden_band(), 0);
   EXPECT_TRUE(proto->no_facades());
+  EXPECT_TRUE(proto->no_stereo());
   EXPECT_TRUE(proto->no_ego_layer());
   EXPECT_FALSE(proto->no_ground_fill());
   EXPECT_EQ(proto->colour(), "flat");
@@ -179,6 +181,7 @@ TEST(ReconOptionTable, TheCacheKeyListsTheDefaultsAlwaysAndTheRestWhenSet) {
   tuned.set_hidden_band(0);
   tuned.set_no_ground_fill(true);
   tuned.set_no_facades(true);
+  tuned.set_no_stereo(true);
   tuned.set_no_ego_layer(true);
   tuned.set_colour("flat");
   tuned.set_completion("ip-basic");
@@ -195,6 +198,7 @@ TEST(ReconOptionTable, TheCacheKeyListsTheDefaultsAlwaysAndTheRestWhenSet) {
                                                 {"hidden_band", "0"},
                                                 {"ground_fill", "off"},
                                                 {"facades", "off"},
+                                                {"stereo", "off"},
                                                 {"colour", "flat"},
                                                 {"completion", "ip-basic"},
                                                 {"working_space", "linear"},

@@ -28,6 +28,7 @@ absl::StatusOr<ReconOptions> ReconOptionsFromProto(const v1::ReconstructionOptio
   options.fusion.lifespan = p.lifespan();
   options.completion.ground_fill = !p.no_ground_fill();
   options.completion.facades = !p.no_facades();
+  options.completion.stereo = !p.no_stereo();
   options.ego_layer = !p.no_ego_layer();
   options.completion.method = p.completion() == "ip-basic" ? CompletionOptions::Method::kIpBasic
                                                            : CompletionOptions::Method::kNearest;
@@ -86,7 +87,8 @@ std::map<std::string, std::string> SceneMetadata(const ReconOptions& options,
           {"fusion", FusionWeightsName(options.fusion.weights)},
           {"lifespan", options.fusion.lifespan ? "true" : "false"},
           {"ground_fill", options.completion.ground_fill ? "true" : "false"},
-          {"facades", options.completion.facades ? "true" : "false"}};
+          {"facades", options.completion.facades ? "true" : "false"},
+          {"stereo", options.completion.stereo ? "true" : "false"}};
 }
 
 }  // namespace pf

@@ -78,11 +78,12 @@ struct ReconStats {
   int64_t static_gaussians = 0;      // Owner 0, far layer included.
   int64_t far_gaussians = 0;
   int64_t dynamic_gaussians = 0;
-  int lidar_views = 0;            // Views whose depth came from LiDAR.
-  int sparse_map_views = 0;       // Views whose sparse depth map was completed (view_depth.h).
-  int64_t ground_pixels = 0;      // Completed views' pixels set by the ground fill (view_depth.h).
-  int64_t facade_pixels = 0;      // Completed views' pixels set by facades (facade_depth.h).
-  int views_without_depth = 0;    // No depth map, no LiDAR point: all far layer.
+  int lidar_views = 0;          // Views whose depth came from LiDAR.
+  int sparse_map_views = 0;     // Views whose sparse depth map was completed (view_depth.h).
+  int64_t ground_pixels = 0;    // Completed views' pixels set by the ground fill (view_depth.h).
+  int64_t facade_pixels = 0;    // Completed views' pixels set by facades (facade_depth.h).
+  int64_t stereo_pixels = 0;    // Completed views' pixels set by the plane sweep (stereo_depth.h).
+  int views_without_depth = 0;  // No depth map, no LiDAR point: all far layer.
   int rolling_shutter_views = 0;  // Frames with a rolling shutter, lifted line by line.
   // Each ego layer's camera and the share of its pixels on the body.
   std::vector<std::pair<std::string, double>> ego_body;

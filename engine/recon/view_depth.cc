@@ -263,6 +263,37 @@ void LevelAxes(const Vec3& up, Vec3* e1, Vec3* e2) {
   *e2 = Cross(up, *e1);
 }
 
+std::vector<size_t> CheckingViews(const std::vector<ContextView>& views, size_t v,
+                                  double min_baseline, double max_baseline, double min_cos,
+                                  int count) {
+  struct Candidate {
+    bool other_camera;
+    double baseline;
+    size_t index;
+  };
+  std::vector<Candidate> candidates;
+  const Vec3 forward = views[v].world_from_camera.rotation * Vec3{0, 0, 1};
+  for (size_t u = 0; u < views.size(); ++u) {
+    if (u == v) continue;
+    const double baseline =
+        Norm(views[u].world_from_camera.translation - views[v].world_from_camera.translation);
+    const Vec3 other = views[u].world_from_camera.rotation * Vec3{0, 0, 1};
+    if (baseline < min_baseline || baseline > max_baseline || Dot(forward, other) <= min_cos) {
+      continue;
+    }
+    candidates.push_back({views[u].camera_id != views[v].camera_id, baseline, u});
+  }
+  std::sort(candidates.begin(), candidates.end(), [](const Candidate& a, const Candidate& b) {
+    if (a.other_camera != b.other_camera) return !a.other_camera;
+    if (a.baseline != b.baseline) return a.baseline < b.baseline;
+    return a.index < b.index;
+  });
+  std::vector<size_t> out;
+  for (size_t i = 0; i < candidates.size() && static_cast<int>(i) < count; ++i)
+    out.push_back(candidates[i].index);
+  return out;
+}
+
 GroundPlane FitGroundPlane(const LidarSweepData& sweep) {
   GroundPlane best;
   const Vec3 up = Normalized(sweep.sensor_up);

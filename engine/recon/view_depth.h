@@ -85,6 +85,10 @@ struct CompletionOptions {
   // LiDAR views' pixels above the highest measured point of a facade
   // continue its vertical plane where other views agree (facade_depth.h).
   bool facades = true;
+  // The completed views' pixels still unknown then take the depth a plane
+  // sweep over the nearby context views finds, where it is clear
+  // (stereo_depth.h).
+  bool stereo = true;
 };
 
 // The road surface around a LiDAR: the points p with Dot(normal, p) = offset
@@ -101,6 +105,15 @@ struct GroundPlane {
 // Sets `e1`, `e2` to two unit vectors that complete the unit vector `up` to
 // a right-handed orthonormal frame (e1 x e2 = up): axes of the level plane.
 void LevelAxes(const Vec3& up, Vec3* e1, Vec3* e2);
+
+// The views that check view `v`'s depth against their images (facades,
+// stereo): the other views whose cameras are `min_baseline` to
+// `max_baseline` metres away and whose forward axes make a cosine above
+// `min_cos` with v's, the same camera's first, then nearest first (then by
+// index); at most `count`.
+std::vector<size_t> CheckingViews(const std::vector<ContextView>& views, size_t v,
+                                  double min_baseline, double max_baseline, double min_cos,
+                                  int count);
 
 // Fits the ground plane under a sweep: RANSAC (a fixed seed, so the result
 // is reproducible) over the points 1.5-60 m from the sensor and at most 2 m
