@@ -13,12 +13,12 @@
 namespace pf {
 namespace {
 
-constexpr float kInvalid = -2.f;  // A score no NCC takes.
+constexpr float kNoScore = -2.f;  // A score no NCC takes.
 constexpr int kBlockRows = 16;    // Output rows per task.
 
 // A view's image reduced by a whole factor: grey (Rec. 601 luma of the
 // working colours), and 1 where any pixel of the cell is on the ego body.
-struct Reduced {
+struct ReducedGrey {
   int factor = 1;
   int width = 0;
   int height = 0;
@@ -26,8 +26,8 @@ struct Reduced {
   std::vector<uint8_t> ego;
 };
 
-Reduced Reduce(const ContextView& view, int max_width) {
-  Reduced r;
+ReducedGrey ReduceToGrey(const ContextView& view, int max_width) {
+  ReducedGrey r;
   r.factor = std::max(1, (view.width() + max_width - 1) / max_width);
   r.width = view.width() / r.factor;
   r.height = view.height() / r.factor;
@@ -57,7 +57,7 @@ Reduced Reduce(const ContextView& view, int max_width) {
 // A partner as the sweep sees it: the reduced image, and each reference
 // ray in the partner's camera frame, a + d b at reference z depth d.
 struct PartnerRays {
-  const Reduced* image = nullptr;
+  const ReducedGrey* image = nullptr;
   const CameraModel* camera = nullptr;
   std::vector<Vec3> a;
   std::vector<Vec3> b;
@@ -65,7 +65,7 @@ struct PartnerRays {
 
 // Bilinear grey of `r` at full-resolution continuous pixel (u, v); NaN
 // outside the image or next to the ego body.
-float Sample(const Reduced& r, double u, double v) {
+float SampleGrey(const ReducedGrey& r, double u, double v) {
   const double x = u / r.factor - 0.5, y = v / r.factor - 0.5;
   if (!(x >= 0 && y >= 0 && x <= r.width - 1 && y <= r.height - 1))
     return std::numeric_limits<float>::quiet_NaN();
@@ -90,7 +90,7 @@ StereoStats ExtendByStereo(const std::vector<ContextView>& views, const std::vec
                            std::vector<ImageF>* measured, const StereoOptions& options) {
   StereoStats stats;
   const size_t n = views.size();
-  std::vector<Reduced> reduced(n);
+  std::vector<ReducedGrey> reduced(n);
   std::vector<bool> needed(n, false);
   std::vector<std::vector<size_t>> partners(n);
   for (size_t v = 0; v < n; ++v) {
@@ -103,7 +103,7 @@ StereoStats ExtendByStereo(const std::vector<ContextView>& views, const std::vec
   }
   DefaultThreadPool().ParallelFor(0, static_cast<int64_t>(n), 1, [&](int64_t b, int64_t e) {
     for (int64_t v = b; v < e; ++v)
-      if (needed[v]) reduced[v] = Reduce(views[v], options.max_width);
+      if (needed[v]) reduced[v] = ReduceToGrey(views[v], options.max_width);
   });
 
   const int r = options.window_radius;
@@ -112,7 +112,7 @@ StereoStats ExtendByStereo(const std::vector<ContextView>& views, const std::vec
   for (size_t v = 0; v < n; ++v) {
     if (!extend[v] || partners[v].empty()) continue;
     const ContextView& view = views[v];
-    const Reduced& ref = reduced[v];
+    const ReducedGrey& ref = reduced[v];
     ImageF& depth = (*measured)[v];
     const int w = ref.width, h = ref.height, f = ref.factor;
     if (w <= 2 * r || h <= 2 * r) continue;
@@ -230,7 +230,7 @@ StereoStats ExtendByStereo(const std::vector<ContextView>& views, const std::vec
         // score[p][plane]: mean NCC over the partners that see the point;
         // worst[p][plane]: the lowest of theirs.
         const size_t cells = static_cast<size_t>(out_rows) * w;
-        std::vector<float> score(cells * planes, kInvalid), worst(cells * planes, kInvalid);
+        std::vector<float> score(cells * planes, kNoScore), worst(cells * planes, kNoScore);
         std::vector<float> warped(static_cast<size_t>(in_rows) * w);
         std::vector<float> col_w(static_cast<size_t>(out_rows) * w), col_ww(col_w.size()),
             col_rw(col_w.size());
@@ -248,7 +248,7 @@ StereoStats ExtendByStereo(const std::vector<ContextView>& views, const std::vec
                 if (wanted[wi] && ray_ok[ri]) {
                   double u, vv;
                   if (pr.camera->Project(pr.a[ri] + d * pr.b[ri], &u, &vv))
-                    value = Sample(*pr.image, u, vv);
+                    value = SampleGrey(*pr.image, u, vv);
                 }
                 warped[wi] = value;
               }
@@ -280,7 +280,7 @@ StereoStats ExtendByStereo(const std::vector<ContextView>& views, const std::vec
                 const size_t i = static_cast<size_t>(y) * w + x;
                 const size_t oi = static_cast<size_t>(y - out0) * w + x;
                 float& out = ncc[oi * k_count + k];
-                out = kInvalid;
+                out = kNoScore;
                 if (!active[i]) continue;
                 float sw = 0, sww = 0, srw = 0;
                 bool bad = false;
@@ -302,7 +302,7 @@ StereoStats ExtendByStereo(const std::vector<ContextView>& views, const std::vec
             int seen = 0;
             for (size_t k = 0; k < k_count; ++k) {
               const float value = ncc[c * k_count + k];
-              if (value == kInvalid) continue;
+              if (value == kNoScore) continue;
               sum += value;
               low = std::min(low, value);
               ++seen;
@@ -321,17 +321,17 @@ StereoStats ExtendByStereo(const std::vector<ContextView>& views, const std::vec
             const float* lowest = &worst[(static_cast<size_t>(y - out0) * w + x) * planes];
             int best = -1;
             for (int p = 0; p < planes; ++p)
-              if (s[p] != kInvalid && (best < 0 || s[p] > s[best])) best = p;
+              if (s[p] != kNoScore && (best < 0 || s[p] > s[best])) best = p;
             if (best < std::max(1, options.far_planes) || best >= planes - 1) continue;
             if (s[best] < options.min_ncc || lowest[best] < options.min_partner_ncc) continue;
             float rival = -1;
             for (int p = 0; p < planes; ++p)
-              if (std::abs(p - best) >= options.unique_planes && s[p] != kInvalid)
+              if (std::abs(p - best) >= options.unique_planes && s[p] != kNoScore)
                 rival = std::max(rival, s[p]);
             if (1 - s[best] > options.uniqueness * (1 - rival)) continue;
             // Sub-plane: the parabola through the best and its neighbours.
             double offset = 0;
-            if (s[best - 1] != kInvalid && s[best + 1] != kInvalid) {
+            if (s[best - 1] != kNoScore && s[best + 1] != kNoScore) {
               const double curve = s[best - 1] - 2.0 * s[best] + s[best + 1];
               if (curve < 0)
                 offset = std::clamp(0.5 * (s[best - 1] - s[best + 1]) / curve, -0.5, 0.5);

@@ -14,9 +14,9 @@ namespace {
 // pillar of radius 1 m at (10, 0) up to 10 m in front of it, the road
 // z = 0 and a smooth sky. Front and pillar are 0.25 m cells of random
 // grey, so views agree only at the right depth.
-constexpr double kWallX = 20, kWallTop = 8, kPillarX = 10, kPillarR = 1, kPillarTop = 10;
+constexpr double kFrontX = 20, kFrontTop = 8, kPillarX = 10, kPillarR = 1, kPillarTop = 10;
 
-double CellGrey(int a, int b, int c) {
+double SweptCellGrey(int a, int b, int c) {
   uint32_t h = static_cast<uint32_t>(a) * 73856093u ^ static_cast<uint32_t>(b) * 19349663u ^
                static_cast<uint32_t>(c) * 83492791u;
   h ^= h >> 13;
@@ -44,18 +44,18 @@ double Trace(const Vec3& o, const Vec3& d, double* grey, Surface* surface = null
       best = s;
       hit = kPillar;
       const double angle = std::atan2(p.y, p.x - kPillarX);
-      *grey = CellGrey(static_cast<int>(std::floor(angle * kPillarR / 0.25)),
-                       static_cast<int>(std::floor(p.z / 0.25)), 1);
+      *grey = SweptCellGrey(static_cast<int>(std::floor(angle * kPillarR / 0.25)),
+                            static_cast<int>(std::floor(p.z / 0.25)), 1);
     }
   }
   if (d.x > 0) {
-    const double s = (kWallX - o.x) / d.x;
+    const double s = (kFrontX - o.x) / d.x;
     const Vec3 p = o + s * d;
-    if (p.z >= 0 && p.z <= kWallTop && (best < 0 || s < best)) {
+    if (p.z >= 0 && p.z <= kFrontTop && (best < 0 || s < best)) {
       best = s;
       hit = kWall;
-      *grey = CellGrey(static_cast<int>(std::floor(p.y / 0.25)),
-                       static_cast<int>(std::floor(p.z / 0.25)), 2);
+      *grey = SweptCellGrey(static_cast<int>(std::floor(p.y / 0.25)),
+                            static_cast<int>(std::floor(p.z / 0.25)), 2);
     }
   }
   if (d.z < 0) {
@@ -71,18 +71,18 @@ double Trace(const Vec3& o, const Vec3& d, double* grey, Surface* surface = null
   return best;
 }
 
-constexpr int kWidth = 320, kHeight = 240;
+constexpr int kSweptWidth = 320, kSweptHeight = 240;
 
 // A camera at `position` looking along +x.
-ContextView StreetView(const std::string& camera_id, const Vec3& position) {
+ContextView SweptStreetView(const std::string& camera_id, const Vec3& position) {
   ContextView view;
   view.camera_id = camera_id;
-  view.camera = CameraModel(kWidth, kHeight, 200, 200, 160, 120);
+  view.camera = CameraModel(kSweptWidth, kSweptHeight, 200, 200, 160, 120);
   view.world_from_camera.rotation = Mat3::FromColumns({0, -1, 0}, {0, 0, -1}, {1, 0, 0});
   view.world_from_camera.translation = position;
-  view.rgb = ImageF(kWidth, kHeight, 3);
-  for (int y = 0; y < kHeight; ++y) {
-    for (int x = 0; x < kWidth; ++x) {
+  view.rgb = ImageF(kSweptWidth, kSweptHeight, 3);
+  for (int y = 0; y < kSweptHeight; ++y) {
+    for (int x = 0; x < kSweptWidth; ++x) {
       Vec3 ray;
       view.camera.Unproject(x + 0.5, y + 0.5, &ray);
       double grey = 0;
@@ -94,7 +94,7 @@ ContextView StreetView(const std::string& camera_id, const Vec3& position) {
 }
 
 // The z depth of pixel (x, y) of `view` (0 for the sky) and its surface.
-double TrueDepth(const ContextView& view, int x, int y, Surface* surface = nullptr) {
+double SweptTrueDepth(const ContextView& view, int x, int y, Surface* surface = nullptr) {
   Vec3 ray;
   view.camera.Unproject(x + 0.5, y + 0.5, &ray);  // z = 1: distance along it is z depth.
   double grey;
@@ -108,8 +108,8 @@ bool NearTexture(const ContextView& view, int x, int y, int radius) {
   for (int dy = -radius; dy <= radius; ++dy) {
     for (int dx = -radius; dx <= radius; ++dx) {
       Surface surface;
-      TrueDepth(view, std::clamp(x + dx, 0, kWidth - 1), std::clamp(y + dy, 0, kHeight - 1),
-                &surface);
+      SweptTrueDepth(view, std::clamp(x + dx, 0, kSweptWidth - 1),
+                     std::clamp(y + dy, 0, kSweptHeight - 1), &surface);
       if (surface == kPillar || surface == kWall) return true;
     }
   }
@@ -117,31 +117,31 @@ bool NearTexture(const ContextView& view, int x, int y, int radius) {
 }
 
 // Three views 1 m apart along the street; the middle one is swept.
-std::vector<ContextView> Street() {
-  return {StreetView("cam", {0, 1, 1.5}), StreetView("cam", {0, 0, 1.5}),
-          StreetView("cam", {0, -1, 1.5})};
+std::vector<ContextView> SweptStreet() {
+  return {SweptStreetView("cam", {0, 1, 1.5}), SweptStreetView("cam", {0, 0, 1.5}),
+          SweptStreetView("cam", {0, -1, 1.5})};
 }
 
-std::vector<ImageF> Unknown(size_t count) {
-  return std::vector<ImageF>(count, ImageF(kWidth, kHeight, 1));
+std::vector<ImageF> UnknownDepths(size_t count) {
+  return std::vector<ImageF>(count, ImageF(kSweptWidth, kSweptHeight, 1));
 }
 
 TEST(StereoDepth, FindsThePillarAndTheFrontAndLeavesTheSky) {
-  const std::vector<ContextView> views = Street();
-  std::vector<ImageF> measured = Unknown(3);
+  const std::vector<ContextView> views = SweptStreet();
+  std::vector<ImageF> measured = UnknownDepths(3);
   // The road below row 160 is measured (as a LiDAR would) and must be kept.
-  for (int y = 160; y < kHeight; ++y)
-    for (int x = 0; x < kWidth; ++x)
-      measured[1].at(x, y) = static_cast<float>(TrueDepth(views[1], x, y));
+  for (int y = 160; y < kSweptHeight; ++y)
+    for (int x = 0; x < kSweptWidth; ++x)
+      measured[1].at(x, y) = static_cast<float>(SweptTrueDepth(views[1], x, y));
   const ImageF before = measured[1];
 
   const StereoStats stats = ExtendByStereo(views, {false, true, false}, &measured);
   int64_t count[4] = {0, 0, 0, 0}, found[4] = {0, 0, 0, 0}, set = 0;
   std::vector<double> errors;
   for (int y = 0; y < 160; ++y) {
-    for (int x = 0; x < kWidth; ++x) {
+    for (int x = 0; x < kSweptWidth; ++x) {
       Surface surface;
-      const double truth = TrueDepth(views[1], x, y, &surface);
+      const double truth = SweptTrueDepth(views[1], x, y, &surface);
       const float d = measured[1].at(x, y);
       ++count[surface];
       if (d <= 0.f) continue;
@@ -171,8 +171,8 @@ TEST(StereoDepth, FindsThePillarAndTheFrontAndLeavesTheSky) {
   // layer.
   EXPECT_LT(found[kSky], count[kSky] / 10) << found[kSky] << " of " << count[kSky];
   // Measured pixels are kept; views not asked are untouched.
-  for (int y = 160; y < kHeight; ++y)
-    for (int x = 0; x < kWidth; ++x) EXPECT_EQ(measured[1].at(x, y), before.at(x, y));
+  for (int y = 160; y < kSweptHeight; ++y)
+    for (int x = 0; x < kSweptWidth; ++x) EXPECT_EQ(measured[1].at(x, y), before.at(x, y));
   for (size_t v : {0u, 2u})
     EXPECT_TRUE(std::all_of(measured[v].pixels.begin(), measured[v].pixels.end(),
                             [](float d) { return d == 0.f; }));
@@ -180,38 +180,38 @@ TEST(StereoDepth, FindsThePillarAndTheFrontAndLeavesTheSky) {
 
 TEST(StereoDepth, NeedsAViewFarEnoughAwayToCheck) {
   // The same camera 0.1 m away: under min_baseline, nothing to check with.
-  const std::vector<ContextView> views = {StreetView("cam", {0, 0.1, 1.5}),
-                                          StreetView("cam", {0, 0, 1.5})};
-  std::vector<ImageF> measured = Unknown(2);
+  const std::vector<ContextView> views = {SweptStreetView("cam", {0, 0.1, 1.5}),
+                                          SweptStreetView("cam", {0, 0, 1.5})};
+  std::vector<ImageF> measured = UnknownDepths(2);
   const StereoStats stats = ExtendByStereo(views, {false, true}, &measured);
   EXPECT_EQ(stats.pixels, 0);
   EXPECT_EQ(stats.views, 0);
 }
 
 TEST(StereoDepth, EgoPixelsAreNeitherSetNorEvidence) {
-  std::vector<ContextView> views = Street();
+  std::vector<ContextView> views = SweptStreet();
   // The swept view's left third is its ego body.
   auto mask = [](ContextView* view, int x0, int x1) {
-    view->ego.assign(static_cast<size_t>(kWidth) * kHeight, 0);
-    for (int y = 0; y < kHeight; ++y)
-      for (int x = x0; x < x1; ++x) view->ego[static_cast<size_t>(y) * kWidth + x] = 1;
+    view->ego.assign(static_cast<size_t>(kSweptWidth) * kSweptHeight, 0);
+    for (int y = 0; y < kSweptHeight; ++y)
+      for (int x = x0; x < x1; ++x) view->ego[static_cast<size_t>(y) * kSweptWidth + x] = 1;
   };
-  mask(&views[1], 0, kWidth / 3);
-  std::vector<ImageF> measured = Unknown(3);
+  mask(&views[1], 0, kSweptWidth / 3);
+  std::vector<ImageF> measured = UnknownDepths(3);
   ExtendByStereo(views, {false, true, false}, &measured);
   int64_t right_set = 0;
-  for (int y = 0; y < kHeight; ++y) {
-    for (int x = 0; x < kWidth; ++x) {
-      if (x < kWidth / 3) EXPECT_EQ(measured[1].at(x, y), 0.f) << x << "," << y;
+  for (int y = 0; y < kSweptHeight; ++y) {
+    for (int x = 0; x < kSweptWidth; ++x) {
+      if (x < kSweptWidth / 3) EXPECT_EQ(measured[1].at(x, y), 0.f) << x << "," << y;
       right_set += measured[1].at(x, y) > 0.f;
     }
   }
   EXPECT_GT(right_set, 0);
 
   // Both partners masked entirely: no evidence anywhere.
-  mask(&views[0], 0, kWidth);
-  mask(&views[2], 0, kWidth);
-  std::vector<ImageF> none = Unknown(3);
+  mask(&views[0], 0, kSweptWidth);
+  mask(&views[2], 0, kSweptWidth);
+  std::vector<ImageF> none = UnknownDepths(3);
   EXPECT_EQ(ExtendByStereo(views, {false, true, false}, &none).pixels, 0);
 }
 
