@@ -38,8 +38,9 @@ struct StereoOptions {
   double max_baseline = 8.0;  // Metres: farther views see too little of the same scene.
   double min_depth = 2.0;     // Metres: the sweep's nearest depth.
   double max_depth = 400.0;   // Metres: its farthest.
-  // A best depth within this many planes of the farthest is not told from
-  // the far layer (and picks there were mostly wrong: docs/QUALITY.md).
+  // A best depth fewer than this many planes nearer than the farthest is not
+  // told from the far layer (and picks there were mostly wrong:
+  // docs/QUALITY.md).
   int far_planes = 3;
   double step_px = 1.0;          // Parallax between neighbouring depths in the widest pair.
   int max_planes = 160;          // The sweep's depths at most.
