@@ -1,8 +1,10 @@
 #include "engine/recon/ego_body.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <deque>
+#include <limits>
 #include <map>
 #include <string>
 
@@ -19,17 +21,23 @@ constexpr int kDenseRadius = 3;  // 7x7 blocks.
 constexpr float kDenseShare = 0.5f;
 constexpr float kSaturated = 0.9f;
 constexpr double kHiddenRatio = 0.9;  // A surface nearer than this share hides the point.
+constexpr int kPatchRadius = 3;       // The patch test's 7x7 blocks.
+constexpr double kPatchMinShift = 3;  // Blocks the depth must move a patch.
+constexpr double kPatchTexture = 0.03;
+constexpr double kPatchMinDifference = 0.03;
+constexpr double kPatchRatio = 3;
+constexpr double kPatchMinScale = 0.67;  // The other frame's scale of the patch, at least.
 
 // A view reduced to blocks of `step` x `step` pixels (their mean colour).
 struct Reduced {
   int width = 0, height = 0, step = 1;
   std::vector<float> rgb;  // [h, w, 3]
 
-  // Bilinear colour at continuous block coordinates; false outside.
+  // Bilinear colour at continuous block coordinates; false outside (or NaN).
   bool Sample(double x, double y, float out[3]) const {
     x -= 0.5;
     y -= 0.5;
-    if (x < 0 || y < 0 || x > width - 1 || y > height - 1) return false;
+    if (!(x >= 0 && y >= 0 && x <= width - 1 && y <= height - 1)) return false;
     const int x0 = std::min(static_cast<int>(x), width - 2 < 0 ? 0 : width - 2);
     const int y0 = std::min(static_cast<int>(y), height - 2 < 0 ? 0 : height - 2);
     const int x1 = std::min(x0 + 1, width - 1), y1 = std::min(y0 + 1, height - 1);
@@ -199,6 +207,172 @@ std::vector<uint8_t> Morph(const std::vector<uint8_t>& m, int w, int h, int r, b
   return out;
 }
 
+// Where each block of `f` lands in `t` (block coordinates), lifted with
+// its depth (the far layer's too); NaN where it does not.
+std::vector<std::array<float, 2>> Landings(const PairFrame& f, const PairFrame& t) {
+  const ContextView& from = *f.view;
+  const Reduced& rf = *f.reduced;
+  const Reduced& rt = *t.reduced;
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  std::vector<std::array<float, 2>> landing(size_t(rf.width) * rf.height, {nan, nan});
+  const LinePoses from_lines = from.lines();
+  const LinePoses to_lines = t.view->lines();
+  DefaultThreadPool().ParallelFor(0, rf.height, 8, [&](int64_t y0, int64_t y1) {
+    for (int y = static_cast<int>(y0); y < y1; ++y) {
+      for (int x = 0; x < rf.width; ++x) {
+        const int px = x * rf.step + rf.step / 2, py = y * rf.step + rf.step / 2;
+        Vec3 world, in_to;
+        double u, v;
+        if (!from_lines.Lift(px + 0.5, py + 0.5, f.depth->depth[size_t(py) * from.width() + px],
+                             &world) ||
+            !to_lines.Project(world, &u, &v, &in_to)) {
+          continue;
+        }
+        landing[size_t(y) * rf.width + x] = {float(u / rt.step), float(v / rt.step)};
+      }
+    }
+  });
+  return landing;
+}
+
+// Blocks of `f` whose 7x7-block patch stays where it was in `t` while its
+// depth says it should have moved: textured (grey std-dev >= kPatchTexture),
+// its centre moved by the depth at least kPatchMinShift blocks, each of its
+// blocks landing in `t` (Landings), `t` seeing it at
+// least kPatchMinScale of its size across and down (seen much smaller, a
+// sharp line is a blur of blocks there, and a lane line along the road,
+// which the motion leaves where it was, would pass), and the patch's mean
+// difference from `t` at the same place under 1/kPatchRatio of that where
+// its blocks land (itself at least kPatchMinDifference). Finds edges of a
+// body that looks like what it hides, where MovedDifference's colour bar
+// cannot. Says nothing on the far layer, in a box, or off `reached` (the
+// still blocks connected to the bottom row).
+std::vector<uint8_t> StillPatches(const PairFrame& f, const PairFrame& t,
+                                  const std::vector<uint8_t>& reached) {
+  const ContextView& from = *f.view;
+  const ViewDepth& depth = *f.depth;
+  const std::vector<uint8_t>& dynamic = *f.dynamic;
+  const Reduced& rf = *f.reduced;
+  const Reduced& rt = *t.reduced;
+  std::vector<uint8_t> still(size_t(rf.width) * rf.height, 0);
+  if (rt.width != rf.width || rt.height != rf.height) return still;
+  const std::vector<std::array<float, 2>> landing = Landings(f, t);
+  const int r = kPatchRadius;
+  DefaultThreadPool().ParallelFor(r, std::max(r, rf.height - r), 8, [&](int64_t y0, int64_t y1) {
+    for (int y = static_cast<int>(y0); y < y1; ++y) {
+      for (int x = r; x < rf.width - r; ++x) {
+        const int px = x * rf.step + rf.step / 2, py = y * rf.step + rf.step / 2;
+        const size_t i = size_t(py) * from.width() + px;
+        if (!reached[size_t(y) * rf.width + x] || depth.is_far(i) ||
+            (!dynamic.empty() && dynamic[i] != 0)) {
+          continue;
+        }
+        const std::array<float, 2>& centre = landing[size_t(y) * rf.width + x];
+        const double bx = centre[0] - (x + 0.5), by = centre[1] - (y + 0.5);
+        if (!(bx * bx + by * by >= kPatchMinShift * kPatchMinShift)) continue;
+        // The patch's scale in `t`, across and down.
+        const auto span = [&](int dx, int dy) {
+          const std::array<float, 2>& p = landing[size_t(y + dy) * rf.width + x + dx];
+          const std::array<float, 2>& q = landing[size_t(y - dy) * rf.width + x - dx];
+          return std::hypot(p[0] - q[0], p[1] - q[1]) / (2.0 * r);
+        };
+        const double sx = span(r, 0), sy = span(0, r);
+        if (!(std::min(sx, sy) >= kPatchMinScale)) continue;
+        double sum = 0, sum_sq = 0, here = 0, there = 0;
+        bool inside = true;
+        for (int dy = -r; dy <= r && inside; ++dy) {
+          for (int dx = -r; dx <= r; ++dx) {
+            const size_t j = size_t(y + dy) * rf.width + x + dx;
+            float seen[3];
+            if (!rt.Sample(landing[j][0], landing[j][1], seen)) {
+              inside = false;
+              break;
+            }
+            const float* a = &rf.rgb[j * 3];
+            const double grey = (a[0] + a[1] + a[2]) / 3.0;
+            sum += grey;
+            sum_sq += grey * grey;
+            here += MeanAbs(a, &rt.rgb[j * 3]);
+            there += MeanAbs(a, seen);
+          }
+        }
+        if (!inside) continue;
+        const double n = double((2 * r + 1) * (2 * r + 1));
+        const double mean = sum / n;
+        const double texture = std::sqrt(std::max(0.0, sum_sq / n - mean * mean));
+        here /= n;
+        there /= n;
+        if (texture >= kPatchTexture && there >= kPatchMinDifference &&
+            here * kPatchRatio < there) {
+          still[size_t(y) * rf.width + x] = 1;
+        }
+      }
+    }
+  });
+  return still;
+}
+
+// The row of column `x` where the edge a still patch at row `top` holds
+// lies: of the rows top..top + 2 kPatchRadius, the first whose step in grey
+// from the row above is at least half the largest such step.
+int EdgeBelow(const Reduced& image, int x, int top) {
+  auto grey = [&](int y) {
+    const float* p = &image.rgb[(size_t(y) * image.width + x) * 3];
+    return (p[0] + p[1] + p[2]) / 3.f;
+  };
+  const int first = std::max(1, top), last = std::min(image.height - 1, top + 2 * kPatchRadius);
+  float largest = 0;
+  for (int y = first; y <= last; ++y) largest = std::max(largest, std::abs(grey(y) - grey(y - 1)));
+  for (int y = first; y <= last; ++y) {
+    if (std::abs(grey(y) - grey(y - 1)) >= 0.5f * largest) return y;
+  }
+  return top;
+}
+
+// The body below long runs of still patches (`edges`): each 8-connected
+// group of them (joined across gaps of up to kCloseBlocks) that lies in the
+// lower half of the image and spans at least a quarter of its width marks,
+// in every column it covers, the blocks from the edge below its topmost
+// block there (EdgeBelow) down to the bottom row, when three quarters of
+// them are `reached`. A body's outline crosses the image; a lone edge given
+// a wrong depth does not.
+std::vector<uint8_t> BelowLongEdges(const std::vector<uint8_t>& edges,
+                                    const std::vector<uint8_t>& reached, const Reduced& image) {
+  const int w = image.width, h = image.height;
+  const std::vector<uint8_t> joined = Morph(edges, w, h, kCloseBlocks, true);
+  std::vector<uint8_t> grouped(edges.size(), 0), below(edges.size(), 0);
+  for (size_t start = 0; start < edges.size(); ++start) {
+    if (!joined[start] || grouped[start]) continue;
+    std::vector<size_t> group{start};
+    grouped[start] = 1;
+    for (size_t k = 0; k < group.size(); ++k) {
+      const int x = static_cast<int>(group[k] % w), y = static_cast<int>(group[k] / w);
+      for (int dy = -1; dy <= 1; ++dy) {
+        for (int dx = -1; dx <= 1; ++dx) {
+          const int xx = x + dx, yy = y + dy;
+          if (xx < 0 || yy < 0 || xx >= w || yy >= h) continue;
+          const size_t n = size_t(yy) * w + xx;
+          if (joined[n] && !grouped[n]) grouped[n] = 1, group.push_back(n);
+        }
+      }
+    }
+    std::vector<int> top(w, h);
+    int min_x = w, max_x = -1, min_y = h;
+    for (size_t c : group) {
+      if (!edges[c]) continue;  // The joining blocks only connect.
+      const int x = static_cast<int>(c % w), y = static_cast<int>(c / w);
+      top[x] = std::min(top[x], y);
+      min_x = std::min(min_x, x), max_x = std::max(max_x, x), min_y = std::min(min_y, y);
+    }
+    if (max_x < 0 || (max_x - min_x + 1) * 4 < w || min_y * 2 < h) continue;
+    for (int x = 0; x < w; ++x) {
+      if (top[x] >= h) continue;
+      for (int y = EdgeBelow(image, x, top[x]); y < h; ++y) below[size_t(y) * w + x] = 1;
+    }
+  }
+  return below;
+}
+
 // The body from the still blocks connected to the bottom row (`reached`)
 // and the blocks the world's motion does not explain (`moved`).
 std::vector<uint8_t> BodyShape(const std::vector<uint8_t>& reached,
@@ -324,6 +498,16 @@ std::vector<uint8_t> BodyBlocks(const std::vector<ContextView>& views,
       }
     }
   }
+  std::vector<uint8_t> edges(size_t(w) * h, 0);
+  for (const auto& [a, b] : pairs) {
+    const PairFrame fa{&views[a], &depths[a], &dynamic[a], &reduced[a]};
+    const PairFrame fb{&views[b], &depths[b], &dynamic[b], &reduced[b]};
+    const std::vector<uint8_t> ab = StillPatches(fa, fb, reached);
+    const std::vector<uint8_t> ba = StillPatches(fb, fa, reached);
+    for (size_t i = 0; i < edges.size(); ++i) edges[i] |= ab[i] | ba[i];
+  }
+  const std::vector<uint8_t> below = BelowLongEdges(edges, reached, reduced[members[0]]);
+  for (size_t i = 0; i < moved.size(); ++i) moved[i] |= below[i];
   const std::vector<uint8_t> body = BodyShape(reached, moved, still_here, w, h);
   size_t area = 0;
   for (uint8_t b : body) area += b;

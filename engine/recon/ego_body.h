@@ -21,6 +21,14 @@
 //   near-white (the body may hide it), or near-white itself (every channel
 //   >= 0.9 in either frame: an overexposed road, or a white body, looks the
 //   same from anywhere);
+// - still patches, for a body about the colour of what it hides (a white
+//   trunk over grey asphalt): in either direction, a textured 7x7-block
+//   patch (grey std-dev >= 0.03) that the depth moves at least 3 blocks and
+//   that the other frame sees, unhidden, at no less than 0.67 of its size,
+//   whose mean difference from the other frame at the same place is under a
+//   third of that where each of its blocks lands (itself >= 0.03); on the
+//   still pixels connected to the bottom row, not on the far layer or in a
+//   box;
 // - the body: the still pixels connected to the image's bottom row, of those
 //   the moved ones where most (half) of the 7x7 blocks around are too (a
 //   lone block is noise: the edge of a thin line seen at two scales), closed
@@ -30,7 +38,12 @@
 //   bottom), gaps in a row between two stretches of body narrower than a
 //   fifth of the image filled, and the enclosed holes (a hole open only to
 //   the bottom row counts as enclosed); of that, the parts that reach the
-//   bottom row, kept when they hold at least `min_area` of the image.
+//   bottom row; and below each run of still patches in the lower half of
+//   the image at least a quarter of its width long, every column it covers
+//   from its edge (the first strong grey step under the run's top) down,
+//   where three quarters of that is still and connected to the bottom row
+//   (a lone edge given a wrong depth is short). Kept when it holds at least
+//   `min_area` of the image.
 // A camera with a mask of its own (Camera.ego_mask) keeps it; its layer is
 // that mask. The layer's colour is the mean of the camera's CONTEXT images.
 #ifndef POINTFORWARD_ENGINE_RECON_EGO_BODY_H_
@@ -45,7 +58,7 @@
 namespace pf {
 
 struct EgoBodyOptions {
-  double min_travel_m = 1.0;
+  double min_travel_m = 0.6;
   int work_width = 480;
   float still_threshold = 0.03f;
   float moved_threshold = 0.15f;

@@ -54,6 +54,51 @@ RigView MakeView(const std::string& camera_id, double z, bool body) {
   return r;
 }
 
+// A low-contrast street: a wall nearly as flat as a road, and a body of about
+// its colour whose top edge is a dark lip with two dark stripes below it (a
+// trunk's lid and its reflections). Colour alone cannot tell them apart.
+// The body covers columns [x_begin, x_end).
+RigView MakeFlatView(const std::string& camera_id, double z, bool body, int x_begin = 0,
+                     int x_end = kRigW) {
+  RigView r = MakeView(camera_id, z, body);
+  for (int y = 0; y < kRigH; ++y) {
+    for (int x = 0; x < kRigW; ++x) {
+      for (int c = 0; c < 3; ++c) {
+        float colour = 0.35f + 0.01f * float(c);
+        if (body && y >= kBodyTop && x >= x_begin && x < x_end) {
+          const bool dark =
+              y < kBodyTop + 2 || ((y == kBodyTop + 8 || y == kBodyTop + 14) && x % 40 >= 10);
+          colour = dark ? 0.2f : 0.4f + 0.01f * float(c);
+        }
+        r.view.rgb.at(x, y, c) = colour;
+      }
+    }
+  }
+  return r;
+}
+
+// A street seen from a camera driving along it: two dark lines on a flat
+// grey, running from the vanishing point (the image centre) to the bottom
+// corners. Driving on moves every point along its line, so the lines stay
+// where they are in the image, as a body's edges would; a frame further
+// back sees the street smaller.
+RigView MakeLaneView(double z) {
+  RigView r = MakeView("front", z, false);
+  for (int y = 0; y < kRigH; ++y) {
+    for (int x = 0; x < kRigW; ++x) {
+      const double dx = x + 0.5 - kRigW / 2.0, dy = y + 0.5 - kRigH / 2.0;
+      bool line = false;
+      for (double side : {-1.0, 1.0}) {
+        // Angle from the ray to the bottom corner on `side`, in radians.
+        const double off = std::atan2(dy, dx) - std::atan2(kRigH / 2.0, side * kRigW / 2.0);
+        line |= dy > 0 && std::abs(off) < 0.03;
+      }
+      for (int c = 0; c < 3; ++c) r.view.rgb.at(x, y, c) = line ? 0.15f : 0.45f;
+    }
+  }
+  return r;
+}
+
 struct Rig {
   std::vector<ContextView> views;
   std::vector<ViewDepth> depths;
@@ -100,6 +145,48 @@ TEST(EgoBodyTest, NoBodyInViewsThatChangeEverywhere) {
   rig.Add(MakeView("front", 0.0, false));
   rig.Add(MakeView("front", 2.5, false));
   EXPECT_TRUE(DetectEgoBodies(rig.views, rig.depths, {}).empty());
+}
+
+TEST(EgoBodyTest, FindsABodyLikeTheRoadByItsEdgesThatStay) {
+  Rig rig;
+  rig.Add(MakeFlatView("back", 0.0, true));
+  rig.Add(MakeFlatView("back", 0.9, true));
+  const std::vector<EgoLayer> layers = DetectEgoBodies(rig.views, rig.depths, {});
+  ASSERT_EQ(layers.size(), 1u);
+  size_t body_found = 0, wall_taken = 0;
+  for (int y = 0; y < kRigH; ++y) {
+    for (int x = 0; x < kRigW; ++x) {
+      const bool on = layers[0].on_body(size_t(y) * kRigW + x);
+      (y >= kBodyTop ? body_found : wall_taken) += on;
+    }
+  }
+  EXPECT_GE(body_found, size_t(0.95 * kRigW * (kRigH - kBodyTop)));
+  EXPECT_LE(wall_taken, size_t(0.05 * kRigW * kBodyTop));
+
+  Rig plain;  // The same street without the body: nothing stays put.
+  plain.Add(MakeFlatView("back", 0.0, false));
+  plain.Add(MakeFlatView("back", 0.9, false));
+  EXPECT_TRUE(DetectEgoBodies(plain.views, plain.depths, {}).empty());
+}
+
+TEST(EgoBodyTest, AShortStillEdgeIsNoBody) {
+  Rig rig;  // A fifth of the width: under the quarter a body's outline spans.
+  rig.Add(MakeFlatView("back", 0.0, true, 64, 96));
+  rig.Add(MakeFlatView("back", 0.9, true, 64, 96));
+  EXPECT_TRUE(DetectEgoBodies(rig.views, rig.depths, {}).empty());
+  Rig wide;  // The same body across half the width is found.
+  wide.Add(MakeFlatView("back", 0.0, true, 40, 120));
+  wide.Add(MakeFlatView("back", 0.9, true, 40, 120));
+  EXPECT_EQ(DetectEgoBodies(wide.views, wide.depths, {}).size(), 1u);
+}
+
+TEST(EgoBodyTest, LinesTheDriveLeavesInPlaceAreNoBody) {
+  Rig rig;
+  rig.Add(MakeLaneView(0.0));
+  rig.Add(MakeLaneView(9.0));  // The wall 20 m and 11 m away.
+  EgoBodyOptions options;
+  options.work_width = kRigW / 2;  // Blocks of 2x2 pixels, as on real images.
+  EXPECT_TRUE(DetectEgoBodies(rig.views, rig.depths, {}, options).empty());
 }
 
 TEST(EgoBodyTest, NoEvidenceWhenTheCameraHardlyMoves) {
