@@ -238,15 +238,15 @@ std::vector<std::array<float, 2>> Landings(const PairFrame& f, const PairFrame& 
 // Blocks of `f` whose 7x7-block patch stays where it was in `t` while its
 // depth says it should have moved: textured (grey std-dev >= kPatchTexture),
 // its centre moved by the depth at least kPatchMinShift blocks, each of its
-// blocks landing in `t` (Landings), `t` seeing it at
-// least kPatchMinScale of its size across and down (seen much smaller, a
-// sharp line is a blur of blocks there, and a lane line along the road,
-// which the motion leaves where it was, would pass), and the patch's mean
-// difference from `t` at the same place under 1/kPatchRatio of that where
-// its blocks land (itself at least kPatchMinDifference). Finds edges of a
-// body that looks like what it hides, where MovedDifference's colour bar
-// cannot. Says nothing on the far layer, in a box, or off `reached` (the
-// still blocks connected to the bottom row).
+// blocks landing in `t` (Landings), `t` seeing it at least kPatchMinScale
+// of its size across and down (seen much smaller, a sharp line is a blur
+// of blocks there, and a lane line along the road, which the motion leaves
+// where it was, would pass), and the patch's mean difference from `t` at
+// the same place under 1/kPatchRatio of that where its blocks land (itself
+// at least kPatchMinDifference). Finds edges of a body that looks like what
+// it hides, where MovedDifference's colour bar cannot. Says nothing on the
+// far layer, in a box, or off `reached` (the still blocks connected to the
+// bottom row).
 std::vector<uint8_t> StillPatches(const PairFrame& f, const PairFrame& t,
                                   const std::vector<uint8_t>& reached) {
   const ContextView& from = *f.view;
@@ -329,15 +329,13 @@ int EdgeBelow(const Reduced& image, int x, int top) {
   return top;
 }
 
-// The body below long runs of still patches (`edges`): each 8-connected
-// group of them (joined across gaps of up to kCloseBlocks) that lies in the
-// lower half of the image and spans at least a quarter of its width marks,
-// in every column it covers, the blocks from the edge below its topmost
-// block there (EdgeBelow) down to the bottom row, when three quarters of
-// them are `reached`. A body's outline crosses the image; a lone edge given
-// a wrong depth does not.
-std::vector<uint8_t> BelowLongEdges(const std::vector<uint8_t>& edges,
-                                    const std::vector<uint8_t>& reached, const Reduced& image) {
+// Evidence of a body below long runs of still patches (`edges`): each
+// 8-connected group of them (joined across gaps of up to kCloseBlocks) that
+// lies in the lower half of the image and spans at least a quarter of its
+// width marks, in every column it covers, the blocks from the edge below its
+// topmost block there (EdgeBelow) down to the bottom row. A body's outline
+// crosses the image; a lone edge given a wrong depth does not.
+std::vector<uint8_t> BelowLongEdges(const std::vector<uint8_t>& edges, const Reduced& image) {
   const int w = image.width, h = image.height;
   const std::vector<uint8_t> joined = Morph(edges, w, h, kCloseBlocks, true);
   std::vector<uint8_t> grouped(edges.size(), 0), below(edges.size(), 0);
@@ -506,7 +504,7 @@ std::vector<uint8_t> BodyBlocks(const std::vector<ContextView>& views,
     const std::vector<uint8_t> ba = StillPatches(fb, fa, reached);
     for (size_t i = 0; i < edges.size(); ++i) edges[i] |= ab[i] | ba[i];
   }
-  const std::vector<uint8_t> below = BelowLongEdges(edges, reached, reduced[members[0]]);
+  const std::vector<uint8_t> below = BelowLongEdges(edges, reduced[members[0]]);
   for (size_t i = 0; i < moved.size(); ++i) moved[i] |= below[i];
   const std::vector<uint8_t> body = BodyShape(reached, moved, still_here, w, h);
   size_t area = 0;
