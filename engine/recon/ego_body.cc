@@ -482,7 +482,7 @@ std::vector<uint8_t> BodyBlocks(const std::vector<ContextView>& views,
     }
   }
   const std::vector<uint8_t> reached = Flood(still, BottomRow(w, h), w, h);
-  std::vector<uint8_t> moved(size_t(w) * h, 0);
+  std::vector<uint8_t> moved(size_t(w) * h, 0), edges(size_t(w) * h, 0);
   for (size_t k = 0; k < pairs.size(); ++k) {
     const auto [a, b] = pairs[k];
     const PairFrame fa{&views[a], &depths[a], &dynamic[a], &reduced[a]};
@@ -495,14 +495,9 @@ std::vector<uint8_t> BodyBlocks(const std::vector<ContextView>& views,
         moved[i] = 1;
       }
     }
-  }
-  std::vector<uint8_t> edges(size_t(w) * h, 0);
-  for (const auto& [a, b] : pairs) {
-    const PairFrame fa{&views[a], &depths[a], &dynamic[a], &reduced[a]};
-    const PairFrame fb{&views[b], &depths[b], &dynamic[b], &reduced[b]};
-    const std::vector<uint8_t> ab = StillPatches(fa, fb, reached);
-    const std::vector<uint8_t> ba = StillPatches(fb, fa, reached);
-    for (size_t i = 0; i < edges.size(); ++i) edges[i] |= ab[i] | ba[i];
+    const std::vector<uint8_t> still_ab = StillPatches(fa, fb, reached);
+    const std::vector<uint8_t> still_ba = StillPatches(fb, fa, reached);
+    for (size_t i = 0; i < edges.size(); ++i) edges[i] |= still_ab[i] | still_ba[i];
   }
   const std::vector<uint8_t> below = BelowLongEdges(edges, reduced[members[0]]);
   for (size_t i = 0; i < moved.size(); ++i) moved[i] |= below[i];
