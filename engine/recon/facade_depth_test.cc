@@ -6,6 +6,8 @@
 #include <cmath>
 #include <cstdint>
 
+#include "engine/recon/street_test_util.h"
+
 namespace pf {
 namespace {
 
@@ -14,15 +16,6 @@ namespace {
 // colours, so two views agree only where the right depth is used.
 constexpr double kWallX = 12, kWallTop = 6;
 
-double CellColour(int a, int b, int c) {
-  uint32_t h = static_cast<uint32_t>(a) * 73856093u ^ static_cast<uint32_t>(b) * 19349663u ^
-               static_cast<uint32_t>(c) * 83492791u;
-  h ^= h >> 13;
-  h *= 0x5bd1e995u;
-  h ^= h >> 15;
-  return (h % 1000) / 1000.0;
-}
-
 Vec3 Shade(const Vec3& o, const Vec3& d) {
   if (d.x > 0) {
     const double s = (kWallX - o.x) / d.x;
@@ -30,7 +23,8 @@ Vec3 Shade(const Vec3& o, const Vec3& d) {
     if (p.z >= 0 && p.z <= kWallTop) {
       const int a = static_cast<int>(std::floor(p.y / 0.3)),
                 b = static_cast<int>(std::floor(p.z / 0.3));
-      return {CellColour(a, b, 0), CellColour(a, b, 1), CellColour(a, b, 2)};
+      return {testing::HashedCell(a, b, 0), testing::HashedCell(a, b, 1),
+              testing::HashedCell(a, b, 2)};
     }
   }
   if (d.z < 0) return {0.3, 0.3, 0.32};  // Road.

@@ -7,6 +7,8 @@
 #include <cmath>
 #include <cstdint>
 
+#include "engine/recon/street_test_util.h"
+
 namespace pf {
 namespace {
 
@@ -16,14 +18,7 @@ namespace {
 // grey, so views agree only at the right depth.
 constexpr double kFrontX = 20, kFrontTop = 8, kPillarX = 10, kPillarR = 1, kPillarTop = 10;
 
-double SweptCellGrey(int a, int b, int c) {
-  uint32_t h = static_cast<uint32_t>(a) * 73856093u ^ static_cast<uint32_t>(b) * 19349663u ^
-               static_cast<uint32_t>(c) * 83492791u;
-  h ^= h >> 13;
-  h *= 0x5bd1e995u;
-  h ^= h >> 15;
-  return 0.1 + 0.8 * (h % 1000) / 1000.0;
-}
+double SweptCellGrey(int a, int b, int c) { return 0.1 + 0.8 * testing::HashedCell(a, b, c); }
 
 enum Surface { kSky, kPillar, kWall, kRoad };
 
