@@ -371,11 +371,39 @@ std::vector<uint8_t> BelowLongEdges(const std::vector<uint8_t>& edges, const Red
   return below;
 }
 
+// The body continues from its side edges along its rows, then down its
+// columns, across `open` blocks (in a box and still): a box takes the
+// evidence away, so a body in front of a moving car would end at the box's
+// edge.
+void ContinueIntoBoxes(const std::vector<uint8_t>& open, int w, int h, std::vector<uint8_t>* body) {
+  std::vector<uint8_t>& b = *body;
+  for (int y = 0; y < h; ++y) {
+    uint8_t* row = &b[size_t(y) * w];
+    const uint8_t* free = &open[size_t(y) * w];
+    for (int x = 1; x < w; ++x) {
+      if (!row[x] || row[x - 1]) continue;
+      for (int g = x - 1; g >= 0 && free[g] && !row[g]; --g) row[g] = 1;
+    }
+    for (int x = w - 2; x >= 0; --x) {
+      if (!row[x] || row[x + 1]) continue;
+      for (int g = x + 1; g < w && free[g] && !row[g]; ++g) row[g] = 1;
+    }
+  }
+  for (int y = 1; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      const size_t i = size_t(y) * w + x;
+      if (!b[i] && open[i] && b[i - w]) b[i] = 1;
+    }
+  }
+}
+
 // The body from the still blocks connected to the bottom row (`reached`)
-// and the blocks the world's motion does not explain (`moved`).
+// and the blocks the world's motion does not explain (`moved`), continued
+// into the still `boxed` blocks (ContinueIntoBoxes).
 std::vector<uint8_t> BodyShape(const std::vector<uint8_t>& reached,
                                const std::vector<uint8_t>& moved,
-                               const std::vector<uint8_t>& still_here, int w, int h) {
+                               const std::vector<uint8_t>& still_here,
+                               const std::vector<uint8_t>& boxed, int w, int h) {
   // Evidence counts where it is dense: most blocks of the 7x7 around.
   std::vector<float> evidence(size_t(w) * h);
   for (size_t i = 0; i < evidence.size(); ++i) evidence[i] = reached[i] && moved[i] ? 1.f : 0.f;
@@ -388,6 +416,9 @@ std::vector<uint8_t> BodyShape(const std::vector<uint8_t>& reached,
   // The 5x5 mean stops short of the body's edge: grow into blocks still alone.
   const std::vector<uint8_t> grown = Morph(body, w, h, kBoxRadius, true);
   for (size_t i = 0; i < body.size(); ++i) body[i] = body[i] || (grown[i] && still_here[i]);
+  std::vector<uint8_t> silent(body.size());
+  for (size_t i = 0; i < silent.size(); ++i) silent[i] = boxed[i] && (reached[i] || still_here[i]);
+  ContinueIntoBoxes(silent, w, h, &body);
   // The body rises from the bottom: a column whose span below its topmost
   // body block is three quarters body is body all the way down.
   for (int x = 0; x < w; ++x) {
@@ -501,7 +532,20 @@ std::vector<uint8_t> BodyBlocks(const std::vector<ContextView>& views,
   }
   const std::vector<uint8_t> below = BelowLongEdges(edges, reduced[members[0]]);
   for (size_t i = 0; i < moved.size(); ++i) moved[i] |= below[i];
-  const std::vector<uint8_t> body = BodyShape(reached, moved, still_here, w, h);
+  std::vector<uint8_t> boxed(size_t(w) * h, 0);
+  for (const auto& [a, b] : pairs) {
+    for (size_t v : {a, b}) {
+      const std::vector<uint8_t>& in_box = dynamic[v];
+      if (in_box.empty()) continue;
+      for (int y = 0; y < h; ++y) {
+        for (int x = 0; x < w; ++x) {
+          const size_t px = size_t(y * step + step / 2) * views[v].width() + x * step + step / 2;
+          if (in_box[px] != 0) boxed[size_t(y) * w + x] = 1;
+        }
+      }
+    }
+  }
+  const std::vector<uint8_t> body = BodyShape(reached, moved, still_here, boxed, w, h);
   size_t area = 0;
   for (uint8_t b : body) area += b;
   if (double(area) < options.min_area * double(body.size())) return {};

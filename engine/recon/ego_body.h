@@ -33,7 +33,11 @@
 //   the moved ones where most (half) of the 7x7 blocks around are too (a
 //   lone block is noise: the edge of a thin line seen at two scales), closed
 //   by 2 blocks, grown by 2 blocks into blocks still on their own (not by
-//   the 5x5 mean), each column filled down from its topmost body block when
+//   the 5x5 mean), continued from its side edges along its rows and then
+//   down its columns across blocks in a box in a frame of a pair that are
+//   still (by the 5x5 mean and connected to the bottom row, or on their
+//   own): a box takes the evidence away, and a body in front of a moving
+//   car would end at the box's edge; each column filled down from its topmost body block when
 //   at least three quarters of that span is body (the body rises from the
 //   bottom), gaps in a row between two stretches of body narrower than a
 //   fifth of the image filled, and the enclosed holes (a hole open only to

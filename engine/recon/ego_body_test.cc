@@ -189,6 +189,35 @@ TEST(EgoBodyTest, LinesTheDriveLeavesInPlaceAreNoBody) {
   EXPECT_TRUE(DetectEgoBodies(rig.views, rig.depths, {}, options).empty());
 }
 
+// A moving car's box between the camera and the wall, over the left
+// columns of every row: the box takes the evidence away there, but the body
+// goes on in front of it, still in both frames, and is found across the
+// whole width; the wall above it, which moves, is not.
+TEST(EgoBodyTest, TheBodyContinuesInFrontOfABoxedCar) {
+  Rig rig;
+  rig.Add(MakeView("front", 0.0, true));
+  rig.Add(MakeView("front", 2.5, true));
+  InstanceTrack car;
+  car.boxes = {{0, {-16, 0, 10}, {29, 30, 2}, Quat{}}};  // x in [-30.5, -1.5] m at z = 10.
+  const std::vector<EgoLayer> layers = DetectEgoBodies(rig.views, rig.depths, {car});
+  ASSERT_EQ(layers.size(), 1u);
+  size_t body_found = 0, left_found = 0, wall_taken = 0;
+  for (int y = 0; y < kRigH; ++y) {
+    for (int x = 0; x < kRigW; ++x) {
+      const bool on = layers[0].on_body(size_t(y) * kRigW + x);
+      if (y < kBodyTop) {
+        wall_taken += on;
+      } else {
+        body_found += on;
+        if (x < 60) left_found += on;
+      }
+    }
+  }
+  EXPECT_EQ(left_found, size_t(60 * (kRigH - kBodyTop)));
+  EXPECT_GE(body_found, size_t(0.95 * kRigW * (kRigH - kBodyTop)));
+  EXPECT_LE(wall_taken, size_t(0.02 * kRigW * kBodyTop));
+}
+
 TEST(EgoBodyTest, NoEvidenceWhenTheCameraHardlyMoves) {
   Rig rig;
   rig.Add(MakeView("front", 0.0, true));

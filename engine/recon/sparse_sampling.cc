@@ -374,18 +374,21 @@ bool FinerViewSees(const Vec3& p, double footprint, size_t self, double ratio,
 // Returns true if a view other than `self` sees world point `p` (on the far
 // layer when `far`) or sees past it: the pixel it projects to is static and
 // shows the far layer, or a surface within 3 % of the point's depth (the view
-// samples that surface itself), or (for a point not on the far layer) one
-// deeper than that (the point is in free space).
+// samples that surface itself; within 1 - `near_share` for a point placed on
+// a plane a few centimetres off the surface that view measured), or (for a
+// point not on the far layer) one deeper than that (the point is in free
+// space).
 bool OtherViewSeesOrPasses(const Vec3& p, bool far, size_t self,
                            const std::vector<SamplingView>& views,
-                           const std::vector<ViewResolution>& resolution) {
+                           const std::vector<ViewResolution>& resolution,
+                           double near_share = 0.97) {
   for (size_t u = 0; u < views.size(); ++u) {
     if (u == self) continue;
     const Vec3 pc = InCamera(resolution[u], p);
     size_t j;
     if (pc.z <= 0 || !PixelOf(views[u], pc, &j)) continue;
     if ((*views[u].owners)[j] != 0 || views[u].view->is_ego(j)) continue;
-    if (views[u].depth->is_far(j) || (!far && views[u].depth->depth[j] >= 0.97 * pc.z)) {
+    if (views[u].depth->is_far(j) || (!far && views[u].depth->depth[j] >= near_share * pc.z)) {
       return true;
     }
   }
@@ -506,6 +509,68 @@ bool HiddenCandidate(const SamplingView& sv, int v, size_t i, int32_t source, do
           float(footprints.Of(z, i) * stride),
           static_cast<int>(j),
           z};
+  return true;
+}
+
+// Per pixel of an ego-body view, the nearest pixel above it in its column
+// that is not on the body (-1: none); empty without a body.
+std::vector<int32_t> AboveBody(const ContextView& view) {
+  if (view.ego.empty()) return {};
+  const int w = view.width(), h = view.height();
+  std::vector<int32_t> above(size_t(w) * h, -1);
+  for (int x = 0; x < w; ++x) {
+    int32_t last = -1;
+    for (int y = 0; y < h; ++y) {
+      const size_t i = size_t(y) * w + x;
+      if (!view.is_ego(i)) last = static_cast<int32_t>(i);
+      above[i] = last;
+    }
+  }
+  return above;
+}
+
+// Another view whose depth there is within this share of a road point
+// under the body sees that road (OtherViewSeesOrPasses): the level plane
+// the point is put on lies a few centimetres off the road that view
+// measured, a few per cent of the depth along a grazing ray.
+constexpr double kUnderBodySeen = 0.9;
+
+// The hidden query of ego-body pixel `i` of view `v`: the road the body
+// hides, where the level plane of the ground seen above the body's edge in
+// the same column (`source`, AboveBody) meets the ray through `i`. When the
+// camera moves on, the road just past the body's edge, under the body in
+// every CONTEXT view, comes into view. False when `source` is not static
+// ground (facing up within 30 degrees of the floor's up), or lies more than
+// `band` pixels above `i`, or the ray does not meet that plane ahead.
+bool EgoHiddenCandidate(const SamplingView& sv, const LinePoses& lines, int v, size_t i,
+                        int32_t source, int band, const PixelFootprints& footprints, double stride,
+                        const HiddenFloor& floor, Candidate* out) {
+  if (source < 0) return false;
+  const ContextView& view = *sv.view;
+  const size_t j = static_cast<size_t>(source);
+  const int w = view.width();
+  if (static_cast<int>(i / w) - static_cast<int>(j / w) > band) return false;
+  if (!sv.lifted->valid[j] || (*sv.owners)[j] != 0 || sv.depth->is_far(j)) return false;
+  const Vec3 n{sv.lifted->normals[3 * j], sv.lifted->normals[3 * j + 1],
+               sv.lifted->normals[3 * j + 2]};
+  if (Dot(n, floor.up) < kGroundCos) return false;
+  const Vec3 p_j{sv.lifted->points[3 * j], sv.lifted->points[3 * j + 1],
+                 sv.lifted->points[3 * j + 2]};
+  const double u = double(i % w) + 0.5, y = double(i / w) + 0.5;
+  const Vec3 origin = view.centre_at(u, y);
+  Vec3 at_unit_z;
+  if (!lines.Lift(u, y, 1.0, &at_unit_z)) return false;
+  const Vec3 step = at_unit_z - origin;  // One metre of z depth along the ray.
+  const double along = Dot(step, floor.up);
+  if (!(along < -1e-6)) return false;
+  const double z = Dot(p_j - origin, floor.up) / along;
+  if (!(z > 0)) return false;
+  *out = {v,
+          static_cast<int>(j),
+          origin + z * step,
+          float(footprints.Of(z, i) * stride),
+          static_cast<int>(j),
+          static_cast<float>(z)};
   return true;
 }
 
@@ -792,6 +857,9 @@ size_t SampleStatic(const std::vector<SamplingView>& views,
     std::vector<uint64_t> new_keys;
     const BehindSources behind =
         FindBehindSources(*sv.depth, options.behind_band_px, options.behind_min_jump);
+    const std::vector<int32_t> above_body =
+        options.behind_band_px > 0 ? AboveBody(*sv.view) : std::vector<int32_t>{};
+    const LinePoses view_lines = sv.view->lines();
     // Hidden queries are taken on a grid of behind_stride cells, and behind
     // far-layer backgrounds on the far layer's (a multiple of it).
     const int behind_stride = std::max(1, options.behind_stride);
@@ -817,6 +885,14 @@ size_t SampleStatic(const std::vector<SamplingView>& views,
           hidden_radius = behind.radii[k];
           if (has_hidden) break;
         }
+        const bool under_body =
+            !has_hidden && on_hidden_grid && !above_body.empty() && sv.view->is_ego(i);
+        if (under_body) {
+          has_hidden =
+              EgoHiddenCandidate(sv, view_lines, static_cast<int>(v), i, above_body[i],
+                                 options.behind_band_px, footprints[v], stride, floor, &hidden);
+          if (has_hidden) hidden_radius = static_cast<int>(i / w) - above_body[i] / w;
+        }
         if (has_hidden) {
           // Coarser than visible surfaces: a hidden query copies one
           // background colour, there is no detail to sample.
@@ -824,7 +900,8 @@ size_t SampleStatic(const std::vector<SamplingView>& views,
           const int hidden_stride = far ? far_hidden_stride : behind_stride;
           bool keep = cx % hidden_stride == 0 && cy % hidden_stride == 0;
           hidden.footprint *= hidden_stride;
-          keep = keep && !OtherViewSeesOrPasses(hidden.position, far, v, views, resolution);
+          keep = keep && !OtherViewSeesOrPasses(hidden.position, far, v, views, resolution,
+                                                under_body ? kUnderBodySeen : 0.97);
           if (keep && options.skip_covered && !options.dense) {
             const uint32_t level = FootprintLevel(hidden.footprint);
             const uint64_t key = VoxelKey(hidden.position, LevelSide(level), level);

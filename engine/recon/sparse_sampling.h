@@ -41,7 +41,14 @@
 // (the point would float in free space). A surface seen at a grazing angle
 // gets no hidden query; nor do sky directions below the horizontal, or
 // points below the scene's floor (the 1st percentile of measured heights
-// less 0.5 m, "up" from the surfaces that face up).
+// less 0.5 m, "up" from the surfaces that face up). The ego vehicle's body
+// (ContextView::ego) hides the road under it in every view of its camera,
+// and a camera that moves on sees that road past the body's edge: a body
+// pixel within the band below ground seen above the body's edge in its
+// column (facing up) gets a hidden query where the level plane through that
+// ground point meets its ray, dropped when another view's depth there is
+// within 10 % of the point's (the plane lies a few centimetres off the road
+// that view measured).
 //
 // Dense mode (the pixel-aligned model): every valid pixel is a query (and
 // one pixel of the band in behind_stride^2 gets its hidden query).
@@ -81,8 +88,9 @@ struct SamplingOptions {
   // this many pixels of a deeper background also gets a query on its ray
   // where the nearest such background's surface continues behind it, with
   // the background's colour, unless another view sees that point or past
-  // it, or it would lie below the scene's floor (sparse_sampling.cc). < 1:
-  // none.
+  // it, or it would lie below the scene's floor (sparse_sampling.cc); an
+  // ego-body pixel within this many pixels below the ground above the
+  // body's edge, one on the road under the body. < 1: none.
   int behind_band_px = 256;
   double behind_min_jump = 0.1;  // Relative depth jump that makes an occlusion edge.
   // A visible query whose source pixel is on the near side of an occluding

@@ -340,6 +340,72 @@ TEST(SparseSampling, RecedingGroundUnderTheSkyHidesNothing) {
   EXPECT_GT(q.size(), 500u);  // The road, and the sky on its coarser grid.
 }
 
+// The same level camera over the road, with the ego vehicle's body over
+// rows >= 120 (a hood). The road goes on under the body, and comes into
+// view past its edge when the camera moves on: the body's pixels get hidden
+// queries where the level road seen above the body's edge meets their rays,
+// in the road's colour. A body over a wall (which does not face up) gets
+// none.
+TEST(SparseSampling, TheRoadGoesOnUnderTheEgoBody) {
+  constexpr int kBodyRow = 120;
+  PlaneView road(192, 144, Rigid{});
+  road.view.ego.assign(size_t(192) * 144, 0);
+  for (int y = 0; y < 144; ++y) {
+    for (int x = 0; x < 192; ++x) {
+      const size_t i = static_cast<size_t>(y) * 192 + x;
+      const double below = y + 0.5 - 72;
+      if (below > 0) {
+        road.depth.depth[i] = static_cast<float>(1.5 * 192 / below);  // y = 1.5 m.
+      } else {
+        road.depth.depth[i] = 500.f;
+        road.depth.source[i] = uint8_t(DepthSource::kFar);
+      }
+      road.view.ego[i] = y >= kBodyRow;
+      const std::array<float, 3> colour = y >= kBodyRow ? std::array<float, 3>{0.9f, 0.9f, 0.9f}
+                                                        : std::array<float, 3>{0.2f, 0.3f, 0.4f};
+      for (int c = 0; c < 3; ++c) road.view.rgb.at(x, y, c) = colour[c];
+    }
+  }
+  road.lifted = LiftView(road.view, road.depth);
+  SamplingOptions options;
+  options.static_per_view = 1728;  // 4 px cells; hidden ones on every other.
+  options.behind_band_px = 64;
+  options.fill_static_budget = false;
+  const QuerySet q = SampleQueries({road.sampling()}, {}, options);
+  int hidden = 0;
+  double nearest = 1e9, farthest = 0;
+  for (size_t i = 0; i < q.size(); ++i) {
+    if (!q.is_hidden(i)) continue;
+    ++hidden;
+    EXPECT_EQ(q.pixels[i] / 192, kBodyRow - 1);  // Shown as the road above the edge.
+    EXPECT_NEAR(q.positions[3 * i + 1], 1.5, 1e-4);
+    nearest = std::min<double>(nearest, q.depths[i]);
+    farthest = std::max<double>(farthest, q.depths[i]);
+    EXPECT_NEAR(q.depths[i], q.positions[3 * i + 2], 1e-4);
+    EXPECT_FLOAT_EQ(q.rgb[3 * i], 0.2f);
+    EXPECT_FLOAT_EQ(q.rgb[3 * i + 2], 0.4f);
+    EXPECT_EQ(q.far[i], 0);
+  }
+  // The body holds 6 x 48 cells; every other one in each direction.
+  EXPECT_EQ(hidden, 3 * 24);
+  // Under rows 120..143: the road from 1.5 * 192 / 71.5 to 1.5 * 192 / 48.5 m.
+  EXPECT_GT(nearest, 1.5 * 192 / 72);
+  EXPECT_LT(nearest, 1.5 * 192 / 66);
+  EXPECT_LT(farthest, 1.5 * 192 / 48);
+  EXPECT_GT(farthest, 1.5 * 192 / 56);
+
+  options.behind_band_px = 0;
+  const QuerySet none = SampleQueries({road.sampling()}, {}, options);
+  for (size_t i = 0; i < none.size(); ++i) EXPECT_FALSE(none.is_hidden(i));
+
+  options.behind_band_px = 64;
+  PlaneView wall(192, 144, Rigid{});  // The plane z = 10, facing the camera.
+  wall.view.ego = road.view.ego;
+  wall.lifted = LiftView(wall.view, wall.depth);
+  const QuerySet on_wall = SampleQueries({wall.sampling()}, {}, options);
+  for (size_t i = 0; i < on_wall.size(); ++i) EXPECT_FALSE(on_wall.is_hidden(i));
+}
+
 TEST(SparseSampling, HiddenQueriesAreDroppedWhereAnotherViewSeesOrPassesThem) {
   const PlaneView front = SquareInFront();
   SamplingOptions options;
