@@ -371,10 +371,9 @@ std::vector<uint8_t> BelowLongEdges(const std::vector<uint8_t>& edges, const Red
   return below;
 }
 
-// The body continues from its side edges along its rows, then down its
-// columns, across `open` blocks (in a box and still): a box takes the
-// evidence away, so a body in front of a moving car would end at the box's
-// edge.
+// The body continues from its side edges along its rows across `open`
+// blocks (in a box and still): a box takes the evidence away, so a body in
+// front of a moving car would end at the box's edge.
 void ContinueIntoBoxes(const std::vector<uint8_t>& open, int w, int h, std::vector<uint8_t>* body) {
   std::vector<uint8_t>& b = *body;
   for (int y = 0; y < h; ++y) {
@@ -387,12 +386,6 @@ void ContinueIntoBoxes(const std::vector<uint8_t>& open, int w, int h, std::vect
     for (int x = w - 2; x >= 0; --x) {
       if (!row[x] || row[x + 1]) continue;
       for (int g = x + 1; g < w && free[g] && !row[g]; ++g) row[g] = 1;
-    }
-  }
-  for (int y = 1; y < h; ++y) {
-    for (int x = 0; x < w; ++x) {
-      const size_t i = size_t(y) * w + x;
-      if (!b[i] && open[i] && b[i - w]) b[i] = 1;
     }
   }
 }
@@ -419,6 +412,13 @@ std::vector<uint8_t> BodyShape(const std::vector<uint8_t>& reached,
   std::vector<uint8_t> silent(body.size());
   for (size_t i = 0; i < silent.size(); ++i) silent[i] = boxed[i] && (reached[i] || still_here[i]);
   ContinueIntoBoxes(silent, w, h, &body);
+  // Below the body there is only body: still blocks under a body block are.
+  for (int y = 1; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      const size_t i = size_t(y) * w + x;
+      if (!body[i] && body[i - w] && (reached[i] || still_here[i])) body[i] = 1;
+    }
+  }
   // The body rises from the bottom: a column whose span below its topmost
   // body block is three quarters body is body all the way down.
   for (int x = 0; x < w; ++x) {
@@ -434,7 +434,9 @@ std::vector<uint8_t> BodyShape(const std::vector<uint8_t>& reached,
     }
   }
   // A gap in a row between two stretches of body, narrower than a fifth of
-  // the image, is body too (a window of reflections in a hood).
+  // the image, is body too (a window of reflections in a hood); so is one
+  // between the body and the image's side narrower than a twentieth (a
+  // curved corner that mirrors the street).
   for (int y = 0; y < h; ++y) {
     int last = -1;
     for (int x = 0; x < w; ++x) {
@@ -443,6 +445,15 @@ std::vector<uint8_t> BodyShape(const std::vector<uint8_t>& reached,
         for (int g = last + 1; g < x; ++g) body[size_t(y) * w + g] = 1;
       }
       last = x;
+    }
+    int first = -1;
+    for (int x = 0; x < w && first < 0; ++x)
+      if (body[size_t(y) * w + x]) first = x;
+    if (first > 0 && first * 20 <= w) {
+      for (int g = 0; g < first; ++g) body[size_t(y) * w + g] = 1;
+    }
+    if (last >= 0 && last < w - 1 && (w - 1 - last) * 20 <= w) {
+      for (int g = last + 1; g < w; ++g) body[size_t(y) * w + g] = 1;
     }
   }
   // Holes: what the top, left and right borders cannot reach.

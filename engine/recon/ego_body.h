@@ -33,14 +33,17 @@
 //   the moved ones where most (half) of the 7x7 blocks around are too (a
 //   lone block is noise: the edge of a thin line seen at two scales), closed
 //   by 2 blocks, grown by 2 blocks into blocks still on their own (not by
-//   the 5x5 mean), continued from its side edges along its rows and then
-//   down its columns across blocks in a box in a frame of a pair that are
-//   still (by the 5x5 mean and connected to the bottom row, or on their
-//   own): a box takes the evidence away, and a body in front of a moving
-//   car would end at the box's edge; each column filled down from its topmost body block when
-//   at least three quarters of that span is body (the body rises from the
-//   bottom), gaps in a row between two stretches of body narrower than a
-//   fifth of the image filled, and the enclosed holes (a hole open only to
+//   the 5x5 mean), continued from its side edges along its rows across
+//   blocks in a box in a frame of a pair that are still (by the 5x5 mean
+//   and connected to the bottom row, or on their own: a box takes the
+//   evidence away, and a body in front of a moving car would end at the
+//   box's edge), and down its columns across still blocks (below the body
+//   there is only body); each column filled down from its topmost body
+//   block when at least three quarters of that span is body (the body rises
+//   from the bottom), gaps in a row between two stretches of body narrower
+//   than a fifth of the image filled, and between the body and the image's
+//   side narrower than a twentieth (a curved corner mirrors the street),
+//   and the enclosed holes (a hole open only to
 //   the bottom row counts as enclosed); of that, the parts that reach the
 //   bottom row; and below each run of still patches in the lower half of
 //   the image at least a quarter of its width long, every column it covers

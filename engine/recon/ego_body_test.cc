@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
 
 #include "gtest/gtest.h"
 
@@ -189,6 +190,21 @@ TEST(EgoBodyTest, LinesTheDriveLeavesInPlaceAreNoBody) {
   EXPECT_TRUE(DetectEgoBodies(rig.views, rig.depths, {}, options).empty());
 }
 
+// The body pixels of `layer` in columns [x_begin, x_end): in rows >= y_begin
+// (of the body's), and above the body (the wall).
+std::pair<size_t, size_t> BodyAndWall(const EgoLayer& layer, int x_begin = 0, int x_end = kRigW,
+                                      int y_begin = kBodyTop) {
+  size_t body = 0, wall = 0;
+  for (int y = 0; y < kRigH; ++y) {
+    for (int x = x_begin; x < x_end; ++x) {
+      const bool on = layer.on_body(size_t(y) * kRigW + x);
+      if (y < kBodyTop) wall += on;
+      if (y >= y_begin) body += on;
+    }
+  }
+  return {body, wall};
+}
+
 // A moving car's box between the camera and the wall, over the left
 // columns of every row: the box takes the evidence away there, but the body
 // goes on in front of it, still in both frames, and is found across the
@@ -201,21 +217,50 @@ TEST(EgoBodyTest, TheBodyContinuesInFrontOfABoxedCar) {
   car.boxes = {{0, {-16, 0, 10}, {29, 30, 2}, Quat{}}};  // x in [-30.5, -1.5] m at z = 10.
   const std::vector<EgoLayer> layers = DetectEgoBodies(rig.views, rig.depths, {car});
   ASSERT_EQ(layers.size(), 1u);
-  size_t body_found = 0, left_found = 0, wall_taken = 0;
-  for (int y = 0; y < kRigH; ++y) {
-    for (int x = 0; x < kRigW; ++x) {
-      const bool on = layers[0].on_body(size_t(y) * kRigW + x);
-      if (y < kBodyTop) {
-        wall_taken += on;
-      } else {
-        body_found += on;
-        if (x < 60) left_found += on;
+  EXPECT_EQ(BodyAndWall(layers[0], 0, 60).first, size_t(60 * (kRigH - kBodyTop)));
+  const auto [body, wall] = BodyAndWall(layers[0]);
+  EXPECT_GE(body, size_t(0.95 * kRigW * (kRigH - kBodyTop)));
+  EXPECT_LE(wall, size_t(0.02 * kRigW * kBodyTop));
+}
+
+// The body's lower rows give no evidence (their depth is the far layer) but
+// stay the same: below the body there is only body.
+TEST(EgoBodyTest, BelowTheBodyThereIsOnlyBody) {
+  Rig rig;
+  rig.Add(MakeView("front", 0.0, true));
+  rig.Add(MakeView("front", 2.5, true));
+  for (ViewDepth& depth : rig.depths) {
+    std::fill(depth.source.begin() + size_t(kRigW) * (kBodyTop + 8), depth.source.end(),
+              uint8_t(DepthSource::kFar));
+  }
+  const std::vector<EgoLayer> layers = DetectEgoBodies(rig.views, rig.depths, {});
+  ASSERT_EQ(layers.size(), 1u);
+  constexpr int kSilent = kBodyTop + 8;
+  const auto [body, wall] = BodyAndWall(layers[0], 0, kRigW, kSilent);
+  EXPECT_EQ(body, size_t(kRigW * (kRigH - kSilent)));
+  EXPECT_LE(wall, size_t(0.02 * kRigW * kBodyTop));
+}
+
+// The body's last 6 columns on the right mirror the street (they change
+// between the frames): a body that stops within a twentieth of the image's
+// width of its side reaches the side.
+TEST(EgoBodyTest, ABodyThatStopsJustShortOfTheSideReachesIt) {
+  Rig rig;
+  rig.Add(MakeView("front", 0.0, true));
+  rig.Add(MakeView("front", 2.5, true));
+  for (size_t v = 0; v < rig.views.size(); ++v) {
+    for (int y = kBodyTop; y < kRigH; ++y) {
+      for (int x = kRigW - 6; x < kRigW; ++x) {
+        for (int c = 0; c < 3; ++c) rig.views[v].rgb.at(x, y, c) = v == 0 ? 0.1f : 0.9f;
       }
     }
   }
-  EXPECT_EQ(left_found, size_t(60 * (kRigH - kBodyTop)));
-  EXPECT_GE(body_found, size_t(0.95 * kRigW * (kRigH - kBodyTop)));
-  EXPECT_LE(wall_taken, size_t(0.02 * kRigW * kBodyTop));
+  const std::vector<EgoLayer> layers = DetectEgoBodies(rig.views, rig.depths, {});
+  ASSERT_EQ(layers.size(), 1u);
+  // Below the top two rows (beside the wall the 5x5 mean is not still).
+  EXPECT_EQ(BodyAndWall(layers[0], kRigW - 6, kRigW, kBodyTop + 2).first,
+            size_t(6 * (kRigH - kBodyTop - 2)));
+  EXPECT_LE(BodyAndWall(layers[0]).second, size_t(0.02 * kRigW * kBodyTop));
 }
 
 TEST(EgoBodyTest, NoEvidenceWhenTheCameraHardlyMoves) {
