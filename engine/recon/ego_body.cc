@@ -409,15 +409,16 @@ std::vector<uint8_t> BodyShape(const std::vector<uint8_t>& reached,
   // The 5x5 mean stops short of the body's edge: grow into blocks still alone.
   const std::vector<uint8_t> grown = Morph(body, w, h, kBoxRadius, true);
   for (size_t i = 0; i < body.size(); ++i) body[i] = body[i] || (grown[i] && still_here[i]);
-  std::vector<uint8_t> silent(body.size());
-  for (size_t i = 0; i < silent.size(); ++i) silent[i] = boxed[i] && (reached[i] || still_here[i]);
+  // Still: by the 5x5 mean and connected to the bottom row, or on its own.
+  std::vector<uint8_t> still(body.size()), silent(body.size());
+  for (size_t i = 0; i < still.size(); ++i) {
+    still[i] = reached[i] || still_here[i];
+    silent[i] = boxed[i] && still[i];
+  }
   ContinueIntoBoxes(silent, w, h, &body);
   // Below the body there is only body: still blocks under a body block are.
-  for (int y = 1; y < h; ++y) {
-    for (int x = 0; x < w; ++x) {
-      const size_t i = size_t(y) * w + x;
-      if (!body[i] && body[i - w] && (reached[i] || still_here[i])) body[i] = 1;
-    }
+  for (size_t i = size_t(w); i < body.size(); ++i) {
+    if (!body[i] && body[i - w] && still[i]) body[i] = 1;
   }
   // The body rises from the bottom: a column whose span below its topmost
   // body block is three quarters body is body all the way down.
@@ -438,17 +439,15 @@ std::vector<uint8_t> BodyShape(const std::vector<uint8_t>& reached,
   // between the body and the image's side narrower than a twentieth (a
   // curved corner that mirrors the street).
   for (int y = 0; y < h; ++y) {
-    int last = -1;
+    int first = -1, last = -1;
     for (int x = 0; x < w; ++x) {
       if (!body[size_t(y) * w + x]) continue;
+      if (first < 0) first = x;
       if (last >= 0 && x - last > 1 && (x - last - 1) * 5 <= w) {
         for (int g = last + 1; g < x; ++g) body[size_t(y) * w + g] = 1;
       }
       last = x;
     }
-    int first = -1;
-    for (int x = 0; x < w && first < 0; ++x)
-      if (body[size_t(y) * w + x]) first = x;
     if (first > 0 && first * 20 <= w) {
       for (int g = 0; g < first; ++g) body[size_t(y) * w + g] = 1;
     }

@@ -109,6 +109,21 @@ struct Rig {
   }
 };
 
+// The body pixels of `layer` in columns [x_begin, x_end): in rows >= y_begin
+// (of the body's), and above the body (the wall).
+std::pair<size_t, size_t> BodyAndWall(const EgoLayer& layer, int x_begin = 0, int x_end = kRigW,
+                                      int y_begin = kBodyTop) {
+  size_t body = 0, wall = 0;
+  for (int y = 0; y < kRigH; ++y) {
+    for (int x = x_begin; x < x_end; ++x) {
+      const bool on = layer.on_body(size_t(y) * kRigW + x);
+      if (y < kBodyTop) wall += on;
+      if (y >= y_begin) body += on;
+    }
+  }
+  return {body, wall};
+}
+
 TEST(EgoBodyTest, FindsTheBodyThatStaysWhileTheWallMoves) {
   Rig rig;
   rig.Add(MakeView("front", 0.0, true));
@@ -154,13 +169,7 @@ TEST(EgoBodyTest, FindsABodyLikeTheRoadByItsEdgesThatStay) {
   rig.Add(MakeFlatView("back", 0.9, true));
   const std::vector<EgoLayer> layers = DetectEgoBodies(rig.views, rig.depths, {});
   ASSERT_EQ(layers.size(), 1u);
-  size_t body_found = 0, wall_taken = 0;
-  for (int y = 0; y < kRigH; ++y) {
-    for (int x = 0; x < kRigW; ++x) {
-      const bool on = layers[0].on_body(size_t(y) * kRigW + x);
-      (y >= kBodyTop ? body_found : wall_taken) += on;
-    }
-  }
+  const auto [body_found, wall_taken] = BodyAndWall(layers[0]);
   EXPECT_GE(body_found, size_t(0.95 * kRigW * (kRigH - kBodyTop)));
   EXPECT_LE(wall_taken, size_t(0.05 * kRigW * kBodyTop));
 
@@ -188,21 +197,6 @@ TEST(EgoBodyTest, LinesTheDriveLeavesInPlaceAreNoBody) {
   EgoBodyOptions options;
   options.work_width = kRigW / 2;  // Blocks of 2x2 pixels, as on real images.
   EXPECT_TRUE(DetectEgoBodies(rig.views, rig.depths, {}, options).empty());
-}
-
-// The body pixels of `layer` in columns [x_begin, x_end): in rows >= y_begin
-// (of the body's), and above the body (the wall).
-std::pair<size_t, size_t> BodyAndWall(const EgoLayer& layer, int x_begin = 0, int x_end = kRigW,
-                                      int y_begin = kBodyTop) {
-  size_t body = 0, wall = 0;
-  for (int y = 0; y < kRigH; ++y) {
-    for (int x = x_begin; x < x_end; ++x) {
-      const bool on = layer.on_body(size_t(y) * kRigW + x);
-      if (y < kBodyTop) wall += on;
-      if (y >= y_begin) body += on;
-    }
-  }
-  return {body, wall};
 }
 
 // A moving car's box between the camera and the wall, over the left

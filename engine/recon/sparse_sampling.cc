@@ -371,17 +371,21 @@ bool FinerViewSees(const Vec3& p, double footprint, size_t self, double ratio,
   return false;
 }
 
+// A view whose depth at a point is at least this share of the point's sees
+// it (OtherViewSeesOrPasses).
+constexpr double kSeenShare = 0.97;
+
 // Returns true if a view other than `self` sees world point `p` (on the far
 // layer when `far`) or sees past it: the pixel it projects to is static and
-// shows the far layer, or a surface within 3 % of the point's depth (the view
-// samples that surface itself; within 1 - `near_share` for a point placed on
-// a plane a few centimetres off the surface that view measured), or (for a
-// point not on the far layer) one deeper than that (the point is in free
-// space).
+// shows the far layer, or a surface within 1 - `near_share` of the point's
+// depth (the view samples that surface itself; a wider share for a point
+// placed on a plane a few centimetres off the surface that view measured), or
+// (for a point not on the far layer) one deeper than that (the point is in
+// free space).
 bool OtherViewSeesOrPasses(const Vec3& p, bool far, size_t self,
                            const std::vector<SamplingView>& views,
                            const std::vector<ViewResolution>& resolution,
-                           double near_share = 0.97) {
+                           double near_share = kSeenShare) {
   for (size_t u = 0; u < views.size(); ++u) {
     if (u == self) continue;
     const Vec3 pc = InCamera(resolution[u], p);
@@ -901,7 +905,7 @@ size_t SampleStatic(const std::vector<SamplingView>& views,
           bool keep = cx % hidden_stride == 0 && cy % hidden_stride == 0;
           hidden.footprint *= hidden_stride;
           keep = keep && !OtherViewSeesOrPasses(hidden.position, far, v, views, resolution,
-                                                under_body ? kUnderBodySeen : 0.97);
+                                                under_body ? kUnderBodySeen : kSeenShare);
           if (keep && options.skip_covered && !options.dense) {
             const uint32_t level = FootprintLevel(hidden.footprint);
             const uint64_t key = VoxelKey(hidden.position, LevelSide(level), level);
