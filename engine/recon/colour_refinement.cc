@@ -168,17 +168,22 @@ void Gather(const FitView& view, const Layout& layout, const std::vector<float>&
 }
 
 // Adds the local_out of views [first, first + scratch.size()) into `global`
-// (views in order, so the sums do not depend on thread timing).
+// (views in order, so the sums do not depend on thread timing) and zeroes
+// it for the next batch.
 void Scatter(const std::vector<FitView>& views, size_t first, int per,
-             const std::vector<ViewScratch>& scratch, std::vector<float>* global) {
-  for (size_t slot = 0; slot < scratch.size() && first + slot < views.size(); ++slot) {
+             std::vector<ViewScratch>* scratch, std::vector<float>* global) {
+  for (size_t slot = 0; slot < scratch->size() && first + slot < views.size(); ++slot) {
     const std::vector<uint32_t>& ids = views[first + slot].a.gaussians;
-    const std::vector<float>& local = scratch[slot].local_out;
+    std::vector<float>& local = (*scratch)[slot].local_out;
     DefaultThreadPool().ParallelFor(0, static_cast<int64_t>(ids.size()), 16384,
                                     [&](int64_t b, int64_t e) {
-                                      for (int64_t k = b; k < e; ++k)
-                                        for (int c = 0; c < per; ++c)
-                                          (*global)[per * size_t(ids[k]) + c] += local[per * k + c];
+                                      for (int64_t k = b; k < e; ++k) {
+                                        for (int c = 0; c < per; ++c) {
+                                          float& value = local[per * k + c];
+                                          (*global)[per * size_t(ids[k]) + c] += value;
+                                          value = 0.f;
+                                        }
+                                      }
                                     });
   }
 }
@@ -371,15 +376,16 @@ void SolveOnCpu(std::vector<FitView>& fit, const Layout& layout, const Refinemen
     if (width == 0) width = per;
     if (out != nullptr) out->assign(width * n, 0.f);
     for (int64_t first = 0; first < num_views; first += batch) {
+      // local_out is zero as made, and Scatter() zeroes what a body adds.
       DefaultThreadPool().ParallelFor(
           first, std::min(num_views, first + batch), 1, [&](int64_t b, int64_t e) {
             for (int64_t v = b; v < e; ++v) {
               ViewScratch& slot = scratch[v - first];
-              slot.local_out.assign(width * fit[v].a.gaussians.size(), 0.f);
+              slot.local_out.resize(size_t(width) * fit[v].a.gaussians.size());
               body(fit[v], &slot);
             }
           });
-      if (out != nullptr) Scatter(fit, static_cast<size_t>(first), width, scratch, out);
+      if (out != nullptr) Scatter(fit, static_cast<size_t>(first), width, &scratch, out);
     }
   };
   std::vector<Channels> view_sums(fit.size());

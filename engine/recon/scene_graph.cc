@@ -116,14 +116,65 @@ std::vector<uint8_t> DynamicMask(const CameraModel& camera, const Rigid& world_f
     cam_boxes.push_back(cb);
   }
   if (cam_boxes.empty()) return mask;
+  // Per box, the columns and rows whose pixel centres its image can reach:
+  // through a pinhole lens with every corner in front of the camera, the
+  // box's image lies in the hull of its corners' (grown by 2 pixels for
+  // rounding); otherwise every pixel.
+  struct Reach {
+    int x0, x1, y0, y1;
+  };
+  std::vector<Reach> reach(cam_boxes.size(), Reach{0, width - 1, 0, height - 1});
+  if (!camera.has_distortion()) {
+    for (size_t k = 0; k < cam_boxes.size(); ++k) {
+      const CamBox& cb = cam_boxes[k];
+      const Mat3 camera_from_box = Transpose(cb.box_from_camera);
+      double u_min = std::numeric_limits<double>::infinity(), u_max = -u_min;
+      double v_min = u_min, v_max = -u_min;
+      bool bounded = true;
+      for (int corner = 0; corner < 8 && bounded; ++corner) {
+        const Vec3 c{corner & 1 ? cb.half.x : -cb.half.x, corner & 2 ? cb.half.y : -cb.half.y,
+                     corner & 4 ? cb.half.z : -cb.half.z};
+        const Vec3 p = camera_from_box * (c - cb.origin);
+        double u, v;
+        bounded = p.z > 1e-6 && camera.Project(p, &u, &v) && std::isfinite(u) && std::isfinite(v);
+        if (!bounded) break;
+        u_min = std::min(u_min, u);
+        u_max = std::max(u_max, u);
+        v_min = std::min(v_min, v);
+        v_max = std::max(v_max, v);
+      }
+      if (!bounded) continue;
+      // Pixel x is reached when its centre x + 0.5 lies in [u_min - 2, u_max + 2].
+      auto clamp_to = [](double value, int hi) {
+        return static_cast<int>(std::clamp(value, -1.0, static_cast<double>(hi) + 1));
+      };
+      reach[k] = {clamp_to(std::ceil(u_min - 2.5), width), clamp_to(std::floor(u_max + 1.5), width),
+                  clamp_to(std::ceil(v_min - 2.5), height),
+                  clamp_to(std::floor(v_max + 1.5), height)};
+    }
+  }
   DefaultThreadPool().ParallelFor(0, height, 8, [&](int64_t y0, int64_t y1) {
+    std::vector<size_t> row_boxes;
     for (int64_t y = y0; y < y1; ++y) {
-      for (int x = 0; x < width; ++x) {
+      row_boxes.clear();
+      int x_first = width, x_last = -1;
+      for (size_t k = 0; k < cam_boxes.size(); ++k) {
+        const Reach& r = reach[k];
+        if (y < r.y0 || y > r.y1 || r.x0 > r.x1) continue;
+        row_boxes.push_back(k);
+        x_first = std::min(x_first, r.x0);
+        x_last = std::max(x_last, r.x1);
+      }
+      x_first = std::max(x_first, 0);
+      x_last = std::min(x_last, width - 1);
+      for (int x = x_first; x <= x_last; ++x) {
         Vec3 ray;
         if (!camera.Unproject(x + 0.5, y + 0.5, &ray)) continue;
         double best = std::numeric_limits<double>::infinity();
         uint8_t owner = 0;
-        for (const CamBox& cb : cam_boxes) {
+        for (size_t k : row_boxes) {
+          if (x < reach[k].x0 || x > reach[k].x1) continue;
+          const CamBox& cb = cam_boxes[k];
           const double s = RayBoxEntry(cb.origin, cb.box_from_camera * ray, cb.half);
           if (s < best) {
             best = s;

@@ -139,6 +139,82 @@ TEST(SceneGraph, DynamicMaskCoversTheProjectedBox) {
   EXPECT_NEAR(covered, 22 * 22, 60);
 }
 
+// The owner (1-based) of the box the ray o + s d, s >= 0, enters first (the
+// test's own slab test, in each box's frame), 0 if none.
+uint8_t OwnerAlongRay(const Vec3& origin, const Vec3& ray, const std::vector<TrackBox>& boxes) {
+  double best = 1e300;
+  uint8_t owner = 0;
+  for (size_t k = 0; k < boxes.size(); ++k) {
+    const Mat3 to_box = Transpose(ToMatrix(boxes[k].rotation));
+    const Vec3 o = to_box * (origin - boxes[k].center), d = to_box * ray;
+    double enter = 0, leave = 1e300;
+    for (int a = 0; a < 3; ++a) {
+      const double half = 0.5 * boxes[k].size[a];
+      if (d[a] == 0) {
+        if (std::abs(o[a]) > half) leave = -1;
+        continue;
+      }
+      const double s0 = (-half - o[a]) / d[a], s1 = (half - o[a]) / d[a];
+      enter = std::max(enter, std::min(s0, s1));
+      leave = std::min(leave, std::max(s0, s1));
+    }
+    if (enter <= leave && enter < best) {
+      best = enter;
+      owner = static_cast<uint8_t>(k + 1);
+    }
+  }
+  return owner;
+}
+
+TEST(SceneGraph, DynamicMaskNamesTheNearestBoxOfEveryRay) {
+  // Boxes in front of a pinhole and an OpenCV camera, some overlapping on
+  // screen, one partly off the image, one around the camera's plane, one
+  // behind it: the mask (which tests only the pixels a box's corners can
+  // reach, through a pinhole) names for every pixel the box each ray enters
+  // first (away from the boxes' outlines, where rounding decides).
+  CameraModel pinhole(80, 60, 60, 60, 40, 30);
+  CameraModel distorted(80, 60, 60, 60, 40, 30);
+  distorted.SetOpenCv(-0.2, 0.05, 0, 0, 0);
+  const Rigid world_from_camera{ToMatrix(Yaw(20)), {0.5, -0.3, 0.2}};
+  std::vector<InstanceTrack> tracks(6);
+  const std::vector<std::pair<Vec3, Vec3>> placed = {
+      {{0, 0, 12}, {8, 6, 4}},    {{1.5, 0.5, 8}, {1, 1, 2}}, {{7, 0, 9}, {2, 2, 2}},
+      {{2.5, 0, 0.3}, {3, 2, 1}}, {{0, 0, -6}, {2, 2, 2}},    {{-4, -2, 20}, {10, 6, 5}}};
+  for (size_t k = 0; k < tracks.size(); ++k) {
+    const Vec3 centre = world_from_camera * placed[k].first;
+    tracks[k].boxes = {{0, centre, placed[k].second, Yaw(15.0 * k)}};
+  }
+  std::vector<TrackBox> boxes;
+  for (const InstanceTrack& track : tracks) boxes.push_back(track.boxes[0]);
+  for (const CameraModel* camera : {&pinhole, &distorted}) {
+    const std::vector<uint8_t> mask = DynamicMask(*camera, world_from_camera, tracks, 0);
+    int compared = 0, owned = 0;
+    for (int y = 0; y < 60; ++y) {
+      for (int x = 0; x < 80; ++x) {
+        Vec3 ray;
+        ASSERT_TRUE(camera->Unproject(x + 0.5, y + 0.5, &ray));
+        const Vec3 world_ray = world_from_camera.rotation * ray;
+        // Rays within a pixel's width of another owner are left out.
+        bool edge = false;
+        const uint8_t centre = OwnerAlongRay(world_from_camera.translation, world_ray, boxes);
+        for (const auto [dx, dy] : {std::pair{0.3, 0.0}, {-0.3, 0.0}, {0.0, 0.3}, {0.0, -0.3}}) {
+          Vec3 near_ray;
+          ASSERT_TRUE(camera->Unproject(x + 0.5 + dx, y + 0.5 + dy, &near_ray));
+          edge |= OwnerAlongRay(world_from_camera.translation,
+                                world_from_camera.rotation * near_ray, boxes) != centre;
+        }
+        if (edge) continue;
+        ASSERT_EQ(mask[static_cast<size_t>(y) * 80 + x], centre) << x << " " << y;
+        ++compared;
+        owned += centre != 0;
+      }
+    }
+    EXPECT_GT(compared, 3000);
+    EXPECT_GT(owned, 1500);
+    EXPECT_LT(owned, compared - 500);
+  }
+}
+
 TEST(SceneGraph, BoxBehindTheCameraIsNotInTheMask) {
   const CameraModel camera(100, 100, 100, 100, 50, 50);
   InstanceTrack track;

@@ -688,14 +688,27 @@ class SeenSurfaces {
       std::array<double, 3> rgb{};
       double count = 0;
     };
+    // Each query's surfel key (kLeftOut: none), found in parallel; summed
+    // in query order.
+    constexpr uint64_t kLeftOut = UINT64_MAX;  // Direction 127 is not on the lattice.
+    std::vector<uint64_t> keys(queries.size(), kLeftOut);
+    DefaultThreadPool().ParallelFor(
+        0, static_cast<int64_t>(queries.size()), 16384, [&](int64_t begin, int64_t end) {
+          for (int64_t q = begin; q < end; ++q) {
+            const size_t i = static_cast<size_t>(q);
+            if (queries.is_hidden(i) || queries.far[i] || queries.owners[i] != 0) continue;
+            if (BordersNearer(views[queries.views[i]], queries.pixels[i], min_jump)) continue;
+            const Vec3 n = queries.normal(i);
+            auto lattice = [](double v) { return static_cast<uint64_t>(std::lround(2 * v) + 2); };
+            const uint64_t direction = lattice(n.x) * 25 + lattice(n.y) * 5 + lattice(n.z);
+            keys[i] = VoxelKey(queries.position(i), kSurfelSide, 0) ^ (direction << 57);
+          }
+        });
     absl::flat_hash_map<uint64_t, Sum> sums;
     for (size_t i = 0; i < queries.size(); ++i) {
-      if (queries.is_hidden(i) || queries.far[i] || queries.owners[i] != 0) continue;
-      if (BordersNearer(views[queries.views[i]], queries.pixels[i], min_jump)) continue;
+      if (keys[i] == kLeftOut) continue;
       const Vec3 p = queries.position(i), n = queries.normal(i);
-      auto lattice = [](double v) { return static_cast<uint64_t>(std::lround(2 * v) + 2); };
-      const uint64_t direction = lattice(n.x) * 25 + lattice(n.y) * 5 + lattice(n.z);
-      Sum& sum = sums[VoxelKey(p, kSurfelSide, 0) ^ (direction << 57)];
+      Sum& sum = sums[keys[i]];
       sum.position = sum.position + p;
       sum.normal = sum.normal + n;
       for (int c = 0; c < 3; ++c) sum.rgb[c] += queries.rgb[3 * i + c];
@@ -718,8 +731,10 @@ class SeenSurfaces {
       return std::tie(std::get<0>(a), std::get<1>(a)) < std::tie(std::get<0>(b), std::get<1>(b));
     });
     surfels_.reserve(keyed.size());
+    scaled_.reserve(keyed.size());
     for (size_t k = 0; k < keyed.size(); ++k) {
       surfels_.push_back(std::get<2>(keyed[k]));
+      scaled_.push_back(Scaled(surfels_.back().position));
       auto [it, inserted] = cells_.try_emplace(std::get<0>(keyed[k]), uint32_t(k), uint32_t(k));
       it->second.second = static_cast<uint32_t>(k + 1);
     }
@@ -751,13 +766,16 @@ class SeenSurfaces {
             const Vec3 centre{(cx + dx + 0.5) * kCell, (cy + dy + 0.5) * kCell,
                               (cz + dz + 0.5) * kCell};
             if (std::abs(Dot(Unscaled(centre) - p, n)) > reach + kPlaneTolerance) continue;
+            // A cell no nearer than the farthest of kNeighbours found holds
+            // none that would replace it.
+            if (found == kNeighbours && CellDistance2(ps, centre) >= nearest[0].first) continue;
             const auto it = cells_.find(VoxelKey(centre, kCell, 0));
             if (it == cells_.end()) continue;
             for (uint32_t k = it->second.first; k < it->second.second; ++k) {
               const Surfel& s = surfels_[k];
               const Vec3 d = s.position - p;
               if (Dot(s.normal, n) < kMinCos || std::abs(Dot(d, n)) > kPlaneTolerance) continue;
-              const Vec3 ds = Scaled(s.position) - ps;
+              const Vec3 ds = scaled_[k] - ps;
               const double d2 = Dot(ds, ds);
               // A ball, not the cube of cells: the next ring, not searched,
               // may hold nearer surfels than a corner of the last one.
@@ -818,11 +836,22 @@ class SeenSurfaces {
     return false;
   }
   Vec3 Scaled(const Vec3& p) const { return {scale_ * Dot(p, e1_), Dot(p, e2_), Dot(p, e3_)}; }
+  // The squared distance from `q` to the search cell centred at `centre`
+  // (both in the scaled frame), less a nanometre for rounding.
+  static double CellDistance2(const Vec3& q, const Vec3& centre) {
+    double sum = 0;
+    for (int a = 0; a < 3; ++a) {
+      const double gap = std::max(0.0, std::abs(q[a] - centre[a]) - 0.5 * kCell - 1e-9);
+      sum += gap * gap;
+    }
+    return sum;
+  }
   Vec3 Unscaled(const Vec3& q) const { return e1_ * (q.x / scale_) + e2_ * q.y + e3_ * q.z; }
 
   double scale_ = 1;
   Vec3 e1_{1, 0, 0}, e2_{0, 1, 0}, e3_{0, 0, 1};
   std::vector<Surfel> surfels_;
+  std::vector<Vec3> scaled_;  // Scaled(position) of each surfel.
   absl::flat_hash_map<uint64_t, std::pair<uint32_t, uint32_t>> cells_;
 };
 
@@ -869,78 +898,107 @@ size_t SampleStatic(const std::vector<SamplingView>& views,
     const int behind_stride = std::max(1, options.behind_stride);
     const int far_hidden_stride =
         behind_stride * std::max(1, (far_stride + behind_stride - 1) / behind_stride);
-    for (int cy = 0; cy < cells_y; ++cy) {
-      for (int cx = 0; cx < cells_x; ++cx) {
-        int x = cx, y = cy;
-        if (!options.dense) {
-          x = CellPixel(cx, stride, Hash01(cx, cy, 2 * v), w);
-          y = CellPixel(cy, stride, Hash01(cx, cy, 2 * v + 1), h);
-        }
-        const size_t i = static_cast<size_t>(y) * w + x;
-        // The nearest background hidden behind this pixel, if no view sees it.
-        Candidate hidden;
-        bool has_hidden = false;
-        int hidden_radius = 0;
-        const bool on_hidden_grid = cx % behind_stride == 0 && cy % behind_stride == 0;
-        for (size_t k = 0; on_hidden_grid && k < behind.sources.size(); ++k) {
-          has_hidden =
-              HiddenCandidate(sv, static_cast<int>(v), i, behind.sources[k][i],
-                              options.behind_min_jump, footprints[v], stride, floor, &hidden);
-          hidden_radius = behind.radii[k];
-          if (has_hidden) break;
-        }
-        const bool under_body =
-            !has_hidden && on_hidden_grid && !above_body.empty() && sv.view->is_ego(i);
-        if (under_body) {
-          has_hidden =
-              EgoHiddenCandidate(sv, view_lines, static_cast<int>(v), i, above_body[i],
-                                 options.behind_band_px, footprints[v], stride, floor, &hidden);
-          if (has_hidden) hidden_radius = static_cast<int>(i / w) - above_body[i] / w;
-        }
-        if (has_hidden) {
-          // Coarser than visible surfaces: a hidden query copies one
-          // background colour, there is no detail to sample.
-          const bool far = sv.depth->is_far(static_cast<size_t>(hidden.source_pixel));
-          const int hidden_stride = far ? far_hidden_stride : behind_stride;
-          bool keep = cx % hidden_stride == 0 && cy % hidden_stride == 0;
-          hidden.footprint *= hidden_stride;
-          keep = keep && !OtherViewSeesOrPasses(hidden.position, far, v, views, resolution,
-                                                under_body ? kUnderBodySeen : kSeenShare);
-          if (keep && options.skip_covered && !options.dense) {
-            const uint32_t level = FootprintLevel(hidden.footprint);
-            const uint64_t key = VoxelKey(hidden.position, LevelSide(level), level);
-            keep = !covered.contains(key);
-            if (keep) new_keys.push_back(key);
+    // The cells' choices are made in parallel (they read `covered` as the
+    // earlier views left it), then emitted in cell order.
+    struct Choice {
+      size_t pixel = 0;
+      bool hidden = false, visible = false;
+      Candidate hidden_query, visible_query;
+      int hidden_radius = 0;
+      std::optional<uint64_t> hidden_key, visible_key;
+    };
+    std::vector<std::vector<Choice>> rows(static_cast<size_t>(cells_y));
+    DefaultThreadPool().ParallelFor(0, cells_y, 4, [&](int64_t row_begin, int64_t row_end) {
+      for (int cy = static_cast<int>(row_begin); cy < row_end; ++cy) {
+        for (int cx = 0; cx < cells_x; ++cx) {
+          int x = cx, y = cy;
+          if (!options.dense) {
+            x = CellPixel(cx, stride, Hash01(cx, cy, 2 * v), w);
+            y = CellPixel(cy, stride, Hash01(cx, cy, 2 * v + 1), h);
           }
-          if (keep) {
-            // The source lies within hidden_radius (Chebyshev): the nearest
-            // background within twice that.
-            colours->push_back({out->size(), static_cast<int>(v), i,
-                                static_cast<size_t>(hidden.source_pixel), 2 * hidden_radius + 1});
-            Emit(hidden, sv, 0, identity, options, out);
+          const size_t i = static_cast<size_t>(y) * w + x;
+          Choice choice;
+          choice.pixel = i;
+          // The nearest background hidden behind this pixel, if no view sees it.
+          Candidate& hidden = choice.hidden_query;
+          bool has_hidden = false;
+          int hidden_radius = 0;
+          const bool on_hidden_grid = cx % behind_stride == 0 && cy % behind_stride == 0;
+          for (size_t k = 0; on_hidden_grid && k < behind.sources.size(); ++k) {
+            has_hidden =
+                HiddenCandidate(sv, static_cast<int>(v), i, behind.sources[k][i],
+                                options.behind_min_jump, footprints[v], stride, floor, &hidden);
+            hidden_radius = behind.radii[k];
+            if (has_hidden) break;
           }
+          const bool under_body =
+              !has_hidden && on_hidden_grid && !above_body.empty() && sv.view->is_ego(i);
+          if (under_body) {
+            has_hidden =
+                EgoHiddenCandidate(sv, view_lines, static_cast<int>(v), i, above_body[i],
+                                   options.behind_band_px, footprints[v], stride, floor, &hidden);
+            if (has_hidden) hidden_radius = static_cast<int>(i / w) - above_body[i] / w;
+          }
+          if (has_hidden) {
+            // Coarser than visible surfaces: a hidden query copies one
+            // background colour, there is no detail to sample.
+            const bool far = sv.depth->is_far(static_cast<size_t>(hidden.source_pixel));
+            const int hidden_stride = far ? far_hidden_stride : behind_stride;
+            bool keep = cx % hidden_stride == 0 && cy % hidden_stride == 0;
+            hidden.footprint *= hidden_stride;
+            keep = keep && !OtherViewSeesOrPasses(hidden.position, far, v, views, resolution,
+                                                  under_body ? kUnderBodySeen : kSeenShare);
+            if (keep && options.skip_covered && !options.dense) {
+              const uint32_t level = FootprintLevel(hidden.footprint);
+              const uint64_t key = VoxelKey(hidden.position, LevelSide(level), level);
+              keep = !covered.contains(key);
+              if (keep) choice.hidden_key = key;
+            }
+            choice.hidden = keep;
+            choice.hidden_radius = hidden_radius;
+          }
+          choice.visible = [&] {
+            if (!sv.lifted->valid[i] || (*sv.owners)[i] != 0) return false;
+            double footprint = footprints[v].Of(sv.depth->depth[i], i) * stride;
+            if (sv.depth->is_far(i)) {
+              if (cx % far_stride != 0 || cy % far_stride != 0) return false;
+              footprint *= far_stride;
+            }
+            const Vec3 p{sv.lifted->points[3 * i], sv.lifted->points[3 * i + 1],
+                         sv.lifted->points[3 * i + 2]};
+            if (prefer_finer && !sv.depth->is_far(i) &&
+                FinerViewSees(p, footprint, v, options.finer_view_ratio, views, resolution)) {
+              return false;
+            }
+            if (options.skip_covered && !options.dense) {
+              const uint32_t level = FootprintLevel(footprint);
+              const uint64_t key = VoxelKey(p, LevelSide(level), level);
+              if (covered.contains(key)) return false;
+              choice.visible_key = key;
+            }
+            choice.visible_query = {static_cast<int>(v), static_cast<int>(i), p, float(footprint)};
+            return true;
+          }();
+          if (choice.hidden || choice.visible) rows[cy].push_back(choice);
         }
-        if (!sv.lifted->valid[i] || (*sv.owners)[i] != 0) continue;
-        double footprint = footprints[v].Of(sv.depth->depth[i], i) * stride;
-        if (sv.depth->is_far(i)) {
-          if (cx % far_stride != 0 || cy % far_stride != 0) continue;
-          footprint *= far_stride;
+      }
+    });
+    for (const std::vector<Choice>& row : rows) {
+      for (const Choice& choice : row) {
+        if (choice.hidden) {
+          if (choice.hidden_key.has_value()) new_keys.push_back(*choice.hidden_key);
+          // The source lies within hidden_radius (Chebyshev): the nearest
+          // background within twice that.
+          colours->push_back({out->size(), static_cast<int>(v), choice.pixel,
+                              static_cast<size_t>(choice.hidden_query.source_pixel),
+                              2 * choice.hidden_radius + 1});
+          Emit(choice.hidden_query, sv, 0, identity, options, out);
         }
-        const Vec3 p{sv.lifted->points[3 * i], sv.lifted->points[3 * i + 1],
-                     sv.lifted->points[3 * i + 2]};
-        if (prefer_finer && !sv.depth->is_far(i) &&
-            FinerViewSees(p, footprint, v, options.finer_view_ratio, views, resolution)) {
-          continue;
+        if (choice.visible) {
+          if (choice.visible_key.has_value()) new_keys.push_back(*choice.visible_key);
+          Emit(choice.visible_query, sv, 0, identity, options, out);
+          ++visible;
         }
-        if (options.skip_covered && !options.dense) {
-          const uint32_t level = FootprintLevel(footprint);
-          const uint64_t key = VoxelKey(p, LevelSide(level), level);
-          if (covered.contains(key)) continue;
-          new_keys.push_back(key);
-        }
-        Emit({static_cast<int>(v), static_cast<int>(i), p, float(footprint)}, sv, 0, identity,
-             options, out);
-        ++visible;
       }
     }
     covered.insert(new_keys.begin(), new_keys.end());

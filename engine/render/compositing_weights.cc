@@ -102,7 +102,7 @@ absl::StatusOr<CompositingWeights> ComputeCompositingWeights(const GaussianScene
   }
 
   // Project; order the visible Gaussians by (depth, index) as the
-  // rasterizer's stable sort does, and keep them in that order (rank k).
+  // rasterizer's stable sort does: rank k is visible[order[k]].
   const size_t n = scene.size();
   std::vector<Splat> visible;
   std::vector<uint32_t> visible_index;
@@ -120,15 +120,12 @@ absl::StatusOr<CompositingWeights> ComputeCompositingWeights(const GaussianScene
     visible_index.push_back(static_cast<uint32_t>(i));
   }
   std::sort(keys.begin(), keys.end());
-  std::vector<Splat> splats(keys.size());
-  std::vector<uint32_t> scene_index(keys.size());
-  for (size_t k = 0; k < keys.size(); ++k) {
-    splats[k] = visible[static_cast<uint32_t>(keys[k])];
-    scene_index[k] = visible_index[static_cast<uint32_t>(keys[k])];
-  }
-  visible = std::vector<Splat>();
+  std::vector<uint32_t> order(keys.size());
+  for (size_t k = 0; k < keys.size(); ++k) order[k] = static_cast<uint32_t>(keys[k]);
+  keys = std::vector<uint64_t>();
 
-  // Bin into the tiles the ellipse touches (the rasterizer's test).
+  // Bin into the tiles the ellipse touches (the rasterizer's test): each
+  // tile's list holds visible indices in rank order.
   const int tiles_x = (frame.width + kTile - 1) / kTile;
   const int tiles_y = (frame.height + kTile - 1) / kTile;
   const size_t num_tiles = static_cast<size_t>(tiles_x) * tiles_y;
@@ -137,14 +134,15 @@ absl::StatusOr<CompositingWeights> ComputeCompositingWeights(const GaussianScene
     raster::VisitTiles(g.mx, g.my, g.ca, g.cb, g.cc, g.span_d2, g.ext_x, g.ext_y, frame.width,
                        frame.height, tiles_x, [&](uint32_t t) { body(static_cast<size_t>(t)); });
   };
-  for (const Splat& splat : splats) for_each_tile(splat, [&](size_t t) { ++tile_begin[t + 1]; });
+  for (const Splat& splat : visible) for_each_tile(splat, [&](size_t t) { ++tile_begin[t + 1]; });
   for (size_t t = 0; t < num_tiles; ++t) tile_begin[t + 1] += tile_begin[t];
   std::vector<uint32_t> tile_lists(tile_begin[num_tiles]);
   {
     std::vector<uint64_t> cursor(tile_begin.begin(), tile_begin.end() - 1);
-    for (uint32_t k = 0; k < splats.size(); ++k)
-      for_each_tile(splats[k], [&](size_t t) { tile_lists[cursor[t]++] = k; });
+    for (const uint32_t i : order)
+      for_each_tile(visible[i], [&](size_t t) { tile_lists[cursor[t]++] = i; });
   }
+  order = std::vector<uint32_t>();
 
   // Composite tile by tile; each tile's entries are regrouped by pixel.
   CompositingWeights out;
@@ -155,9 +153,9 @@ absl::StatusOr<CompositingWeights> ComputeCompositingWeights(const GaussianScene
   out.pixel_begin.assign(pixels, 0);
   out.pixel_count.assign(pixels, 0);
   out.alpha.assign(pixels, 0.f);
-  std::vector<uint32_t> ranked;  // Depth rank per entry, made local below.
+  std::vector<uint32_t> entry_visible;  // Visible index per entry, made local below.
   struct Entry {
-    uint32_t gaussian;  // Depth rank.
+    uint32_t gaussian;  // Visible index.
     float weight;
     uint8_t pixel;
   };
@@ -189,10 +187,10 @@ absl::StatusOr<CompositingWeights> ComputeCompositingWeights(const GaussianScene
       for (uint64_t k = tile_begin[t]; k < tile_begin[t + 1] && active > 0; ++k) {
         // A tile's splats lie far apart in depth order: ask for one ahead.
         if (k + kPrefetchAhead < tile_begin[t + 1]) {
-          __builtin_prefetch(&splats[tile_lists[k + kPrefetchAhead]]);
+          __builtin_prefetch(&visible[tile_lists[k + kPrefetchAhead]]);
         }
         const uint32_t i = tile_lists[k];
-        const Splat& g = splats[i];
+        const Splat& g = visible[i];
         const float det = g.ca * g.cc - g.cb * g.cb;
         const float inv_ca = 1.f / g.ca;
         const int row0 = std::max(y_begin, static_cast<int>(std::ceil(g.my - g.ext_y - 0.5f)));
@@ -247,7 +245,7 @@ absl::StatusOr<CompositingWeights> ComputeCompositingWeights(const GaussianScene
       // Regroup by pixel (stable: front to back within a pixel).
       std::fill(counts, counts + kTilePixels, 0u);
       for (const Entry& e : tile_entries) ++counts[e.pixel];
-      uint64_t start = ranked.size();
+      uint64_t start = entry_visible.size();
       uint64_t cursor[kTilePixels];
       for (int p = 0; p < kTilePixels; ++p) {
         cursor[p] = start;
@@ -260,11 +258,11 @@ absl::StatusOr<CompositingWeights> ComputeCompositingWeights(const GaussianScene
           out.alpha[pixel] = 1.f - trans[p];
         }
       }
-      ranked.resize(start);
+      entry_visible.resize(start);
       out.weights.resize(start);
       for (const Entry& e : tile_entries) {
         const uint64_t slot = cursor[e.pixel]++;
-        ranked[slot] = e.gaussian;
+        entry_visible[slot] = e.gaussian;
         out.weights[slot] = e.weight;
       }
     }
@@ -273,21 +271,22 @@ absl::StatusOr<CompositingWeights> ComputeCompositingWeights(const GaussianScene
   // Local indices: the contributing Gaussians in the order of their first
   // entry (CompositingWeights::gaussians).
   std::vector<uint32_t> to_local(n, UINT32_MAX);
-  for (uint32_t k : ranked) {
-    uint32_t& l = to_local[scene_index[k]];
+  for (uint32_t k : entry_visible) {
+    uint32_t& l = to_local[visible_index[k]];
     if (l == UINT32_MAX) {
       l = static_cast<uint32_t>(out.gaussians.size());
-      out.gaussians.push_back(scene_index[k]);
+      out.gaussians.push_back(visible_index[k]);
     }
   }
-  out.local.resize(ranked.size());
-  for (size_t e = 0; e < ranked.size(); ++e) out.local[e] = to_local[scene_index[ranked[e]]];
+  out.local.resize(entry_visible.size());
+  for (size_t e = 0; e < entry_visible.size(); ++e)
+    out.local[e] = to_local[visible_index[entry_visible[e]]];
   if (options.local_coords) {
     out.local_frames.resize(6 * out.gaussians.size());
-    for (size_t k = 0; k < splats.size(); ++k) {
-      const uint32_t l = to_local[scene_index[k]];
+    for (size_t k = 0; k < visible.size(); ++k) {
+      const uint32_t l = to_local[visible_index[k]];
       if (l == UINT32_MAX) continue;
-      const Splat& g = splats[k];
+      const Splat& g = visible[k];
       float* f = &out.local_frames[6 * static_cast<size_t>(l)];
       f[0] = g.mx;
       f[1] = g.my;
