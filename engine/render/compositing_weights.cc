@@ -119,7 +119,12 @@ absl::StatusOr<CompositingWeights> ComputeCompositingWeights(const GaussianScene
     visible.push_back(splat);
     visible_index.push_back(static_cast<uint32_t>(i));
   }
-  std::sort(keys.begin(), keys.end());
+  {
+    // Visible indices rise with i: sorting by depth bits alone, stably, is
+    // the (depth, index) order.
+    std::vector<uint64_t> buffer;
+    raster::RadixSortByHighWord(&keys, &buffer);
+  }
   std::vector<uint32_t> order(keys.size());
   for (size_t k = 0; k < keys.size(); ++k) order[k] = static_cast<uint32_t>(keys[k]);
   keys = std::vector<uint64_t>();
@@ -139,8 +144,13 @@ absl::StatusOr<CompositingWeights> ComputeCompositingWeights(const GaussianScene
   std::vector<uint32_t> tile_lists(tile_begin[num_tiles]);
   {
     std::vector<uint64_t> cursor(tile_begin.begin(), tile_begin.end() - 1);
-    for (const uint32_t i : order)
+    for (size_t k = 0; k < order.size(); ++k) {
+      // Rank order reads `visible` all over: ask for one ahead.
+      if (k + kPrefetchAhead < order.size())
+        __builtin_prefetch(&visible[order[k + kPrefetchAhead]]);
+      const uint32_t i = order[k];
       for_each_tile(visible[i], [&](size_t t) { tile_lists[cursor[t]++] = i; });
+    }
   }
   order = std::vector<uint32_t>();
 

@@ -167,24 +167,6 @@ void RenderTile(const RenderFrame& frame, const Projected* projected, const uint
   *contributing += job.contributing;
 }
 
-// Sorts `keys` by their high 32 bits (non-negative float bits sort like the
-// floats), stably: three LSD passes of 11 bits. `buffer` is scratch space.
-void RadixSortByHighWord(std::vector<uint64_t>* keys, std::vector<uint64_t>* buffer) {
-  buffer->resize(keys->size());
-  uint64_t* from = keys->data();
-  uint64_t* to = buffer->data();
-  const size_t n = keys->size();
-  for (int shift = 32; shift < 64; shift += 11) {
-    size_t count[2049] = {};
-    for (size_t k = 0; k < n; ++k) ++count[((from[k] >> shift) & 2047) + 1];
-    for (int b = 0; b < 2048; ++b) count[b + 1] += count[b];
-    for (size_t k = 0; k < n; ++k) to[count[(from[k] >> shift) & 2047]++] = from[k];
-    std::swap(from, to);
-  }
-  // Three passes: the result is in `buffer`.
-  keys->swap(*buffer);
-}
-
 }  // namespace
 
 absl::Status CheckRenderable(const GaussianScene& scene) {
@@ -421,7 +403,7 @@ absl::StatusOr<RenderBuffers> Render(const GaussianScene& scene, const RenderCam
   for (int64_t c = 0; c < num_project_chunks; ++c) {
     by_depth.insert(by_depth.end(), visible_keys[c].begin(), visible_keys[c].end());
   }
-  RadixSortByHighWord(&by_depth, &ws.radix_buffer);
+  raster::RadixSortByHighWord(&by_depth, &ws.radix_buffer);
 
   // 3. Bin: in depth order, each Gaussian emits the tiles its ellipse
   // touches; a counting sort by tile (chunks in order) keeps each tile's

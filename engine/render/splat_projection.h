@@ -16,6 +16,8 @@
 #include <cstddef>
 #include <cstdint>
 #include <cstring>
+#include <utility>
+#include <vector>
 
 #include "common/host_device.h"
 #include "engine/camera/camera_model.h"
@@ -49,6 +51,25 @@ PF_HD inline uint32_t SortDepthBits(float depth, uint32_t i, float order_band) {
   uint32_t bits;
   memcpy(&bits, &depth, sizeof(bits));
   return bits;
+}
+
+// Sorts `keys` by their high 32 bits (SortDepthBits), stably: three LSD
+// passes of 11 bits, so keys (bits << 32 | index) end in (depth, index)
+// order. `buffer` is scratch space.
+inline void RadixSortByHighWord(std::vector<uint64_t>* keys, std::vector<uint64_t>* buffer) {
+  buffer->resize(keys->size());
+  uint64_t* from = keys->data();
+  uint64_t* to = buffer->data();
+  const size_t n = keys->size();
+  for (int shift = 32; shift < 64; shift += 11) {
+    size_t count[2049] = {};
+    for (size_t k = 0; k < n; ++k) ++count[((from[k] >> shift) & 2047) + 1];
+    for (int b = 0; b < 2048; ++b) count[b + 1] += count[b];
+    for (size_t k = 0; k < n; ++k) to[count[(from[k] >> shift) & 2047]++] = from[k];
+    std::swap(from, to);
+  }
+  // Three passes: the result is in `buffer`.
+  keys->swap(*buffer);
 }
 
 // A view's camera as the projection reads it, in float (the lens in double).
