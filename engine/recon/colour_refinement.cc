@@ -258,11 +258,21 @@ absl::StatusOr<RecordedViews> RecordViews(const std::vector<ContextView>& views,
   return out;
 }
 
-// The prior of each unknown ([N, 3K]) and the inverse of each Gaussian's
-// block of A^T M A + Lambda (colour_fit::PreconditionBlock's layout).
+// The prior of each Gaussian's K unknowns of a channel, the same for the
+// three channels ([N, K]: colour, and with gradients g_u, g_v), and the
+// inverse of each Gaussian's block of A^T M A + Lambda
+// (colour_fit::PreconditionBlock's layout).
 struct Preconditioner {
   std::vector<float> prior;
   std::vector<float> inverse;
+  // The prior of every unknown, [N, 3K] (the GPU solve's layout).
+  std::vector<float> PerUnknown(size_t k) const {
+    std::vector<float> out(3 * prior.size());
+    for (size_t i = 0; i < prior.size() / k; ++i)
+      for (size_t c = 0; c < 3; ++c)
+        for (size_t j = 0; j < k; ++j) out[3 * k * i + k * c + j] = prior[k * i + j];
+    return out;
+  }
 };
 
 // Whether Gaussian i keeps its decoded colour (agreement channel 0: no
@@ -295,7 +305,7 @@ Preconditioner MakePreconditioner(const std::vector<float>& sums, const Layout& 
   const float lambda = static_cast<float>(options.prior_weight);
   const float lambda_gradient = static_cast<float>(options.gradient_prior_weight);
   Preconditioner out;
-  out.prior.resize(per * n);
+  out.prior.resize(kk * n);
   out.inverse.resize((kk == 3 ? 6 : 1) * n);
   for (size_t i = 0; i < n; ++i) {
     const float* sum = &sums[kSums * i];
@@ -303,7 +313,7 @@ Preconditioner MakePreconditioner(const std::vector<float>& sums, const Layout& 
     const float data =
         hidden || !options.prior_from_unoccluded ? sum[0] : UnoccludedPrior(sum[0], sum[6]);
     const float prior_colour = (hidden ? kHiddenPrior : lambda) * (data + kPriorFloor);
-    for (int c = 0; c < 3; ++c) out.prior[per * i + kk * c] = prior_colour;
+    out.prior[kk * i] = prior_colour;
     if (kk == 1) {
       out.inverse[i] = 1.f / (sum[0] + prior_colour);
       continue;
@@ -311,10 +321,8 @@ Preconditioner MakePreconditioner(const std::vector<float>& sums, const Layout& 
     const float gradient = hidden ? kHiddenPrior : lambda_gradient;
     const float prior_u = gradient * (sum[1] + kPriorFloor);
     const float prior_v = gradient * (sum[2] + kPriorFloor);
-    for (int c = 0; c < 3; ++c) {
-      out.prior[per * i + 3 * c + 1] = prior_u;
-      out.prior[per * i + 3 * c + 2] = prior_v;
-    }
+    out.prior[3 * i + 1] = prior_u;
+    out.prior[3 * i + 2] = prior_v;
     InvertSymmetric3(sum[0] + prior_colour, sum[3], sum[4], sum[1] + prior_u, sum[5],
                      sum[2] + prior_v, &out.inverse[6 * i]);
   }
@@ -461,9 +469,13 @@ void SolveOnCpu(std::vector<FitView>& fit, const Layout& layout, const Refinemen
         },
         &q);
     const Channels pq = for_gaussians([&](size_t i, Channels* sum) {
-      for (size_t k = per * i, j = 0; j < size_t(per); ++j, ++k) {
-        q[k] += pre.prior[k] * p[k];
-        (*sum)[j / kk] += double(p[k]) * q[k];
+      const float* prior = &pre.prior[kk * i];
+      for (int c = 0; c < 3; ++c) {
+        for (int g = 0; g < kk; ++g) {
+          const size_t k = per * i + kk * c + g;
+          q[k] += prior[g] * p[k];
+          (*sum)[c] += double(p[k]) * q[k];
+        }
       }
     });
     float step[3];
@@ -521,7 +533,7 @@ absl::Status SolveOnGpu(const std::vector<FitView>& fit, const Layout& layout,
   stats->rmse_before = Rmse(before, stats->pixels);
   ASSIGN_OR_RETURN(const std::vector<float> sums, gpu->Sums());
   const Preconditioner pre = MakePreconditioner(sums, layout, options, *scene);
-  RETURN_IF_ERROR(gpu->Solve(pre.prior, pre.inverse, options.iterations, x));
+  RETURN_IF_ERROR(gpu->Solve(pre.PerUnknown(layout.k), pre.inverse, options.iterations, x));
   StoreColours(layout, options, x, scene);
   ASSIGN_OR_RETURN(const ChannelSums after, gpu->Residual(*x, /*start=*/false));
   stats->rmse_after = Rmse(after, stats->pixels);

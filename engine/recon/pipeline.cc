@@ -185,6 +185,15 @@ void Pipeline::Decode() {
       ++stats.dynamic_gaussians;
     }
   }
+  // The scene holds what the stages after this one need: the queries, their
+  // fusion and the views' depths, owners and masks are freed, so the colour
+  // fit's weights can take their memory.
+  far_ = std::move(queries_.far);
+  queries_ = QuerySet();
+  fused_ = FusedQueries();
+  std::vector<ViewDepth>().swap(depths_);
+  std::vector<std::vector<uint32_t>>().swap(owners_);
+  std::vector<std::vector<uint8_t>>().swap(masks_);
   // LiDAR intensity from the sweeps the depth stage would take (nearest each
   // CONTEXT view), so those of TARGET times stay out.
   std::vector<const LidarSweepData*> sweeps;
@@ -272,7 +281,7 @@ absl::Status Pipeline::Optimize() {
   if (options_.optimize.steps <= 0) return absl::OkStatus();
   OptimizeOptions optimize = options_.optimize;
   std::vector<uint8_t> fixed(result_.scene.size(), 0);
-  for (size_t i = 0; i < fixed.size() && i < queries_.far.size(); ++i) fixed[i] = queries_.far[i];
+  for (size_t i = 0; i < fixed.size() && i < far_.size(); ++i) fixed[i] = far_[i];
   // A progress line about every 10 % of the steps, and at least every 30 s
   // (a run bounded by seconds may never reach 10 % of its steps).
   const int every = std::max(1, optimize.steps / 10);

@@ -48,7 +48,8 @@ class Pipeline {
   absl::Status Fuse();
   // 5'. No fusion: each query keeps its own pixel's colour (one Gaussian per pixel).
   void KeepQueriesUnfused();
-  // 6. Queries to Gaussians.
+  // 6. Queries to Gaussians; frees the queries, their fusion and the views'
+  // depths, owners and masks.
   void Decode();
   // 7. The colour fit against the context images (when iterations > 0), with
   // colour gradients as ColourGradientsFor(options) says.
@@ -74,6 +75,7 @@ class Pipeline {
   std::vector<EgoLayer> ego_layers_;
   QuerySet queries_;
   FusedQueries fused_;
+  std::vector<uint8_t> far_;  // Per Gaussian of the decoded scene: 1 on the far layer.
 };
 
 }  // namespace pf
