@@ -131,7 +131,7 @@ std::vector<uint8_t> DynamicMask(const CameraModel& camera, const Rigid& world_f
       double u_min = std::numeric_limits<double>::infinity(), u_max = -u_min;
       double v_min = u_min, v_max = -u_min;
       bool bounded = true;
-      for (int corner = 0; corner < 8 && bounded; ++corner) {
+      for (int corner = 0; corner < 8; ++corner) {
         const Vec3 c{corner & 1 ? cb.half.x : -cb.half.x, corner & 2 ? cb.half.y : -cb.half.y,
                      corner & 4 ? cb.half.z : -cb.half.z};
         const Vec3 p = camera_from_box * (c - cb.origin);

@@ -102,7 +102,7 @@ absl::StatusOr<CompositingWeights> ComputeCompositingWeights(const GaussianScene
   }
 
   // Project; order the visible Gaussians by (depth, index) as the
-  // rasterizer's stable sort does: rank k is visible[order[k]].
+  // rasterizer's stable sort does: rank k is visible[uint32_t(keys[k])].
   const size_t n = scene.size();
   std::vector<Splat> visible;
   std::vector<uint32_t> visible_index;
@@ -125,9 +125,6 @@ absl::StatusOr<CompositingWeights> ComputeCompositingWeights(const GaussianScene
     std::vector<uint64_t> buffer;
     raster::RadixSortByHighWord(&keys, &buffer);
   }
-  std::vector<uint32_t> order(keys.size());
-  for (size_t k = 0; k < keys.size(); ++k) order[k] = static_cast<uint32_t>(keys[k]);
-  keys = std::vector<uint64_t>();
 
   // Bin into the tiles the ellipse touches (the rasterizer's test): each
   // tile's list holds visible indices in rank order.
@@ -144,15 +141,15 @@ absl::StatusOr<CompositingWeights> ComputeCompositingWeights(const GaussianScene
   std::vector<uint32_t> tile_lists(tile_begin[num_tiles]);
   {
     std::vector<uint64_t> cursor(tile_begin.begin(), tile_begin.end() - 1);
-    for (size_t k = 0; k < order.size(); ++k) {
+    for (size_t k = 0; k < keys.size(); ++k) {
       // Rank order reads `visible` all over: ask for one ahead.
-      if (k + kPrefetchAhead < order.size())
-        __builtin_prefetch(&visible[order[k + kPrefetchAhead]]);
-      const uint32_t i = order[k];
+      if (k + kPrefetchAhead < keys.size())
+        __builtin_prefetch(&visible[static_cast<uint32_t>(keys[k + kPrefetchAhead])]);
+      const uint32_t i = static_cast<uint32_t>(keys[k]);
       for_each_tile(visible[i], [&](size_t t) { tile_lists[cursor[t]++] = i; });
     }
   }
-  order = std::vector<uint32_t>();
+  keys = std::vector<uint64_t>();
 
   // Composite tile by tile; each tile's entries are regrouped by pixel.
   CompositingWeights out;
