@@ -93,6 +93,7 @@ absl::Status Run(const std::vector<std::string>& args) {
   WeightOptions weight_options;
   weight_options.min_weight = options.min_weight;
   weight_options.local_coords = options.colour_gradients;
+  weight_options.omitted_colours = true;  // As the fit records them.
 
   nlohmann::json report = {{"views", inputs.views.size()},
                            {"gaussians", scene.size()},

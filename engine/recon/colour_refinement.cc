@@ -48,12 +48,15 @@ float UnoccludedPrior(float seen, float unoccluded) {
 // enough that the fit leaves their colour as it is.
 constexpr float kHiddenPrior = 1e4f;
 
-// One context view in the fit: its compositing matrix and the image, with
-// pixels under min_alpha zeroed out of both sides (the mask M).
+// One context view in the fit: its compositing matrix and what it is fitted
+// to, with pixels under min_alpha zeroed out of both sides (the mask M).
 struct FitView {
   CompositingWeights a;
   std::vector<uint8_t> fitted;  // [H * W] 1 where alpha >= min_alpha.
-  const ImageF* image = nullptr;
+  // [H * W, 3] the image less what the entries under min_weight add with
+  // the decoded colours (CompositingWeights::omitted): those entries are
+  // held at the decoded colours, so A x fits the rest.
+  std::vector<float> target;
 };
 
 // Per-view scratch: colours gathered to local order, the view's image-sized
@@ -148,7 +151,7 @@ Channels Residual(const FitView& view, ViewScratch* scratch) {
   for (size_t p = 0; p < num_pixels; ++p) {
     for (int c = 0; c < 3; ++c) {
       float& r = scratch->pixels[3 * p + c];
-      r = view.fitted[p] ? view.image->pixels[3 * p + c] - r : 0.f;
+      r = view.fitted[p] ? view.target[3 * p + c] - r : 0.f;
       sum[c] += double(r) * r;
     }
   }
@@ -222,6 +225,7 @@ absl::StatusOr<RecordedViews> RecordViews(const std::vector<ContextView>& views,
       weight_options.min_weight = options.min_weight;
       weight_options.local_coords = gradients;
       weight_options.pixel_stride = pixel_stride;
+      weight_options.omitted_colours = true;
       absl::StatusOr<CompositingWeights> a =
           ComputeCompositingWeights(scene, view.render_camera(), view.timestamp_us, weight_options);
       if (!a.ok()) {
@@ -243,10 +247,14 @@ absl::StatusOr<RecordedViews> RecordViews(const std::vector<ContextView>& views,
       }
       FitView& fit = out.fit[v];
       fit.a = *std::move(a);
-      fit.image = &view.rgb;
+      // The target in place of the omitted colours.
+      fit.target = std::move(fit.a.omitted);
+      for (size_t k = 0; k < fit.target.size(); ++k)
+        fit.target[k] = view.rgb.pixels[k] - fit.target[k];
       fit.fitted.resize(fit.a.alpha.size());
       for (size_t p = 0; p < fit.fitted.size(); ++p)
         fit.fitted[p] = fit.a.alpha[p] >= options.min_alpha && !view.is_ego(p) && fit.a.Records(p);
+      std::vector<float>().swap(fit.a.alpha);  // In `fitted` now.
     }
   });
   for (const absl::Status& error : errors) RETURN_IF_ERROR(error);
@@ -520,7 +528,7 @@ absl::Status SolveOnGpu(const std::vector<FitView>& fit, const Layout& layout,
   std::vector<ColourFitView> views;
   views.reserve(fit.size());
   for (const FitView& view : fit) {
-    views.push_back({&view.a, view.fitted.data(), view.image->pixels.data()});
+    views.push_back({&view.a, view.fitted.data(), view.target.data()});
   }
   const auto upload_start = std::chrono::steady_clock::now();
   ASSIGN_OR_RETURN(

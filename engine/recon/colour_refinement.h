@@ -62,10 +62,11 @@ struct RefinementOptions {
   // gaussian_decoder.h: behind the surface every context view sees) as
   // decoded; needs a scene with that channel.
   bool keep_hidden = true;
-  // Compositing weights under this are left out of the fit: a contribution
-  // below one 8-bit level (1/255, the rasterizer's own alpha cut-off) of a
-  // colour in [0, 1]. About 40 % of the pairs and 0.5 % of the weight on the
-  // default synth clip.
+  // Compositing weights under this are not fitted: a contribution below one
+  // 8-bit level (1/255, the rasterizer's own alpha cut-off) of a colour in
+  // [0, 1]. Their Gaussians' colours enter those pixels as decoded (the
+  // fit's target is the image less what they add,
+  // CompositingWeights::omitted).
   float min_weight = 1.f / 255.f;
   float min_colour = -0.5f;  // Colours are kept in [min_colour, max_colour].
   float max_colour = 1.5f;

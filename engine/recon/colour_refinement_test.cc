@@ -179,6 +179,43 @@ ContextView ViewRenderedFrom(const GaussianScene& scene, const ContextView& geom
   return view;
 }
 
+// Overlapping discs (std-dev 0.3 m, opacity 0.9) every 2 pixels of a w x h
+// view of focal length 40, on a wall 10 m away; random colours.
+GaussianScene WallOfDiscs(int w, int h) {
+  GaussianScene wall = EmptyScene();
+  std::mt19937 rng(2);
+  std::uniform_real_distribution<double> u(0.1, 0.9);
+  for (int y = 0; y < h; y += 2) {
+    for (int x = 0; x < w; x += 2) {
+      const Vec3 at{(x + 1 - w / 2.0) / 40 * 10, (y + 1 - h / 2.0) / 40 * 10, 10};
+      AddGaussian(&wall, at, 0.3, 0.9, {u(rng), u(rng), u(rng)});
+    }
+  }
+  return wall;
+}
+
+// The largest difference of any colour channel of `a` and `b`.
+double MaxColourDifference(const GaussianScene& a, const GaussianScene& b) {
+  double max_error = 0;
+  for (size_t i = 0; i < a.size(); ++i) {
+    for (int c = 0; c < 3; ++c) {
+      const size_t k = i * kReconChannels + c;
+      max_error = std::max(max_error, double(std::abs(a.features[k] - b.features[k])));
+    }
+  }
+  return max_error;
+}
+
+// Flat colours, many iterations and a weak prior: the fit alone decides.
+RefinementOptions ExactFlatFit() {
+  RefinementOptions options;
+  options.iterations = 40;
+  options.prior_weight = 1e-4;
+  options.min_alpha = 0;
+  options.colour_gradients = false;
+  return options;
+}
+
 TEST(ColourRefinement, RecoversTheColoursAContextImageWasRenderedFrom) {
   // A wall of overlapping discs 10 m away, random colours; the context image
   // is their render. Starting from grey, the fit must find the colours the
@@ -186,42 +223,57 @@ TEST(ColourRefinement, RecoversTheColoursAContextImageWasRenderedFrom) {
   // would not).
   const int w = 40, h = 30;
   const ContextView geometry = UniformView(w, h, 40, 0.f);
-  GaussianScene truth = EmptyScene();
-  std::mt19937 rng(2);
-  std::uniform_real_distribution<double> u(0.1, 0.9);
-  for (int y = 0; y < h; y += 2) {
-    for (int x = 0; x < w; x += 2) {
-      const Vec3 at{(x + 1 - w / 2.0) / 40 * 10, (y + 1 - h / 2.0) / 40 * 10, 10};
-      AddGaussian(&truth, at, 0.3, 0.9, {u(rng), u(rng), u(rng)});
-    }
-  }
+  GaussianScene truth = WallOfDiscs(w, h);
   const ContextView view = ViewRenderedFrom(truth, geometry);
   ASSERT_FALSE(view.rgb.pixels.empty());
 
   GaussianScene scene = truth;
   for (size_t i = 0; i < scene.size(); ++i)
     for (int c = 0; c < 3; ++c) scene.features[i * kReconChannels + c] = 0.5f;
-  RefinementOptions options;
-  options.iterations = 40;
-  options.prior_weight = 1e-4;
-  options.min_alpha = 0;
-  options.colour_gradients = false;
-  absl::StatusOr<RefinementStats> stats = RefineColours({view}, options, &scene);
+  absl::StatusOr<RefinementStats> stats = RefineColours({view}, ExactFlatFit(), &scene);
   ASSERT_TRUE(stats.ok()) << stats.status();
-  double max_error = 0;
-  for (size_t i = 0; i < scene.size(); ++i) {
-    for (int c = 0; c < 3; ++c) {
-      const size_t k = i * kReconChannels + c;
-      max_error = std::max(max_error, double(std::abs(scene.features[k] - truth.features[k])));
-    }
-  }
-  EXPECT_LT(max_error, 0.02);
+  EXPECT_LT(MaxColourDifference(scene, truth), 0.02);
   EXPECT_GT(stats->rmse_before, 0.1);
   EXPECT_LT(stats->rmse_after, 0.002);
   EXPECT_FALSE(scene.has_colour_gradients());
   // The stage line's split of the fit's time: both parts ran.
   EXPECT_GT(stats->record_seconds, 0);
   EXPECT_GT(stats->solve_seconds, 0);
+}
+
+TEST(ColourRefinement, EntriesUnderMinWeightAreHeldAtTheirDecodedColours) {
+  // The wall of the test above behind a veil of faint bright Gaussians
+  // (opacity 0.03, colour 1.5): every weight of the veil is under
+  // min_weight, so it is not fitted, but it adds about 0.1 to the image. The
+  // fit holds it at its decoded colour and finds the wall's colours from
+  // decoded ones 0.05 off (the wall's own weights under min_weight stay
+  // with those), where fitting the image without the veil would brighten
+  // the wall by about as much as the veil adds.
+  const int w = 40, h = 30;
+  const ContextView geometry = UniformView(w, h, 40, 0.f);
+  GaussianScene truth = WallOfDiscs(w, h);
+  const size_t wall = truth.size();
+  for (int y = -4; y < h + 4; y += 4) {
+    for (int x = -4; x < w + 4; x += 4) {
+      const Vec3 at{(x + 1 - w / 2.0) / 40 * 8, (y + 1 - h / 2.0) / 40 * 8, 8};
+      AddGaussian(&truth, at, 0.5, 0.03, {1.5, 1.5, 1.5});
+    }
+  }
+  const ContextView view = ViewRenderedFrom(truth, geometry);
+  ASSERT_FALSE(view.rgb.pixels.empty());
+
+  GaussianScene scene = truth;
+  for (size_t i = 0; i < wall; ++i)
+    for (int c = 0; c < 3; ++c)
+      scene.features[i * kReconChannels + c] += (i + c) % 2 ? 0.05f : -0.05f;
+  RefinementOptions options = ExactFlatFit();
+  options.min_weight = 0.035f;
+  absl::StatusOr<RefinementStats> stats = RefineColours({view}, options, &scene);
+  ASSERT_TRUE(stats.ok()) << stats.status();
+  EXPECT_LT(MaxColourDifference(scene, truth), 0.02);
+  for (size_t i = wall; i < scene.size(); ++i)  // No entries: as decoded.
+    for (int c = 0; c < 3; ++c) ASSERT_EQ(scene.features[i * kReconChannels + c], 1.5f);
+  EXPECT_LT(stats->rmse_after, 0.002);
 }
 
 TEST(ColourRefinement, FitsColourGradientsAFlatFitCannot) {

@@ -68,6 +68,10 @@ absl::StatusOr<CompositingWeights> ComputeCompositingWeights(const GaussianScene
         absl::StrCat("camera: image size ", model.width(), "x", model.height(), " has no pixels"));
   }
   if (absl::Status status = CheckRenderable(scene); !status.ok()) return status;
+  if (options.omitted_colours && scene.num_channels < 3) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "omitted_colours: needs RGB in feature channels 0-2, the scene has ", scene.num_channels));
+  }
   if (options.pixel_stride < 1) {
     return absl::InvalidArgumentError(
         absl::StrCat("pixel_stride: must be at least 1, got ", options.pixel_stride));
@@ -107,6 +111,7 @@ absl::StatusOr<CompositingWeights> ComputeCompositingWeights(const GaussianScene
   std::vector<Splat> visible;
   std::vector<uint32_t> visible_index;
   std::vector<uint64_t> keys;
+  std::vector<float> visible_colour;  // [visible, 3] with omitted_colours.
   visible.reserve(n);
   visible_index.reserve(n);
   keys.reserve(n);
@@ -118,6 +123,10 @@ absl::StatusOr<CompositingWeights> ComputeCompositingWeights(const GaussianScene
     keys.push_back((static_cast<uint64_t>(depth_bits) << 32) | visible.size());
     visible.push_back(splat);
     visible_index.push_back(static_cast<uint32_t>(i));
+    if (options.omitted_colours) {
+      const float* rgb = &scene.features[i * static_cast<size_t>(scene.num_channels)];
+      visible_colour.insert(visible_colour.end(), rgb, rgb + 3);
+    }
   }
   {
     // Visible indices rise with i: sorting by depth bits alone, stably, is
@@ -167,6 +176,9 @@ absl::StatusOr<CompositingWeights> ComputeCompositingWeights(const GaussianScene
     uint8_t pixel;
   };
   std::vector<Entry> tile_entries;
+  if (options.omitted_colours) out.omitted.assign(3 * pixels, 0.f);
+  // The tile's omitted colours, per channel (CompositingWeights::omitted).
+  alignas(16) float omitted[3][kTilePixels + kLanes];  // Padded as `trans`.
   // Padded by a group: the last row's lanes past the tile read and write back
   // (unchanged) the padding, as the tile kernel's do.
   alignas(16) float trans[kTilePixels + kLanes];
@@ -190,11 +202,14 @@ absl::StatusOr<CompositingWeights> ComputeCompositingWeights(const GaussianScene
         }
       }
       tile_entries.clear();
+      if (options.omitted_colours) std::memset(omitted, 0, sizeof(omitted));
       int active = (x_end - x_begin) * (y_end - y_begin);  // Pixels not done yet.
       for (uint64_t k = tile_begin[t]; k < tile_begin[t + 1] && active > 0; ++k) {
         // A tile's splats lie far apart in depth order: ask for one ahead.
         if (k + kPrefetchAhead < tile_begin[t + 1]) {
           __builtin_prefetch(&visible[tile_lists[k + kPrefetchAhead]]);
+          if (options.omitted_colours)
+            __builtin_prefetch(&visible_colour[3 * size_t(tile_lists[k + kPrefetchAhead])]);
         }
         const uint32_t i = tile_lists[k];
         const Splat& g = visible[i];
@@ -245,6 +260,18 @@ absl::StatusOr<CompositingWeights> ComputeCompositingWeights(const GaussianScene
               const int l = __builtin_ctz(bits);
               tile_entries.push_back({i, weight[l], static_cast<uint8_t>(p + l)});
             }
+            if (options.omitted_colours) {
+              const LaneInts left_out =
+                  blend & (weight < options.min_weight) & raster::Load<LaneInts>(recorded + p);
+              if (raster::MoveMask<kLanes>(left_out) != 0) {
+                const float* colour = &visible_colour[3 * size_t(i)];
+                const LaneFloats w = left_out ? weight : LaneFloats{};
+                for (int c = 0; c < 3; ++c) {
+                  raster::Store(omitted[c] + p,
+                                raster::Load<LaneFloats>(omitted[c] + p) + w * colour[c]);
+                }
+              }
+            }
           }
         }
         for (int l = 0; l < kLanes; ++l) active += done[l];
@@ -263,6 +290,9 @@ absl::StatusOr<CompositingWeights> ComputeCompositingWeights(const GaussianScene
           out.pixel_begin[pixel] = cursor[p];
           out.pixel_count[pixel] = counts[p];
           out.alpha[pixel] = 1.f - trans[p];
+          if (options.omitted_colours) {
+            for (int c = 0; c < 3; ++c) out.omitted[3 * pixel + c] = omitted[c][p];
+          }
         }
       }
       entry_visible.resize(start);

@@ -70,6 +70,11 @@ struct CompositingWeights {
   // WeightOptions::local_coords. An entry's (u, v) is a function of its
   // pixel and its Gaussian (LocalCoords), so it is not stored per entry.
   std::vector<float> local_frames;
+  // [H * W, 3] per recorded pixel, the colour the entries left out
+  // (WeightOptions::min_weight) add to the render with the scene's flat
+  // colours (feature channels 0-2): render = A c + omitted where c is those
+  // colours. Empty unless WeightOptions::omitted_colours.
+  std::vector<float> omitted;
 
   size_t entries() const { return weights.size(); }
   bool has_local_coords() const { return !local_frames.empty(); }
@@ -108,6 +113,8 @@ struct WeightOptions {
   // about 1 / pixel_stride of the memory, for fits too large for every
   // pixel. Compositing is unchanged: every pixel attenuates as before.
   int pixel_stride = 1;
+  // Also record CompositingWeights::omitted (12 bytes per pixel).
+  bool omitted_colours = false;
 };
 
 // Records A for `scene` seen through `camera` at scene time `timestamp_us`

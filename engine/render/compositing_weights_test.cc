@@ -386,6 +386,56 @@ TEST(CompositingWeights, APixelStrideRecordsTheLatticePixelsOnly) {
             absl::StatusCode::kInvalidArgument);
 }
 
+TEST(CompositingWeights, OmittedColoursAddWhatTheEntriesLeftOutGiveTheRender) {
+  // With min_weight the weights under it are not recorded; `omitted` holds
+  // their colour, so A c + omitted is the render's rgb (to float rounding:
+  // summed in another order) on every recorded pixel, where A c alone
+  // falls short by far more.
+  const GaussianScene scene = RandomScene(3, 3000);
+  const RenderCamera camera = SimpleCamera(96, 64, 80);
+  RenderOptions render_options;
+  render_options.features = false;
+  absl::StatusOr<RenderBuffers> render = Render(scene, camera, 0, {}, render_options);
+  ASSERT_TRUE(render.ok()) << render.status();
+  absl::StatusOr<CompositingWeights> all = ComputeCompositingWeights(scene, camera, 0);
+  ASSERT_TRUE(all.ok()) << all.status();
+  for (const int stride : {1, 2}) {
+    SCOPED_TRACE(stride);
+    WeightOptions options;
+    options.min_weight = 0.05f;
+    options.omitted_colours = true;
+    options.pixel_stride = stride;
+    absl::StatusOr<CompositingWeights> a = ComputeCompositingWeights(scene, camera, 0, options);
+    ASSERT_TRUE(a.ok()) << a.status();
+    ASSERT_EQ(a->omitted.size(), render->rgb.size());
+    EXPECT_LT(a->entries(), 0.8 * all->entries() / stride);
+    std::vector<float> image(render->rgb.size());
+    const std::vector<float> colours = LocalColours(scene, *a);
+    Composite(*a, colours.data(), 3, image.data());
+    double max_error = 0, max_shortfall = 0;
+    for (size_t p = 0; p < render->alpha.size(); ++p) {
+      for (int c = 0; c < 3; ++c) {
+        const size_t k = 3 * p + c;
+        if (!a->Records(p)) {
+          ASSERT_EQ(a->omitted[k], 0.f);
+          continue;
+        }
+        max_shortfall = std::max(max_shortfall, double(render->rgb[k] - image[k]));
+        max_error =
+            std::max(max_error, double(std::abs(image[k] + a->omitted[k] - render->rgb[k])));
+      }
+    }
+    EXPECT_LT(max_error, 1e-5);
+    EXPECT_GT(max_shortfall, 0.05);
+  }
+  // Nothing left out: nothing omitted.
+  WeightOptions options;
+  options.omitted_colours = true;
+  absl::StatusOr<CompositingWeights> exact = ComputeCompositingWeights(scene, camera, 0, options);
+  ASSERT_TRUE(exact.ok()) << exact.status();
+  EXPECT_EQ(exact->omitted, std::vector<float>(render->rgb.size(), 0.f));
+}
+
 TEST(CompositingWeights, RejectsEmptyCameraAndBadScenes) {
   GaussianScene scene = RandomScene(7, 10);
   EXPECT_EQ(ComputeCompositingWeights(scene, SimpleCamera(0, 10, 10), 0).status().code(),
