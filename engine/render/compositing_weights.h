@@ -20,7 +20,8 @@
 //
 // Single-threaded per view (callers parallelise over views); memory is
 // 8 bytes per contributing (pixel, Gaussian) pair plus 16 per pixel (and,
-// with local coordinates, 24 per contributing Gaussian).
+// with local coordinates, 24 per contributing Gaussian; with omitted colours,
+// 12 more per pixel).
 #ifndef POINTFORWARD_ENGINE_RENDER_COMPOSITING_WEIGHTS_H_
 #define POINTFORWARD_ENGINE_RENDER_COMPOSITING_WEIGHTS_H_
 
