@@ -254,15 +254,16 @@ absl::StatusOr<CompositingWeights> ComputeCompositingWeights(const GaussianScene
             const LaneFloats next = blend ? tp * (1.f - alpha) : tp;
             raster::Store(trans + p, next);
             done += blend & (next < kMinTransmittance);  // -1 per newly done pixel.
-            unsigned bits = raster::MoveMask<kLanes>(blend & (weight >= options.min_weight) &
-                                                     raster::Load<LaneInts>(recorded + p));
+            // Blended on the lattice: an entry at min_weight or more, else
+            // an omitted colour.
+            const LaneInts on_lattice = blend & raster::Load<LaneInts>(recorded + p);
+            unsigned bits = raster::MoveMask<kLanes>(on_lattice & (weight >= options.min_weight));
             for (; bits != 0; bits &= bits - 1) {
               const int l = __builtin_ctz(bits);
               tile_entries.push_back({i, weight[l], static_cast<uint8_t>(p + l)});
             }
             if (options.omitted_colours) {
-              const LaneInts left_out =
-                  blend & (weight < options.min_weight) & raster::Load<LaneInts>(recorded + p);
+              const LaneInts left_out = on_lattice & (weight < options.min_weight);
               if (raster::MoveMask<kLanes>(left_out) != 0) {
                 const float* colour = &visible_colour[3 * size_t(i)];
                 const LaneFloats w = left_out ? weight : LaneFloats{};
