@@ -785,8 +785,9 @@ TEST_F(ReconCli, AblationFlagsChangeTheScene) {
 }
 
 // The scene's screen-space low-pass (GaussianScene::low_pass): 0.1 px^2 by
-// default, about the one-pixel box the synth images are antialiased with,
-// where the 3DGS 0.3 blurs every render more than that. It is stored in the
+// default where every CONTEXT view has a dense depth map, as here (about the
+// one-pixel box the synth images are antialiased with, where the 3DGS 0.3
+// blurs every render more than that; 0.2 from LiDAR, checked below). It is stored in the
 // scene, so renders use the one the colour fit used. On the default-size
 // clips it is worth 0.4-0.7 dB (docs/QUALITY.md); on this 192x144 clip
 // 0.14 dB (24.78 against 24.64 with 0.3), too little to bound here, so the
@@ -929,6 +930,8 @@ TEST_F(ReconCli, LidarOnlyDepthGainsFromTheGroundPlaneFacadesAndStereo) {
   const nlohmann::json ground = eval("eval_no_facades", {"--no-facades", "--no-stereo"});
   const nlohmann::json neither =
       eval("eval_neither", {"--no-facades", "--no-ground-fill", "--no-stereo"});
+  // Depth from LiDAR: the wider low-pass (gaussian_decoder.h DefaultLowPass).
+  EXPECT_EQ(all["lowPass"], 0.2f);
   EXPECT_EQ(both["groundFill"], true);
   EXPECT_EQ(both["facades"], true);
   EXPECT_EQ(ground["facades"], false);
@@ -1015,6 +1018,9 @@ TEST_F(ReconCli, SparseDepthMapsAreCompletedAsLidarIs) {
   EXPECT_EQ(sparse["sparseDepthMapViews"], 6);
   EXPECT_EQ(sparse["lidarViews"], 0);
   EXPECT_EQ(dense["sparseDepthMapViews"], 0);
+  // Completed sparse maps are measured depth: the wider low-pass.
+  EXPECT_EQ(sparse["lowPass"], 0.2f);
+  EXPECT_EQ(dense["lowPass"], 0.1f);
   EXPECT_GT(sparse["groundPixels"].get<int64_t>(), 6 * 192 * 144 / 20);
   // Measured: 24.90 dB against 26.22 with the dense maps, depth RMSE 9.2 m
   // (taken as final, 97 % of the pixels would be on the far layer, hundreds

@@ -375,7 +375,8 @@ TEST(ReconOptionsFromProto, TuningFieldsMapOntoTheOptions) {
   ASSERT_TRUE(options.ok()) << options.status();
   EXPECT_EQ(options->refinement.iterations, 0);
   EXPECT_EQ(options->decoder.tangent_sigma, 0.5);
-  EXPECT_FLOAT_EQ(options->decoder.low_pass, 0.3f);
+  ASSERT_TRUE(options->decoder.low_pass.has_value());
+  EXPECT_FLOAT_EQ(*options->decoder.low_pass, 0.3f);
   EXPECT_EQ(options->hidden_band_px, 0);
   EXPECT_FALSE(options->completion.ground_fill);
   EXPECT_FALSE(options->completion.facades);

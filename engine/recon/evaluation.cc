@@ -488,7 +488,7 @@ std::string EvalReportJson(const EvalReport& report) {
   j["stereo"] = report.options.completion.stereo;
   j["stereoPixels"] = report.stats.stereo_pixels;
   j["splatSigma"] = report.options.decoder.tangent_sigma;
-  j["lowPass"] = report.options.decoder.low_pass;
+  j["lowPass"] = report.stats.low_pass;
   j["orderBand"] = report.options.decoder.order_band;
   j["refineIterations"] = report.options.refinement.iterations;
   // What the scene has, not what was asked: --refine 0, or a fit over the

@@ -37,7 +37,7 @@ GaussianScene DecodeGaussians(const QuerySet& queries, const FusedQueries& fused
   scene.num_channels = kReconChannels;
   scene.sh_degree = -1;
   scene.time_origin_us = time_origin_us;
-  scene.low_pass = options.low_pass;
+  scene.low_pass = options.low_pass.value_or(kExactDepthLowPass);
   scene.order_band = options.order_band;
   scene.instances = tracks;
   const size_t n = queries.size();

@@ -21,10 +21,11 @@
 // - Time: the source view's time (seconds since time_origin_us); lifespan
 //   from fusion.
 // - The scene's screen-space low-pass (GaussianScene::low_pass) is
-//   options.low_pass, 0.1 px^2: about the one-pixel box the camera images
-//   integrate over, where the 3DGS default 0.3 blurs every render by more
-//   than that (docs/QUALITY.md: +0.4-0.7 dB on synth, chosen with
-//   tangent_sigma 0.65 on CONTEXT self-renders and on seed 7).
+//   options.low_pass, else DefaultLowPass(): 0.1 px^2 where every CONTEXT
+//   view has a dense depth map (about the one-pixel box the camera images
+//   integrate over; the 3DGS default 0.3 blurs every render by more than
+//   that), 0.2 px^2 where depth comes from LiDAR, sparse maps or nothing
+//   (docs/QUALITY.md, "What each default is worth").
 // - The scene's order band (GaussianScene::order_band) is options.order_band,
 //   0.0005: discs within 0.05 % of each other's depth (1 cm at 20 m: the
 //   overlapping discs of several views on one surface) stack in one fixed
@@ -34,6 +35,7 @@
 #define POINTFORWARD_ENGINE_RECON_GAUSSIAN_DECODER_H_
 
 #include <cstdint>
+#include <optional>
 #include <vector>
 
 #include "engine/recon/context_views.h"
@@ -56,11 +58,23 @@ struct DecoderOptions {
   double max_stretch = 4.0;     // Cap of 1 / |cos theta|.
   double min_opacity = 0.5;
   double max_opacity = 0.98;
-  float low_pass = 0.1f;       // The scene's screen-space low-pass, pixels^2.
+  // The scene's screen-space low-pass, pixels^2; unset: DefaultLowPass().
+  std::optional<float> low_pass;
   float order_band = 0.0005f;  // The scene's order band (GaussianScene::order_band).
 };
 
-// Returns the scene of `queries` fused as `fused`. `view_times_us[v]` is the
+// The screen-space low-pass of a reconstructed scene (pixels^2) when none is
+// given: kExactDepthLowPass where every CONTEXT view's depth was a dense
+// depth map, else kMeasuredDepthLowPass: renders from measured depth are
+// closer to the frames a little blurred (docs/QUALITY.md).
+inline constexpr float kExactDepthLowPass = 0.1f;
+inline constexpr float kMeasuredDepthLowPass = 0.2f;
+inline float DefaultLowPass(bool all_views_dense_depth) {
+  return all_views_dense_depth ? kExactDepthLowPass : kMeasuredDepthLowPass;
+}
+
+// Returns the scene of `queries` fused as `fused` (its low-pass
+// options.low_pass, kExactDepthLowPass if unset). `view_times_us[v]` is the
 // time of view v; `time_origin_us` becomes the scene's time origin; `tracks`
 // become its instances (instance k owns queries with owner k + 1).
 GaussianScene DecodeGaussians(const QuerySet& queries, const FusedQueries& fused,

@@ -173,10 +173,16 @@ void Pipeline::Decode() {
   const size_t num_views = inputs_.views.size();
   std::vector<int64_t> times(num_views);
   for (size_t v = 0; v < num_views; ++v) times[v] = inputs_.views[v].timestamp_us;
-  result_.scene = DecodeGaussians(queries_, fused_, times, inputs_.time_origin_us, inputs_.tracks,
-                                  options_.decoder);
-  result_.scene.colour_encoding = inputs_.colour_encoding;
   ReconStats& stats = result_.stats;
+  DecoderOptions decoder = options_.decoder;
+  if (!decoder.low_pass) {
+    decoder.low_pass = DefaultLowPass(stats.lidar_views == 0 && stats.sparse_map_views == 0 &&
+                                      stats.views_without_depth == 0);
+  }
+  stats.low_pass = *decoder.low_pass;
+  result_.scene =
+      DecodeGaussians(queries_, fused_, times, inputs_.time_origin_us, inputs_.tracks, decoder);
+  result_.scene.colour_encoding = inputs_.colour_encoding;
   for (size_t i = 0; i < queries_.size(); ++i) {
     if (queries_.owners[i] == 0) {
       ++stats.static_gaussians;

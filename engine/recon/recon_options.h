@@ -21,7 +21,8 @@
 //   --refine N                       colour-fit iterations (default 24; 0 off)
 //   --splat-sigma S                  Gaussian std-dev per query spacing (default 0.65)
 //   --low-pass PX2                   the scene's screen-space low-pass, pixels^2
-//                                    (default 0.1; 0.3 is the 3DGS one)
+//                                    (default 0.1 with dense depth maps, else 0.2;
+//                                    0.3 is the 3DGS one)
 //   --hidden-band PX                 hidden queries behind depth edges within PX
 //                                    pixels (sparse_sampling.h; default 256, 0: none)
 //   --colour gradients|flat          a colour gradient across each Gaussian or one

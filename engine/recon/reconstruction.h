@@ -85,6 +85,7 @@ struct ReconStats {
   int64_t stereo_pixels = 0;    // Completed views' pixels set by the plane sweep (stereo_depth.h).
   int views_without_depth = 0;  // No depth map, no LiDAR point: all far layer.
   int rolling_shutter_views = 0;  // Frames with a rolling shutter, lifted line by line.
+  float low_pass = 0;  // The scene's screen-space low-pass, pixels^2 (DecoderOptions::low_pass).
   // Each ego layer's camera and the share of its pixels on the body.
   std::vector<std::pair<std::string, double>> ego_body;
   // The scene's colours carry gradients (the fit ran with them; a fit over
