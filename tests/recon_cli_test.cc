@@ -787,8 +787,9 @@ TEST_F(ReconCli, AblationFlagsChangeTheScene) {
 // The scene's screen-space low-pass (GaussianScene::low_pass): 0.1 px^2 by
 // default where every CONTEXT view has a dense depth map, as here (about the
 // one-pixel box the synth images are antialiased with, where the 3DGS 0.3
-// blurs every render more than that; 0.2 from LiDAR, checked below). It is stored in the
-// scene, so renders use the one the colour fit used. On the default-size
+// blurs every render more than that; the LiDAR and sparse-map tests below
+// check 0.2 for measured depth). It is stored in the scene, so renders use
+// the one the colour fit used. On the default-size
 // clips it is worth 0.4-0.7 dB (docs/QUALITY.md); on this 192x144 clip
 // 0.14 dB (24.78 against 24.64 with 0.3), too little to bound here, so the
 // eval below changes it alone to 2 px^2: 22.77 dB.
