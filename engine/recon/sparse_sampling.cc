@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <array>
+#include <chrono>
 #include <cmath>
 #include <limits>
 #include <optional>
@@ -14,6 +15,7 @@
 #include "common/thread_pool.h"
 #include "engine/camera/image_pixel.h"
 #include "engine/recon/scene_graph.h"
+#include "spdlog/spdlog.h"
 
 namespace pf {
 namespace {
@@ -756,13 +758,40 @@ class SeenSurfaces {
     const double reach =
         0.5 * kCell *
         (std::abs(Dot(n, e1_)) / scale_ + std::abs(Dot(n, e2_)) + std::abs(Dot(n, e3_)));
+    // The plane test below is linear in a cell's scaled centre: per row of
+    // cells, its dx where it can pass (a cell wider on both sides, for
+    // rounding) bounds the cells tested; the test itself decides.
+    const Vec3 along{Dot(e1_, n) / scale_, Dot(e2_, n), Dot(e3_, n)};
+    const double slope = kCell * along.x;
+    auto row_range = [&](int64_t dy, int64_t dz, int r, int* lo, int* hi) {
+      const double offset = (cx + 0.5) * kCell * along.x + (cy + dy + 0.5) * kCell * along.y +
+                            (cz + dz + 0.5) * kCell * along.z - Dot(p, n);
+      const double bound = reach + kPlaneTolerance;
+      *lo = -r;
+      *hi = r;
+      if (std::abs(slope) < 1e-9) {
+        if (std::abs(offset) > bound + 1e-6) *lo = r + 1;
+        return;
+      }
+      const double a = (-bound - offset) / slope, b = (bound - offset) / slope;
+      const double first = std::floor(std::min(a, b)) - 1, last = std::ceil(std::max(a, b)) + 1;
+      if (first > -r) *lo = first > r ? r + 1 : static_cast<int>(first);
+      if (last < r) *hi = last < -r ? -r - 1 : static_cast<int>(last);
+    };
     for (int r = 0; r <= kRings; ++r) {
       // The cells at Chebyshev distance r: whole rows on the faces of the
       // cube, the two ends of each row inside it.
       for (int dz = -r; dz <= r; ++dz) {
         for (int dy = -r; dy <= r; ++dy) {
           const bool face = r == 0 || std::abs(dz) == r || std::abs(dy) == r;
+          int lo, hi;
+          row_range(dy, dz, r, &lo, &hi);
           for (int dx = -r; dx <= r; dx += face ? 1 : 2 * r) {
+            if (dx < lo) {
+              if (!face) continue;
+              dx = lo;
+            }
+            if (dx > hi) break;
             const Vec3 centre{(cx + dx + 0.5) * kCell, (cy + dy + 0.5) * kCell,
                               (cz + dz + 0.5) * kCell};
             if (std::abs(Dot(Unscaled(centre) - p, n)) > reach + kPlaneTolerance) continue;
@@ -1011,6 +1040,11 @@ size_t SampleStatic(const std::vector<SamplingView>& views,
 QuerySet SampleQueries(const std::vector<SamplingView>& views,
                        const std::vector<InstanceTrack>& tracks, const SamplingOptions& options) {
   QuerySet out;
+  using Clock = std::chrono::steady_clock;
+  auto ms_since = [](Clock::time_point start) {
+    return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+  };
+  const Clock::time_point start = Clock::now();
   // Static queries, view by view; then, if redundancy removal left fewer
   // than V x N_s, once more on grids refined to make up the difference.
   // The floor depends on the views alone: found once for both passes.
@@ -1028,11 +1062,15 @@ QuerySet SampleQueries(const std::vector<SamplingView>& views,
     colours.clear();
     SampleStatic(views, footprints, options, refine, floor, &out, &colours);
   }
+  const double static_ms = ms_since(start);
+  const Clock::time_point surfaces_start = Clock::now();
   std::optional<SeenSurfaces> seen;
   if (options.hidden_colour_from_surfaces && !colours.empty()) {
     seen.emplace(out, views, options.behind_min_jump, RoadDirection(views),
                  options.hidden_road_scale);
   }
+  const double surfaces_ms = ms_since(surfaces_start);
+  const Clock::time_point hidden_start = Clock::now();
   DefaultThreadPool().ParallelFor(
       0, static_cast<int64_t>(colours.size()), 256, [&](int64_t begin, int64_t end) {
         for (int64_t k = begin; k < end; ++k) {
@@ -1047,7 +1085,24 @@ QuerySet SampleQueries(const std::vector<SamplingView>& views,
         }
       });
 
-  // Dynamic queries, instance by instance, in canonical frames.
+  const double hidden_ms = ms_since(hidden_start);
+  const Clock::time_point dynamic_start = Clock::now();
+  // Dynamic queries, instance by instance, in canonical frames; each
+  // view's boxed pixels as (owner, pixel), sorted, so an instance visits
+  // its own pixels alone, in pixel order.
+  std::vector<std::vector<std::pair<uint32_t, uint32_t>>> owned(views.size());
+  if (!tracks.empty()) {
+    DefaultThreadPool().ParallelFor(
+        0, static_cast<int64_t>(views.size()), 1, [&](int64_t begin, int64_t end) {
+          for (int64_t v = begin; v < end; ++v) {
+            const std::vector<uint32_t>& owners = *views[v].owners;
+            for (size_t i = 0; i < owners.size(); ++i) {
+              if (owners[i] != 0) owned[v].push_back({owners[i], static_cast<uint32_t>(i)});
+            }
+            std::sort(owned[v].begin(), owned[v].end());
+          }
+        });
+  }
   for (size_t k = 0; k < tracks.size(); ++k) {
     if (tracks[k].boxes.empty()) continue;
     const uint32_t owner = static_cast<uint32_t>(k + 1);
@@ -1067,9 +1122,10 @@ QuerySet SampleQueries(const std::vector<SamplingView>& views,
         to_canonical[v].push_back(CanonicalFromWorld(
             tracks[k], LineTime(sv.view->timestamp_us, sv.view->rolling_shutter, t)));
       }
-      const size_t n = sv.owners->size();
-      for (size_t i = 0; i < n; ++i) {
-        if ((*sv.owners)[i] != owner) continue;
+      auto first = std::lower_bound(owned[v].begin(), owned[v].end(),
+                                    std::pair<uint32_t, uint32_t>{owner, 0});
+      for (auto it = first; it != owned[v].end() && it->first == owner; ++it) {
+        const size_t i = it->second;
         const Vec3 p{sv.lifted->points[3 * i], sv.lifted->points[3 * i + 1],
                      sv.lifted->points[3 * i + 2]};
         candidates.push_back({static_cast<int>(v), static_cast<int>(i), canonical_of(v, i) * p,
@@ -1107,6 +1163,10 @@ QuerySet SampleQueries(const std::vector<SamplingView>& views,
       Emit(c, views[c.view], owner, canonical_of(c.view, c.pixel), options, &out);
     }
   }
+  spdlog::debug(
+      "sample: static {:.0f} ms, seen surfaces {:.0f} ms, hidden colours {:.0f} ms ({} queries), "
+      "dynamic {:.0f} ms",
+      static_ms, surfaces_ms, hidden_ms, colours.size(), ms_since(dynamic_start));
   return out;
 }
 

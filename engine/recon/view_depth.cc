@@ -178,6 +178,14 @@ ImageF CompleteDepth(const ImageF& sparse, const CompletionOptions& options,
       }
     }
   });
+  // The measured pixels' columns, row by row (ascending): the search below
+  // visits those alone.
+  std::vector<int> row_start(static_cast<size_t>(h) + 1, 0), measured_x;
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x)
+      if (sparse.at(x, y) > 0.f) measured_x.push_back(x);
+    row_start[y + 1] = static_cast<int>(measured_x.size());
+  }
   const double max_d2 = double(max_distance) * max_distance;
   DefaultThreadPool().ParallelFor(0, h, 4, [&](int64_t y0, int64_t y1) {
     for (int64_t y = y0; y < y1; ++y) {
@@ -208,11 +216,16 @@ ImageF CompleteDepth(const ImageF& sparse, const CompletionOptions& options,
         float best = std::numeric_limits<float>::infinity();
         int best_pixel = -1;
         int64_t best_order = 0;
+        const int sx0 = std::max(block_x0, x - reach), sx1 = std::min(block_x1, x + reach);
         for (int sy = std::max(block_y0, static_cast<int>(y) - reach);
              sy <= std::min(block_y1, static_cast<int>(y) + reach); ++sy) {
-          for (int sx = std::max(block_x0, x - reach); sx <= std::min(block_x1, x + reach); ++sx) {
+          const int* row_begin = measured_x.data() + row_start[sy];
+          const int* row_end = measured_x.data() + row_start[sy + 1];
+          for (const int* it = std::lower_bound(row_begin, row_end, sx0);
+               it != row_end && *it <= sx1; ++it) {
+            const int sx = *it;
             const float depth = sparse.at(sx, sy);
-            if (!(depth > 0.f) || depth > best) continue;
+            if (depth > best) continue;
             const double d2 = double(sx - x) * (sx - x) + double(sy - y) * (sy - y);
             if (d2 > limit) continue;
             const int64_t order = (int64_t((sy / cell) * gw + sx / cell) << 32) | (sy * w + sx);
@@ -629,6 +642,64 @@ ViewDepth WithFarLayer(const ImageF& measured, bool completed, const ContextView
   return out;
 }
 
+namespace {
+
+// Four lanes of float and int32 (SSE2 on x86-64, NEON elsewhere).
+using F4 = float __attribute__((vector_size(16)));
+using I4 = int32_t __attribute__((vector_size(16)));
+
+// One row of FindBehindSources' window maximum at offset `step`: for each
+// pixel x of row y, the first deepest of the 3 x 3 pixels at offsets
+// -step, 0, +step (rows outer, columns inner, clamped to the image), the
+// pixel's own entry first; strict ">" keeps the first of equal depths.
+void WindowMaxRow(const int32_t* deepest, const float* depth, int w, int h, int64_t y, int step,
+                  int32_t* next, float* next_depth) {
+  const size_t rows[3] = {size_t(std::clamp<int64_t>(y - step, 0, h - 1)) * w, size_t(y) * w,
+                          size_t(std::clamp<int64_t>(y + step, 0, h - 1)) * w};
+  const size_t row = size_t(y) * w;
+  auto scalar = [&](int x) {
+    const size_t i = row + x;
+    int32_t best = deepest[i];
+    float best_depth = depth[i];
+    const int xs[3] = {std::clamp(x - step, 0, w - 1), x, std::clamp(x + step, 0, w - 1)};
+    for (size_t r : rows) {
+      for (int xx : xs) {
+        if (depth[r + xx] > best_depth) best = deepest[r + xx], best_depth = depth[r + xx];
+      }
+    }
+    next[i] = best;
+    next_depth[i] = best_depth;
+  };
+  // Lanes where no offset leaves the row.
+  const int first = std::min(step, w), last = std::max(first, w - step);
+  int x = 0;
+  for (; x < first; ++x) scalar(x);
+  for (; x + 4 <= last; x += 4) {
+    const size_t i = row + x;
+    I4 best;
+    F4 best_depth;
+    std::memcpy(&best, deepest + i, sizeof(best));
+    std::memcpy(&best_depth, depth + i, sizeof(best_depth));
+    for (size_t r : rows) {
+      for (int dx = -step; dx <= step; dx += step) {
+        const size_t j = r + x + dx;
+        I4 candidate;
+        F4 candidate_depth;
+        std::memcpy(&candidate, deepest + j, sizeof(candidate));
+        std::memcpy(&candidate_depth, depth + j, sizeof(candidate_depth));
+        const I4 deeper = candidate_depth > best_depth;
+        best = deeper ? candidate : best;
+        best_depth = deeper ? candidate_depth : best_depth;
+      }
+    }
+    std::memcpy(next + i, &best, sizeof(best));
+    std::memcpy(next_depth + i, &best_depth, sizeof(best_depth));
+  }
+  for (; x < w; ++x) scalar(x);
+}
+
+}  // namespace
+
 BehindSources FindBehindSources(const ViewDepth& depth, int band_px, double min_jump) {
   BehindSources out;
   const int w = depth.width, h = depth.height;
@@ -644,23 +715,13 @@ BehindSources FindBehindSources(const ViewDepth& depth, int band_px, double min_
     // The window of `radius` is the union of the windows of `previous` at
     // offsets -step, 0, +step per axis (step = radius - previous).
     const int step = radius - previous;
-    std::vector<int32_t> sources(n, -1);
+    std::vector<int32_t> sources(n);
     DefaultThreadPool().ParallelFor(0, h, 16, [&](int64_t y0, int64_t y1) {
       for (int64_t y = y0; y < y1; ++y) {
-        for (int x = 0; x < w; ++x) {
-          const size_t i = static_cast<size_t>(y) * w + x;
-          int32_t best = deepest[i];
-          float best_depth = deepest_depth[i];
-          for (int dy = -step; dy <= step; dy += step) {
-            const int64_t yy = std::clamp<int64_t>(y + dy, 0, h - 1);
-            for (int dx = -step; dx <= step; dx += step) {
-              const size_t j = static_cast<size_t>(yy) * w + std::clamp(x + dx, 0, w - 1);
-              if (deepest_depth[j] > best_depth) best = deepest[j], best_depth = deepest_depth[j];
-            }
-          }
-          next[i] = best;
-          next_depth[i] = best_depth;
-          if (best_depth > (1.0 + min_jump) * depth.depth[i]) sources[i] = best;
+        WindowMaxRow(deepest.data(), deepest_depth.data(), w, h, y, step, next.data(),
+                     next_depth.data());
+        for (size_t i = size_t(y) * w; i < size_t(y + 1) * w; ++i) {
+          sources[i] = next_depth[i] > (1.0 + min_jump) * depth.depth[i] ? next[i] : -1;
         }
       }
     });

@@ -235,6 +235,75 @@ TEST(ViewDepth, BehindSourcesFindTheNearestDeeperBackground) {
   EXPECT_TRUE(FindBehindSources(depth, 0).sources.empty());
 }
 
+// FindBehindSources' contract computed the plain way, pixel by pixel: the
+// window of each radius as the previous one's at the 3 x 3 offsets -step,
+// 0, +step (rows outer, clamped to the image), the pixel's own first, the
+// first of equal depths kept.
+BehindSources BehindSourcesPlainly(const ViewDepth& depth, int band_px, double min_jump) {
+  BehindSources out;
+  const int w = depth.width, h = depth.height;
+  std::vector<int32_t> deepest(static_cast<size_t>(w) * h);
+  for (size_t i = 0; i < deepest.size(); ++i) deepest[i] = static_cast<int32_t>(i);
+  int previous = 0;
+  for (int radius = 1; radius <= band_px; radius *= 2) {
+    const int step = radius - previous;
+    std::vector<int32_t> next(deepest.size()), sources(deepest.size(), -1);
+    for (int y = 0; y < h; ++y) {
+      for (int x = 0; x < w; ++x) {
+        int32_t best = deepest[y * w + x];
+        for (int dy : {-step, 0, step}) {
+          for (int dx : {-step, 0, step}) {
+            const int j = std::clamp(y + dy, 0, h - 1) * w + std::clamp(x + dx, 0, w - 1);
+            if (depth.depth[deepest[j]] > depth.depth[best]) best = deepest[j];
+          }
+        }
+        next[y * w + x] = best;
+        if (depth.depth[best] > (1.0 + min_jump) * depth.depth[y * w + x]) {
+          sources[y * w + x] = best;
+        }
+      }
+    }
+    deepest = next;
+    out.radii.push_back(radius);
+    out.sources.push_back(sources);
+    previous = radius;
+  }
+  return out;
+}
+
+TEST(ViewDepth, BehindSourcesAreThePlainWindowRecursions) {
+  // Depths on a coarse grid (many equal), blocks of foreground on a
+  // background; widths under, at and past the largest step, so every lane
+  // group and image border is taken: every source equals the plain one's.
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(0, 1);
+  for (const auto& [w, h, band] : {std::array{97, 61, 32}, std::array{13, 9, 16},
+                                   std::array{64, 40, 64}, std::array{5, 70, 8}}) {
+    SCOPED_TRACE(::testing::Message() << w << "x" << h << " band " << band);
+    ViewDepth depth;
+    depth.width = w;
+    depth.height = h;
+    depth.depth.resize(static_cast<size_t>(w) * h);
+    depth.source.assign(depth.depth.size(), uint8_t(DepthSource::kDepthMap));
+    for (float& d : depth.depth) d = static_cast<float>(10 + 5 * std::floor(4 * u(rng)));
+    for (int k = 0; k < 6; ++k) {
+      const int x0 = static_cast<int>(u(rng) * w), y0 = static_cast<int>(u(rng) * h);
+      for (int y = y0; y < std::min(h, y0 + 6); ++y)
+        for (int x = x0; x < std::min(w, x0 + 7); ++x) depth.depth[y * w + x] = 3.f;
+    }
+    const BehindSources behind = FindBehindSources(depth, band, 0.1);
+    const BehindSources expected = BehindSourcesPlainly(depth, band, 0.1);
+    EXPECT_EQ(behind.radii, expected.radii);
+    ASSERT_EQ(behind.sources.size(), expected.sources.size());
+    int found = 0;
+    for (size_t k = 0; k < expected.sources.size(); ++k) {
+      EXPECT_EQ(behind.sources[k], expected.sources[k]) << "radius " << expected.radii[k];
+      for (int32_t source : expected.sources[k]) found += source >= 0;
+    }
+    EXPECT_GT(found, w * h / 4);
+  }
+}
+
 TEST(ViewDepth, FarLayerEnclosesCamerasAndMeasurements) {
   std::vector<ContextView> views(2);
   views[0].world_from_camera.translation = {0, 0, 0};
