@@ -50,7 +50,7 @@ namespace pf {
 constexpr int64_t kWeightUnitBytes = 8;
 
 struct RefinementOptions {
-  int iterations = 24;         // Conjugate-gradient iterations; 0: no refinement.
+  int iterations = 20;         // Conjugate-gradient iterations; 0: no refinement.
   double prior_weight = 0.05;  // Pull towards the decoded colours, relative to the data.
   // Take each colour's prior relative to sqrt(d_i u_i) instead of d_i, u_i
   // being the data weight Gaussian i would have with nothing in front of it

@@ -18,7 +18,7 @@
 //   --no-ego-layer                   find no ego body: lift every pixel, no ego layer
 //                                    in the scene (ego_body.h)
 //   --completion nearest|ip-basic    how LiDAR depth is completed (default nearest)
-//   --refine N                       colour-fit iterations (default 24; 0 off)
+//   --refine N                       colour-fit iterations (default 20; 0 off)
 //   --splat-sigma S                  Gaussian std-dev per query spacing (default 0.65)
 //   --low-pass PX2                   the scene's screen-space low-pass, pixels^2
 //                                    (default 0.1 with dense depth maps, else 0.2;

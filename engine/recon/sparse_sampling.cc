@@ -269,6 +269,76 @@ size_t CountVoxels(const std::vector<Candidate>& candidates, double side) {
   return keys.size();
 }
 
+// The dynamic queries of the instance `owner` (track `track`): its boxed
+// pixels of every view (`owned`: per view, (owner, pixel) sorted) in its
+// canonical frame, thinned to at most options.dynamic_per_instance voxels
+// (the smallest voxel side that does, by bisection), each with the
+// canonical-from-world change at its pixel's time.
+std::vector<std::pair<Candidate, Rigid>> DynamicCandidates(
+    const std::vector<SamplingView>& views, const InstanceTrack& track, uint32_t owner,
+    const std::vector<std::vector<std::pair<uint32_t, uint32_t>>>& owned,
+    const std::vector<PixelFootprints>& footprints, const SamplingOptions& options) {
+  std::vector<std::pair<Candidate, Rigid>> chosen;
+  if (track.boxes.empty()) return chosen;
+  std::vector<Candidate> candidates;
+  // Per view, canonical-from-world at its time (at each LineTime of a
+  // rolling-shutter view); a pixel takes its line's.
+  std::vector<std::vector<Rigid>> to_canonical(views.size());
+  auto canonical_of = [&](size_t v, size_t pixel) -> const Rigid& {
+    const ContextView& view = *views[v].view;
+    return to_canonical[v]
+                       [LineTimeSample(view.rolling_shutter, view.width(), view.height(), pixel)];
+  };
+  for (size_t v = 0; v < views.size(); ++v) {
+    const SamplingView& sv = views[v];
+    const int samples = sv.view->rolling_shutter.has_value() ? kLineTimeSamples : 1;
+    for (int t = 0; t < samples; ++t) {
+      to_canonical[v].push_back(
+          CanonicalFromWorld(track, LineTime(sv.view->timestamp_us, sv.view->rolling_shutter, t)));
+    }
+    auto first =
+        std::lower_bound(owned[v].begin(), owned[v].end(), std::pair<uint32_t, uint32_t>{owner, 0});
+    for (auto it = first; it != owned[v].end() && it->first == owner; ++it) {
+      const size_t i = it->second;
+      const Vec3 p{sv.lifted->points[3 * i], sv.lifted->points[3 * i + 1],
+                   sv.lifted->points[3 * i + 2]};
+      candidates.push_back({static_cast<int>(v), static_cast<int>(i), canonical_of(v, i) * p,
+                            float(footprints[v].Of(sv.depth->depth[i], i))});
+    }
+  }
+  if (candidates.empty()) return chosen;
+  std::vector<size_t> kept;
+  double side = 0;
+  if (options.dense) {
+    kept.resize(candidates.size());
+    for (size_t i = 0; i < kept.size(); ++i) kept[i] = i;
+  } else {
+    std::vector<float> fps;
+    for (const Candidate& c : candidates) fps.push_back(c.footprint);
+    std::nth_element(fps.begin(), fps.begin() + fps.size() / 2, fps.end());
+    double lo = 0.5 * fps[fps.size() / 2], hi = lo;
+    const size_t budget = static_cast<size_t>(std::max<int64_t>(1, options.dynamic_per_instance));
+    if (CountVoxels(candidates, lo) <= budget) {
+      side = lo;
+    } else {
+      while (CountVoxels(candidates, hi) > budget) hi *= 2;
+      for (int iter = 0; iter < 12; ++iter) {
+        const double mid = 0.5 * (lo + hi);
+        (CountVoxels(candidates, mid) > budget ? lo : hi) = mid;
+      }
+      side = hi;
+    }
+    kept = ThinByVoxel(candidates, side);
+  }
+  chosen.reserve(kept.size());
+  for (size_t index : kept) {
+    Candidate c = candidates[index];
+    c.footprint = std::max(c.footprint, float(side));
+    chosen.push_back({c, canonical_of(c.view, c.pixel)});
+  }
+  return chosen;
+}
+
 }  // namespace
 
 int64_t ScaledBudget(int64_t at_768x576, int width, int height) {
@@ -1103,64 +1173,19 @@ QuerySet SampleQueries(const std::vector<SamplingView>& views,
           }
         });
   }
-  for (size_t k = 0; k < tracks.size(); ++k) {
-    if (tracks[k].boxes.empty()) continue;
-    const uint32_t owner = static_cast<uint32_t>(k + 1);
-    std::vector<Candidate> candidates;
-    // Per view, canonical-from-world at its time (at each LineTime of a
-    // rolling-shutter view); a pixel takes its line's.
-    std::vector<std::vector<Rigid>> to_canonical(views.size());
-    auto canonical_of = [&](size_t v, size_t pixel) -> const Rigid& {
-      const ContextView& view = *views[v].view;
-      return to_canonical[v]
-                         [LineTimeSample(view.rolling_shutter, view.width(), view.height(), pixel)];
-    };
-    for (size_t v = 0; v < views.size(); ++v) {
-      const SamplingView& sv = views[v];
-      const int samples = sv.view->rolling_shutter.has_value() ? kLineTimeSamples : 1;
-      for (int t = 0; t < samples; ++t) {
-        to_canonical[v].push_back(CanonicalFromWorld(
-            tracks[k], LineTime(sv.view->timestamp_us, sv.view->rolling_shutter, t)));
-      }
-      auto first = std::lower_bound(owned[v].begin(), owned[v].end(),
-                                    std::pair<uint32_t, uint32_t>{owner, 0});
-      for (auto it = first; it != owned[v].end() && it->first == owner; ++it) {
-        const size_t i = it->second;
-        const Vec3 p{sv.lifted->points[3 * i], sv.lifted->points[3 * i + 1],
-                     sv.lifted->points[3 * i + 2]};
-        candidates.push_back({static_cast<int>(v), static_cast<int>(i), canonical_of(v, i) * p,
-                              float(footprints[v].Of(sv.depth->depth[i], i))});
-      }
-    }
-    if (candidates.empty()) continue;
-    std::vector<size_t> kept;
-    double side = 0;
-    if (options.dense) {
-      kept.resize(candidates.size());
-      for (size_t i = 0; i < kept.size(); ++i) kept[i] = i;
-    } else {
-      // Smallest voxel side (bisection) that leaves at most N_d voxels.
-      std::vector<float> fps;
-      for (const Candidate& c : candidates) fps.push_back(c.footprint);
-      std::nth_element(fps.begin(), fps.begin() + fps.size() / 2, fps.end());
-      double lo = 0.5 * fps[fps.size() / 2], hi = lo;
-      const size_t budget = static_cast<size_t>(std::max<int64_t>(1, options.dynamic_per_instance));
-      if (CountVoxels(candidates, lo) <= budget) {
-        side = lo;
-      } else {
-        while (CountVoxels(candidates, hi) > budget) hi *= 2;
-        for (int iter = 0; iter < 12; ++iter) {
-          const double mid = 0.5 * (lo + hi);
-          (CountVoxels(candidates, mid) > budget ? lo : hi) = mid;
+  // Each track's queries are chosen on its own (tracks in parallel), then
+  // written in track order.
+  std::vector<std::vector<std::pair<Candidate, Rigid>>> chosen(tracks.size());
+  DefaultThreadPool().ParallelFor(
+      0, static_cast<int64_t>(tracks.size()), 1, [&](int64_t begin, int64_t end) {
+        for (int64_t k = begin; k < end; ++k) {
+          chosen[k] = DynamicCandidates(views, tracks[k], static_cast<uint32_t>(k + 1), owned,
+                                        footprints, options);
         }
-        side = hi;
-      }
-      kept = ThinByVoxel(candidates, side);
-    }
-    for (size_t index : kept) {
-      Candidate c = candidates[index];
-      c.footprint = std::max(c.footprint, float(side));
-      Emit(c, views[c.view], owner, canonical_of(c.view, c.pixel), options, &out);
+      });
+  for (size_t k = 0; k < tracks.size(); ++k) {
+    for (const auto& [c, to_frame] : chosen[k]) {
+      Emit(c, views[c.view], static_cast<uint32_t>(k + 1), to_frame, options, &out);
     }
   }
   spdlog::debug(
