@@ -4,9 +4,11 @@
 //  1. Project every Gaussian (in T: float for RenderBackward, double for the
 //     checks), keeping its screen-space record.
 //  2. Sort the visible ones by float depth, ties by index, and bin them into
-//     the tiles VisitTiles gives: Render()'s tile lists.
-//  3. Per tile (in parallel), per pixel: front to back, then back to front,
-//     adding each pair's screen-space gradient into the pair's slot.
+//     the tiles VisitTiles gives (tile_binning.h): Render()'s tile lists.
+//  3. Per tile (in parallel): front to back, Gaussian by Gaussian over the
+//     pixels each can reach, keeping every pixel's contributions; then pixel
+//     by pixel back to front, adding each pair's screen-space gradient into
+//     the pair's slot.
 //  4. Sum the slots per Gaussian in tile order, then differentiate each
 //     Gaussian's projection (in parallel). The projection is run again
 //     there rather than kept from pass 1: its tape is some 60 numbers a
@@ -23,6 +25,7 @@
 #include "engine/render/raster_frame.h"
 #include "engine/render/raster_tile.h"
 #include "engine/render/splat_projection.h"
+#include "engine/render/tile_binning.h"
 
 namespace pf {
 namespace {
@@ -249,9 +252,29 @@ T ValueAt(const TilePass<T>& pass, size_t i, int c, T dx, T dy) {
   return value;
 }
 
+// The pixels of one tile row that splat `s` can reach: those whose centre
+// satisfies d^2 <= span_d2 lie in [*x0, *x1], a pixel wider each side than
+// the ellipse's chord (for rounding; the caller tests d^2 itself). False
+// when none can.
+template <typename T>
+bool RowReach(const ScreenSplat<T>& s, double py, int x_begin, int x_end, int* x0, int* x1) {
+  const double ca = s.ca, cb = s.cb, cc = s.cc, dy = py - double(s.my);
+  const double disc = ca * double(s.span_d2) - (ca * cc - cb * cb) * dy * dy;
+  const double half = std::sqrt(std::max(disc, 0.0)) / ca;
+  const double mid = double(s.mx) - 0.5 - cb * dy / ca;  // Chord's middle, as a pixel index.
+  if (!(mid + half + 1 >= x_begin && mid - half - 1 <= x_end - 1)) return false;
+  *x0 = std::max(x_begin, static_cast<int>(std::floor(std::max(mid - half, -1e9))) - 1);
+  *x1 = std::min(x_end - 1, static_cast<int>(std::ceil(std::min(mid + half, 1e9))) + 1);
+  return *x0 <= *x1;
+}
+
 // Front to back, then back to front, over every pixel of tile (tx, ty) with
 // its depth-ordered `list`; adds each pair's gradient into `slots`
-// ([list size, layout.size()]).
+// ([list size, layout.size()]). The front-to-back pass takes the list's
+// Gaussians in order and visits only the rows and columns each can reach
+// (RowReach); the back-to-front pass takes pixel by pixel, row by row, so
+// each slot sums the same terms in the same order as a pass over every
+// pixel and every Gaussian would.
 template <typename T>
 void BackwardTile(const TilePass<T>& pass, int tx, int ty, const uint32_t* list, size_t size,
                   T* slots, int64_t* contributing) {
@@ -262,21 +285,41 @@ void BackwardTile(const TilePass<T>& pass, int tx, int ty, const uint32_t* list,
   const int stride = layout.size();
   const int channels = layout.channels;
   const OutputGradients<T>& grads = *pass.grads;
-  thread_local std::vector<Contribution<T>> contributions;
-  std::vector<T> g_value(channels), out_value(nc);
-  const int x_end = std::min(frame.width, (tx + 1) * kTile);
-  const int y_end = std::min(frame.height, (ty + 1) * kTile);
-  for (int y = ty * kTile; y < y_end; ++y) {
-    for (int x = tx * kTile; x < x_end; ++x) {
-      const size_t pixel = static_cast<size_t>(y) * frame.width + x;
-      const T px = T(x) + T(0.5), py = T(y) + T(0.5);
-      // Front to back.
-      contributions.clear();
-      T trans = 1, depth_sum = 0;
-      const bool fill = pass.rgb_out != nullptr;
-      if (fill) std::fill(out_value.begin(), out_value.end(), T(0));
-      for (size_t k = 0; k < size; ++k) {
-        const ScreenSplat<T>& s = pass.splats[list[k]];
+  // Per pixel of the tile: its contributions front to back, transmittance,
+  // weighted depth and (filling the forward) values.
+  thread_local std::vector<Contribution<T>> contributions[kTilePixels];
+  thread_local std::vector<T> out_values;
+  T trans[kTilePixels], depth_sum[kTilePixels];
+  const bool fill = pass.rgb_out != nullptr;
+  if (fill) out_values.assign(static_cast<size_t>(kTilePixels) * nc, T(0));
+  std::vector<T> g_value(channels);
+  const int x_begin = tx * kTile, y_begin = ty * kTile;
+  const int x_end = std::min(frame.width, x_begin + kTile);
+  const int y_end = std::min(frame.height, y_begin + kTile);
+  for (int p = 0; p < kTilePixels; ++p) {
+    contributions[p].clear();
+    trans[p] = 1;
+    depth_sum[p] = 0;
+  }
+
+  // Front to back.
+  int active = (x_end - x_begin) * (y_end - y_begin);  // Pixels not saturated.
+  for (size_t k = 0; k < size && active > 0; ++k) {
+    const uint32_t i = list[k];
+    const ScreenSplat<T>& s = pass.splats[i];
+    const double my = s.my, ext_y = s.ext_y;
+    const int row0 =
+        std::max(y_begin, static_cast<int>(std::floor(std::max(my - ext_y - 0.5, -1e9))) - 1);
+    const int row1 =
+        std::min(y_end - 1, static_cast<int>(std::ceil(std::min(my + ext_y - 0.5, 1e9))) + 1);
+    for (int y = row0; y <= row1; ++y) {
+      const T py = T(y) + T(0.5);
+      int x0, x1;
+      if (!RowReach(s, double(py), x_begin, x_end, &x0, &x1)) continue;
+      for (int x = x0; x <= x1; ++x) {
+        const int p = (y - y_begin) * kTile + (x - x_begin);
+        if (trans[p] < T(kMinTransmittance)) continue;
+        const T px = T(x) + T(0.5);
         const T dx = px - s.mx, dy = py - s.my;
         const T d2 = s.ca * dx * dx + T(2) * s.cb * dx * dy + s.cc * dy * dy;
         if (!(d2 <= T(s.span_d2))) continue;
@@ -285,28 +328,39 @@ void BackwardTile(const TilePass<T>& pass, int tx, int ty, const uint32_t* list,
         const bool clamped = !(raw < T(kMaxAlpha));
         const T alpha = clamped ? T(kMaxAlpha) : raw;
         if (alpha < T(kMinAlpha)) continue;
-        contributions.push_back({static_cast<uint32_t>(k), alpha, trans, gauss, clamped});
-        const T w = alpha * trans;
-        depth_sum += w * s.depth;
+        contributions[p].push_back({static_cast<uint32_t>(k), alpha, trans[p], gauss, clamped});
+        const T w = alpha * trans[p];
+        depth_sum[p] += w * s.depth;
         if (fill) {
-          for (int c = 0; c < nc; ++c) out_value[c] += w * ValueAt(pass, list[k], c, dx, dy);
+          T* out = &out_values[static_cast<size_t>(p) * nc];
+          for (int c = 0; c < nc; ++c) out[c] += w * ValueAt(pass, i, c, dx, dy);
         }
-        trans *= T(1) - alpha;
-        if (trans < T(kMinTransmittance)) break;
+        trans[p] *= T(1) - alpha;
+        if (trans[p] < T(kMinTransmittance)) --active;
       }
-      *contributing += static_cast<int64_t>(contributions.size());
-      const T alpha_out = T(1) - trans;
+    }
+  }
+
+  for (int y = y_begin; y < y_end; ++y) {
+    for (int x = x_begin; x < x_end; ++x) {
+      const int p = (y - y_begin) * kTile + (x - x_begin);
+      const size_t pixel = static_cast<size_t>(y) * frame.width + x;
+      const T px = T(x) + T(0.5), py = T(y) + T(0.5);
+      const std::vector<Contribution<T>>& pixel_contributions = contributions[p];
+      *contributing += static_cast<int64_t>(pixel_contributions.size());
+      const T alpha_out = T(1) - trans[p];
       if (fill) {
+        const T* out = &out_values[static_cast<size_t>(p) * nc];
         (*pass.alpha_out)[pixel] = alpha_out;
-        for (int c = 0; c < 3; ++c) (*pass.rgb_out)[3 * pixel + c] = out_value[c];
+        for (int c = 0; c < 3; ++c) (*pass.rgb_out)[3 * pixel + c] = out[c];
         if (!pass.features_out->empty()) {
-          for (int c = 0; c < nc; ++c) (*pass.features_out)[pixel * nc + c] = out_value[c];
+          for (int c = 0; c < nc; ++c) (*pass.features_out)[pixel * nc + c] = out[c];
         }
         if (!pass.depth_out->empty()) {
-          (*pass.depth_out)[pixel] = alpha_out > 0 ? depth_sum / alpha_out : T(0);
+          (*pass.depth_out)[pixel] = alpha_out > 0 ? depth_sum[p] / alpha_out : T(0);
         }
       }
-      if (contributions.empty()) continue;
+      if (pixel_contributions.empty()) continue;
 
       // The upstream gradient of each value channel (rgb and features read
       // the same values), of the depth sum and of alpha.
@@ -321,13 +375,13 @@ void BackwardTile(const TilePass<T>& pass, int tx, int ty, const uint32_t* list,
       if (!grads.depth.empty() && alpha_out > 0) {
         const T g_depth = grads.depth[pixel];
         g_depth_sum = g_depth / alpha_out;
-        g_alpha -= g_depth * depth_sum / (alpha_out * alpha_out);
+        g_alpha -= g_depth * depth_sum[p] / (alpha_out * alpha_out);
       }
 
       // Back to front: `behind` is sum_{j behind} w_j (g . v_j + g_z z_j).
       T behind = 0;
-      for (size_t r = contributions.size(); r-- > 0;) {
-        const Contribution<T>& con = contributions[r];
+      for (size_t r = pixel_contributions.size(); r-- > 0;) {
+        const Contribution<T>& con = pixel_contributions[r];
         const uint32_t i = list[con.k];
         const ScreenSplat<T>& s = pass.splats[i];
         const T dx = px - s.mx, dy = py - s.my;
@@ -346,7 +400,7 @@ void BackwardTile(const TilePass<T>& pass, int tx, int ty, const uint32_t* list,
         slot[kDepth] += g_depth_sum * w;
         if (!con.clamped) {
           const T one_minus = T(1) - con.alpha;
-          const T g_a = con.trans * own - behind / one_minus + g_alpha * trans / one_minus;
+          const T g_a = con.trans * own - behind / one_minus + g_alpha * trans[p] / one_minus;
           slot[kOpacity] += g_a * con.gauss;
           const T g_d2 = T(-0.5) * con.alpha * g_a;
           slot[kMx] -= g_d2 * T(2) * (s.ca * dx + s.cb * dy);
@@ -555,26 +609,28 @@ absl::StatusOr<GaussianParams<T>> Backward(const GaussianScene& scene, const Par
                                                 static_cast<uint32_t>(i), scene.order_band);
     keys.push_back((static_cast<uint64_t>(bits) << 32) | i);
   }
-  std::sort(keys.begin(), keys.end());
-  const int num_tiles = frame.tiles_x * frame.tiles_y;
-  std::vector<uint64_t> tile_begin(num_tiles + 1, 0);
-  auto visit = [&](uint32_t i, auto&& emit) {
-    const ScreenSplat<T>& s = splats[i];
-    raster::VisitTiles(static_cast<float>(s.mx), static_cast<float>(s.my), static_cast<float>(s.ca),
-                       static_cast<float>(s.cb), static_cast<float>(s.cc), s.span_d2, s.ext_x,
-                       s.ext_y, frame.width, frame.height, frame.tiles_x, emit);
-  };
-  for (uint64_t key : keys) {
-    visit(static_cast<uint32_t>(key), [&](uint32_t tile) { ++tile_begin[tile + 1]; });
-  }
-  for (int tile = 0; tile < num_tiles; ++tile) tile_begin[tile + 1] += tile_begin[tile];
-  std::vector<uint32_t> lists(tile_begin[num_tiles]);
   {
-    std::vector<uint64_t> cursor(tile_begin.begin(), tile_begin.end() - 1);
-    for (uint64_t key : keys) {
-      const uint32_t i = static_cast<uint32_t>(key);
-      visit(i, [&](uint32_t tile) { lists[cursor[tile]++] = i; });
-    }
+    // Keys rise with the index: sorting by the depth bits alone, stably,
+    // is the (depth bits, index) order.
+    std::vector<uint64_t> buffer;
+    raster::RadixSortByHighWord(&keys, &buffer);
+  }
+  const int num_tiles = frame.tiles_x * frame.tiles_y;
+  std::vector<uint64_t> tile_begin;
+  std::vector<uint32_t> lists;
+  {
+    raster::TileBinScratch scratch;
+    raster::BinByTile(
+        keys.size(), num_tiles,
+        [&](size_t k, auto&& emit) {
+          const uint32_t i = static_cast<uint32_t>(keys[k]);
+          const ScreenSplat<T>& s = splats[i];
+          raster::VisitTiles(static_cast<float>(s.mx), static_cast<float>(s.my),
+                             static_cast<float>(s.ca), static_cast<float>(s.cb),
+                             static_cast<float>(s.cc), s.span_d2, s.ext_x, s.ext_y, frame.width,
+                             frame.height, frame.tiles_x, [&](uint32_t tile) { emit(tile, i); });
+        },
+        pool, &scratch, &tile_begin, &lists);
   }
 
   // 3. Per tile, per pixel.

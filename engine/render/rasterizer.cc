@@ -39,6 +39,7 @@
 #include "engine/render/raster_sh.h"
 #include "engine/render/raster_tile.h"
 #include "engine/render/splat_projection.h"
+#include "engine/render/tile_binning.h"
 
 namespace pf {
 namespace {
@@ -86,18 +87,6 @@ bool ProjectGaussian(const GaussianScene& scene, const RenderFrame& frame, size_
                             &scene.means[3 * i], &frame.eye_in_owner[3 * owner], out->rgb);
   }
   return true;
-}
-
-// Appends the tiles Gaussian `g` (index `i`) touches to `tiles` (and `i` to
-// `indices`) and counts them in `histogram`.
-void EmitTiles(const RenderFrame& frame, const Projected& g, uint32_t i,
-               std::vector<uint32_t>* tiles, std::vector<uint32_t>* indices, uint32_t* histogram) {
-  raster::VisitTiles(g.mx, g.my, g.ca, g.cb, g.cc, g.span_d2, g.ext_x, g.ext_y, frame.width,
-                     frame.height, frame.tiles_x, [&](uint32_t tile) {
-                       tiles->push_back(tile);
-                       indices->push_back(i);
-                       ++histogram[tile];
-                     });
 }
 
 // Per-thread buffers of one tile, reused across tiles and renders.
@@ -314,19 +303,12 @@ namespace {
 // The per-render arrays, kept per calling thread between renders so that
 // repeated renders do not page in fresh memory (they only grow).
 struct Workspace {
-  struct ChunkOut {
-    std::vector<uint32_t> tiles;
-    std::vector<uint32_t> indices;
-    std::vector<uint32_t> histogram;
-    int64_t visible = 0;
-  };
   std::vector<Projected> projected;                 // [N]
   std::vector<float> gradients;                     // [N, 6] screen colour gradients
   std::vector<std::vector<uint64_t>> visible_keys;  // Per projection chunk.
   std::vector<uint64_t> by_depth;                   // [visible]
   std::vector<uint64_t> radix_buffer;               // [visible]
-  std::vector<ChunkOut> chunks;                     // Per binning chunk.
-  std::vector<uint64_t> cursor;                     // [chunks, tiles]
+  raster::TileBinScratch bins;                      // Binning's chunks.
   std::vector<uint32_t> tile_lists;                 // [pairs]
 };
 
@@ -408,54 +390,19 @@ absl::StatusOr<RenderBuffers> Render(const GaussianScene& scene, const RenderCam
   // 3. Bin: in depth order, each Gaussian emits the tiles its ellipse
   // touches; a counting sort by tile (chunks in order) keeps each tile's
   // list in depth order.
-  const size_t num_visible = by_depth.size();
-  const int64_t num_chunks = static_cast<int64_t>((num_visible + kChunk - 1) / kChunk);
-  using ChunkOut = Workspace::ChunkOut;
-  std::vector<ChunkOut>& chunks = ws.chunks;
-  if (chunks.size() < static_cast<size_t>(num_chunks)) chunks.resize(num_chunks);
-  pool.ParallelFor(0, num_chunks, 1, [&](int64_t c0, int64_t c1) {
-    for (int64_t c = c0; c < c1; ++c) {
-      ChunkOut& chunk = chunks[c];
-      chunk.histogram.assign(num_tiles, 0);
-      const size_t begin = static_cast<size_t>(c) * kChunk;
-      const size_t end = std::min(num_visible, begin + kChunk);
-      chunk.tiles.clear();
-      chunk.indices.clear();
-      chunk.visible = 0;
-      for (size_t k = begin; k < end; ++k) {
-        if (k + 8 < end) __builtin_prefetch(&projected[static_cast<uint32_t>(by_depth[k + 8])]);
-        const uint32_t i = static_cast<uint32_t>(by_depth[k]);
-        const size_t before = chunk.indices.size();
-        EmitTiles(frame, projected[i], i, &chunk.tiles, &chunk.indices, chunk.histogram.data());
-        if (chunk.indices.size() > before) ++chunk.visible;
-      }
-    }
-  });
-  std::vector<uint64_t> tile_begin(num_tiles + 1, 0);
-  std::vector<uint64_t>& cursor = ws.cursor;
-  cursor.resize(static_cast<size_t>(num_tiles) * num_chunks);
-  uint64_t total = 0;
-  for (int t = 0; t < num_tiles; ++t) {
-    tile_begin[t] = total;
-    for (int64_t c = 0; c < num_chunks; ++c) {
-      cursor[static_cast<size_t>(c) * num_tiles + t] = total;
-      total += chunks[c].histogram[t];
-    }
-  }
-  tile_begin[num_tiles] = total;
+  std::vector<uint64_t> tile_begin;
   std::vector<uint32_t>& tile_lists = ws.tile_lists;
-  if (tile_lists.size() < total) tile_lists.resize(total);
-  pool.ParallelFor(0, num_chunks, 1, [&](int64_t c0, int64_t c1) {
-    for (int64_t c = c0; c < c1; ++c) {
-      uint64_t* my_cursor = &cursor[static_cast<size_t>(c) * num_tiles];
-      const ChunkOut& chunk = chunks[c];
-      for (size_t k = 0; k < chunk.indices.size(); ++k) {
-        tile_lists[my_cursor[chunk.tiles[k]]++] = chunk.indices[k];
-      }
-    }
-  });
-  int64_t visible = 0;
-  for (int64_t c = 0; c < num_chunks; ++c) visible += chunks[c].visible;
+  const int64_t visible = raster::BinByTile(
+      by_depth.size(), num_tiles,
+      [&](size_t k, auto&& emit) {
+        if (k + 8 < by_depth.size())
+          __builtin_prefetch(&projected[static_cast<uint32_t>(by_depth[k + 8])]);
+        const uint32_t i = static_cast<uint32_t>(by_depth[k]);
+        const Projected& g = projected[i];
+        raster::VisitTiles(g.mx, g.my, g.ca, g.cb, g.cc, g.span_d2, g.ext_x, g.ext_y, frame.width,
+                           frame.height, frame.tiles_x, [&](uint32_t tile) { emit(tile, i); });
+      },
+      pool, &ws.bins, &tile_begin, &tile_lists);
   const double ms_bin = ms_since(t_start) - ms_project;
 
   // 4. Composite each tile.
@@ -472,7 +419,7 @@ absl::StatusOr<RenderBuffers> Render(const GaussianScene& scene, const RenderCam
     }
   });
   spdlog::debug("render: project {:.2f} ms, sort+bin {:.2f} ms ({} pairs), composite {:.2f} ms",
-                ms_project, ms_bin, total, ms_since(t_start) - ms_project - ms_bin);
+                ms_project, ms_bin, tile_begin[num_tiles], ms_since(t_start) - ms_project - ms_bin);
   out.stats.gaussians_visible = visible;
   for (int t = 0; t < num_tiles; ++t) {
     out.stats.pairs_tested += tested[t];
