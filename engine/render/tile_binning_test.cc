@@ -11,7 +11,7 @@ namespace pf::raster {
 namespace {
 
 TEST(TileBinning, KeepsThePositionsOrderInEveryTileWhateverTheThreads) {
-  // 20,000 positions (three chunks), each reaching 0-4 of 37 tiles; ids are
+  // 20,001 positions (three chunks), each reaching 0-4 of 37 tiles; ids are
   // a shuffled map of the positions so that order and id differ.
   constexpr int kTiles = 37;
   constexpr size_t kCount = 2 * kBinChunk + 3617;
