@@ -60,7 +60,7 @@ commands:
         [--low-pass PX2] [--order-band B] [--hidden-band PX] [--no-ground-fill] [--no-facades]
         [--no-stereo] [--no-ego-layer] [--device cpu|cuda[:N]]
         [--colour gradients|flat] [--working-space srgb|linear] [--completion nearest|ip-basic]
-        [--optimize-steps N [--optimize-seconds S]] [--allow-outside-paths]
+        [--optimize-steps N [--optimize-seconds S] [--optimize-poses]] [--allow-outside-paths]
         check the clip as validate does, build a Gaussian scene from its CONTEXT frames
   eval CLIP.json --out DIR [--model ...] [same flags as reconstruct]
        [--views VIEWS.json --truth DIR2] [--lane-shift D1,D2,... --lane-shift-time-us T]

@@ -5,7 +5,8 @@
 //                [--no-ego-layer]
 //                [--device cpu|cuda[:N]] [--colour gradients|flat]
 //                [--working-space srgb|linear]
-//                [--optimize-steps N [--optimize-seconds S]] [--allow-outside-paths]
+//                [--optimize-steps N [--optimize-seconds S] [--optimize-poses]]
+//                [--allow-outside-paths]
 // Checks the clip as pf validate does, then builds a Gaussian scene from the
 // clip's CONTEXT frames (engine/recon/reconstruction.h) and writes it
 // with SaveScene. Progress per stage goes to stderr, a summary to stdout.
@@ -35,7 +36,8 @@ constexpr char kReconstructUsage[] =
     "[--splat-sigma S] [--low-pass PX2] [--order-band B] [--hidden-band PX] [--no-ground-fill] "
     "[--no-facades] [--no-stereo] [--no-ego-layer] "
     "[--device cpu|cuda[:N]] [--colour gradients|flat] [--working-space srgb|linear] "
-    "[--completion nearest|ip-basic] [--optimize-steps N [--optimize-seconds S]] "
+    "[--completion nearest|ip-basic] "
+    "[--optimize-steps N [--optimize-seconds S] [--optimize-poses]] "
     "[--allow-outside-paths]";
 
 absl::Status ReconstructCommand(const CommandLine& cl) {

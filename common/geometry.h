@@ -73,6 +73,20 @@ inline Mat3 RotationZ(double radians) {
   return r;
 }
 
+// Returns the rotation by |w| radians about w / |w| (Rodrigues' formula);
+// the identity for w = 0.
+inline Mat3 RotationFromVector(const Vec3& w) {
+  const double angle = Norm(w);
+  Mat3 r;
+  if (angle == 0) return r;
+  const Vec3 k = w / angle;
+  const double c = std::cos(angle), s = std::sin(angle), v = 1 - c;
+  r.m = {{{c + v * k.x * k.x, v * k.x * k.y - s * k.z, v * k.x * k.z + s * k.y},
+          {v * k.y * k.x + s * k.z, c + v * k.y * k.y, v * k.y * k.z - s * k.x},
+          {v * k.z * k.x - s * k.y, v * k.z * k.y + s * k.x, c + v * k.z * k.z}}};
+  return r;
+}
+
 // Unit quaternion (w, x, y, z) for rotations; Hamilton convention, so
 // ToMatrix(q) * v rotates v by q.
 struct Quat {

@@ -28,6 +28,21 @@ TEST(Geometry, SlerpHalfwayIsHalfTheAngle) {
   EXPECT_NEAR(mid.z, std::sin(M_PI / 8), 1e-12);
 }
 
+TEST(Geometry, RotationFromVectorIsTheQuaternionsRotation) {
+  const Vec3 axis = Normalized({0.3, -0.5, 0.7});
+  const double angle = 0.8;
+  const Quat q{std::cos(angle / 2), std::sin(angle / 2) * axis.x, std::sin(angle / 2) * axis.y,
+               std::sin(angle / 2) * axis.z};
+  const Mat3 expected = ToMatrix(q), r = RotationFromVector(angle * axis);
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) EXPECT_NEAR(r.m[i][j], expected.m[i][j], 1e-12);
+  }
+  // Small vectors: I + [w]x to first order.
+  const Vec3 w{1e-7, -2e-7, 3e-7}, v{1, 2, 3};
+  EXPECT_NEAR(Norm(RotationFromVector(w) * v - (v + Cross(w, v))), 0, 1e-12);
+  EXPECT_EQ(RotationFromVector({0, 0, 0}).m, Mat3::Identity().m);
+}
+
 TEST(Geometry, RigidInverseAndRigidity) {
   Rigid t{ToMatrix(QuatNormalized({0.9, 0.1, -0.3, 0.2})), {1, 2, 3}};
   const Vec3 p{0.5, -4, 2};

@@ -736,13 +736,15 @@ TEST_F(ReconCli, AblationFlagsAreRecordedInTheReport) {
 // gives other colours.
 // --optimize-steps: the stage runs after the colour fit, says so on stderr,
 // and report.json has its loss and context PSNR per step beside the loss
-// curve's PNG.
+// curve's PNG; with --optimize-poses, each context view's pose correction.
 TEST_F(ReconCli, OptimisationStepsAreReportedWithTheirLossCurve) {
   const std::string out = *dir_ + "/eval_optimize";
-  const CommandResult result = RunCommand(
-      {Pf(), "eval", Clip(), "--out", out, "--ns", "4000", "--nd", "500", "--optimize-steps", "8"});
+  const CommandResult result =
+      RunCommand({Pf(), "eval", Clip(), "--out", out, "--ns", "4000", "--nd", "500",
+                  "--optimize-steps", "8", "--optimize-poses"});
   ASSERT_EQ(result.exit_code, 0) << result.err;
   EXPECT_NE(result.err.find("optimize done in"), std::string::npos) << result.err;
+  EXPECT_NE(result.err.find("pose corrections: mean"), std::string::npos) << result.err;
   EXPECT_NE(result.err.find("optimize: step 8/8"), std::string::npos) << result.err;
   const nlohmann::json report = ReadJsonFile(out + "/report.json");
   ASSERT_TRUE(report["optimize"].is_object()) << report;
@@ -753,6 +755,22 @@ TEST_F(ReconCli, OptimisationStepsAreReportedWithTheirLossCurve) {
     EXPECT_GT(psnr.get<double>(), 15) << report["optimize"];  // A rendered view, not noise.
   }
   EXPECT_TRUE(report["stageSeconds"].contains("optimize"));
+  const nlohmann::json& poses = report["optimize"]["poseCorrections"];
+  ASSERT_EQ(poses.size(), report["contextViews"].get<size_t>()) << report["optimize"];
+  int moved = 0;
+  for (const nlohmann::json& pose : poses) {
+    EXPECT_GE(pose["frame"].get<int>(), 0);
+    EXPECT_FALSE(pose["camera"].get<std::string>().empty());
+    ASSERT_EQ(pose["rotationDeg"].size(), 3u);
+    ASSERT_EQ(pose["translationM"].size(), 3u);
+    for (int k = 0; k < 3; ++k) {
+      // Small: 8 steps at the default rates (2e-5 rad and 0.5 mm a step).
+      EXPECT_LT(std::abs(pose["rotationDeg"][k].get<double>()), 0.1) << pose;
+      EXPECT_LT(std::abs(pose["translationM"][k].get<double>()), 0.02) << pose;
+    }
+    if (pose["translationM"][0].get<double>() != 0) ++moved;
+  }
+  EXPECT_GT(moved, 0);  // The stepped views moved.
   absl::StatusOr<ImageInfo> curve = ReadImageInfo(out + "/optimize_loss.png");
   ASSERT_TRUE(curve.ok()) << curve.status();
   EXPECT_EQ(curve->width, 640);
@@ -763,6 +781,11 @@ TEST_F(ReconCli, OptimisationStepsAreReportedWithTheirLossCurve) {
       RunCommand({Pf(), "reconstruct", Clip(), "--out", *dir_ + "/x", "--optimize-steps", "-1"});
   EXPECT_EQ(bad.exit_code, 2);
   EXPECT_NE(bad.err.find("--optimize-steps"), std::string::npos) << bad.err;
+  const CommandResult alone =
+      RunCommand({Pf(), "reconstruct", Clip(), "--out", *dir_ + "/x", "--optimize-poses"});
+  EXPECT_EQ(alone.exit_code, 2);
+  EXPECT_NE(alone.err.find("optimize_poses"), std::string::npos) << alone.err;
+  EXPECT_NE(alone.err.find("--optimize-steps N"), std::string::npos) << alone.err;
 }
 
 TEST_F(ReconCli, AblationFlagsChangeTheScene) {

@@ -518,6 +518,20 @@ std::string EvalReportJson(const EvalReport& report) {
                      {"lossCurve", "optimize_loss.png"},
                      {"loss", report.stats.optimize_loss},
                      {"contextPsnr", report.stats.optimize_psnr}};
+    // --optimize-poses: each context view's correction, its camera turned
+    // (a rotation vector in its own axes, degrees) and moved (metres).
+    if (!report.stats.optimize_poses.empty()) {
+      nlohmann::ordered_json poses = nlohmann::ordered_json::array();
+      for (const ReconStats::PoseCorrection& p : report.stats.optimize_poses) {
+        constexpr double kDegrees = 180 / M_PI;
+        poses.push_back({{"frame", p.frame_index},
+                         {"camera", p.camera_id},
+                         {"rotationDeg",
+                          {p.motion[0] * kDegrees, p.motion[1] * kDegrees, p.motion[2] * kDegrees}},
+                         {"translationM", {p.motion[3], p.motion[4], p.motion[5]}}});
+      }
+      j["optimize"]["poseCorrections"] = poses;
+    }
   } else {
     j["optimize"] = nullptr;
   }

@@ -4,6 +4,8 @@
 // The generated protobuf header first (see image_io.h).
 #include <algorithm>
 #include <chrono>
+#include <cmath>
+#include <string>
 #include <utility>
 
 #include "absl/strings/str_cat.h"
@@ -21,6 +23,25 @@ namespace {
 
 double Now() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+// "; pose corrections ..." for the done line, when the poses were corrected.
+std::string PoseSummary(const OptimizeStats& stats) {
+  double turn = 0, shift = 0, turn_max = 0, shift_max = 0;
+  for (const CameraMotion& m : stats.poses) {
+    const double w = Norm(Vec3{m[0], m[1], m[2]}), t = Norm(Vec3{m[3], m[4], m[5]});
+    turn += w;
+    shift += t;
+    turn_max = std::max(turn_max, w);
+    shift_max = std::max(shift_max, t);
+  }
+  if (shift_max == 0 && turn_max == 0) return "";
+  const double views = static_cast<double>(stats.poses.size());
+  constexpr double kDegrees = 180 / M_PI;
+  return absl::StrCat("; pose corrections: mean ", absl::SixDigits(turn / views * kDegrees),
+                      " deg and ", absl::SixDigits(shift / views * 100), " cm, at most ",
+                      absl::SixDigits(turn_max * kDegrees), " deg and ",
+                      absl::SixDigits(shift_max * 100), " cm");
 }
 
 }  // namespace
@@ -305,6 +326,12 @@ absl::Status Pipeline::Optimize() {
   result_.stats.optimize_steps = stats.steps;
   result_.stats.optimize_loss = stats.loss;
   result_.stats.optimize_psnr = stats.psnr;
+  if (optimize.pose) {
+    for (size_t v = 0; v < stats.poses.size(); ++v) {
+      result_.stats.optimize_poses.push_back(
+          {inputs_.views[v].frame_index, inputs_.views[v].camera_id, stats.poses[v]});
+    }
+  }
   const size_t views = inputs_.views.size();
   auto mean_psnr = [&](size_t begin, size_t end) {
     double sum = 0;
@@ -319,7 +346,7 @@ absl::Status Pipeline::Optimize() {
                     absl::SixDigits(mean_psnr(last_begin, stats.psnr.size())),
                     " dB in the last; render ", absl::SixDigits(stats.render_seconds),
                     " s, backward ", absl::SixDigits(stats.backward_seconds), " s, update ",
-                    absl::SixDigits(stats.update_seconds), " s)"));
+                    absl::SixDigits(stats.update_seconds), " s", PoseSummary(stats), ")"));
   return absl::OkStatus();
 }
 

@@ -82,6 +82,7 @@ std::vector<Spec> MakeTable() {
   table.push_back(Number("optimize_steps", Kind::kInt, 0, false, 1e6, " steps", Key::kTextWhenSet));
   table.push_back(
       Number("optimize_seconds", Kind::kReal, 0, false, 604800, " seconds", Key::kHexWhenSet));
+  table.push_back(Switch("optimize_poses", Key::kOnWhenSet));
   table.push_back(
       Number("order_band", Kind::kReal, 0, false, kMaxOrderBand, "", Key::kHexFloatWhenSet));
   table.push_back(Switch("no_ego_layer", Key::kOffWhenSet, "ego_layer"));
@@ -346,6 +347,9 @@ std::vector<std::pair<std::string, std::string>> SceneCacheKeyFields(
         break;
       case Key::kOffWhenSet:
         if (set) fields.emplace_back(name, "off");
+        break;
+      case Key::kOnWhenSet:
+        if (set) fields.emplace_back(name, "on");
         break;
     }
   }

@@ -41,6 +41,7 @@ struct ReconOptionSpec {
     kHexFloatWhenSet,  // When set: the value as a float, exactly (what the scene stores).
     kOnOff,            // Always: "on" or "off".
     kOffWhenSet,       // "off" when the switch is set (it turns a default step off).
+    kOnWhenSet,        // "on" when the switch is set (it turns a step on).
   };
   const char* field;  // ReconstructionOptions field: "splat_sigma" (flag --splat-sigma).
   Kind kind;

@@ -96,6 +96,7 @@ TEST(ReconOptionTable, FlagsFillTheMessage) {
                                                                "ip-basic",
                                                                "--working-space",
                                                                "linear",
+                                                               "--optimize-poses",
                                                                "--device",
                                                                "cuda:1"});
   ASSERT_TRUE(proto.ok()) << proto.status();
@@ -118,6 +119,7 @@ TEST(ReconOptionTable, FlagsFillTheMessage) {
   EXPECT_EQ(proto->colour(), "flat");
   EXPECT_EQ(proto->completion(), "ip-basic");
   EXPECT_EQ(proto->working_space(), "linear");
+  EXPECT_TRUE(proto->optimize_poses());
   EXPECT_EQ(proto->device(), "cuda:1");
 
   // Nothing given: nothing set (the defaults are the engine's).
@@ -186,6 +188,7 @@ TEST(ReconOptionTable, TheCacheKeyListsTheDefaultsAlwaysAndTheRestWhenSet) {
   tuned.set_colour("flat");
   tuned.set_completion("ip-basic");
   tuned.set_working_space("linear");
+  tuned.set_optimize_poses(true);
   tuned.set_device("cuda:0");  // Not part of the key.
   EXPECT_EQ(SceneCacheKeyFields(tuned), (Fields{{"model", "analytic"},
                                                 {"ns", "0"},
@@ -202,6 +205,7 @@ TEST(ReconOptionTable, TheCacheKeyListsTheDefaultsAlwaysAndTheRestWhenSet) {
                                                 {"colour", "flat"},
                                                 {"completion", "ip-basic"},
                                                 {"working_space", "linear"},
+                                                {"optimize_poses", "on"},
                                                 {"ego_layer", "off"}}));
 }
 

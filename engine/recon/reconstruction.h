@@ -9,6 +9,7 @@
 #ifndef POINTFORWARD_ENGINE_RECON_RECONSTRUCTION_H_
 #define POINTFORWARD_ENGINE_RECON_RECONSTRUCTION_H_
 
+#include <array>
 #include <cstdint>
 #include <functional>
 #include <optional>
@@ -105,6 +106,13 @@ struct ReconStats {
   int optimize_steps = 0;
   std::vector<float> optimize_loss;
   std::vector<float> optimize_psnr;
+  // With OptimizeOptions::pose: each context view's pose correction.
+  struct PoseCorrection {
+    int frame_index = -1;  // Into clip.frames.
+    std::string camera_id;
+    std::array<double, 6> motion{};  // CameraMotion (raster_backward.h): radians, then metres.
+  };
+  std::vector<PoseCorrection> optimize_poses;
   std::vector<std::pair<std::string, double>> stage_seconds;  // In order.
   double total_seconds = 0;
 };

@@ -123,6 +123,15 @@ absl::StatusOr<OptimizeStats> OptimizeScene(const std::vector<ContextView>& view
   stats.exposures.assign(views.size(), kIdentity);
   std::vector<Adam> exposure_adam(views.size());
   for (Adam& adam : exposure_adam) adam.Reset(12);
+  // Pose corrections: (w, t) per view, an Adam for each half.
+  std::vector<std::array<float, 6>> poses(views.size(), std::array<float, 6>{});
+  std::vector<Adam> pose_adam(2 * views.size());
+  for (Adam& adam : pose_adam) adam.Reset(3);
+  auto motion_of = [&](size_t v) {
+    CameraMotion m;
+    for (int k = 0; k < 6; ++k) m[k] = poses[v][k];
+    return m;
+  };
   // The pixels each view's loss counts: those off the ego vehicle (all
   // when the camera has no mask).
   std::vector<std::vector<uint8_t>> counted(views.size());
@@ -151,7 +160,7 @@ absl::StatusOr<OptimizeStats> OptimizeScene(const std::vector<ContextView>& view
     }
     const size_t vi = order[slot];
     const ContextView& view = views[vi];
-    RenderCamera camera{view.camera, view.world_from_camera};
+    const RenderCamera camera = MovedCamera({view.camera, view.world_from_camera}, motion_of(vi));
 
     // Render and expose.
     auto t0 = std::chrono::steady_clock::now();
@@ -198,6 +207,14 @@ absl::StatusOr<OptimizeStats> OptimizeScene(const std::vector<ContextView>& view
     absl::StatusOr<SceneGradients> g =
         RenderBackward(*scene, camera, view.timestamp_us, {}, grads, render_options);
     if (!g.ok()) return g.status();
+    CameraMotion g_pose{};
+    if (options.pose) {
+      // From the scene as rendered, before its own step.
+      absl::StatusOr<CameraMotion> motion =
+          CameraMotionGradient(*scene, camera, view.timestamp_us, {}, *g, render_options);
+      if (!motion.ok()) return motion.status();
+      g_pose = *motion;
+    }
     stats.backward_seconds += ElapsedSeconds(t0);
 
     // Adam.
@@ -226,6 +243,14 @@ absl::StatusOr<OptimizeStats> OptimizeScene(const std::vector<ContextView>& view
       }
       exposure_adam[vi].Step(e, grad, options.lr_exposure);
     }
+    if (options.pose) {
+      std::array<float, 6> grad;
+      for (int k = 0; k < 6; ++k) grad[k] = static_cast<float>(g_pose[k]);
+      const std::span<float> pose(poses[vi]);
+      const std::span<const float> g_span(grad);
+      pose_adam[2 * vi].Step(pose.first(3), g_span.first(3), ramp * options.lr_pose_rotation);
+      pose_adam[2 * vi + 1].Step(pose.last(3), g_span.last(3), ramp * options.lr_pose_translation);
+    }
     stats.update_seconds += ElapsedSeconds(t0);
     stats.steps = step + 1;
     if (options.progress) {
@@ -238,6 +263,7 @@ absl::StatusOr<OptimizeStats> OptimizeScene(const std::vector<ContextView>& view
       options.progress(p);
     }
   }
+  for (size_t v = 0; v < views.size(); ++v) stats.poses.push_back(motion_of(v));
   stats.seconds = ElapsedSeconds(start);
   return stats;
 }

@@ -14,7 +14,12 @@
 // context views' (OptimizeStats::exposures), not the scene's: renders at new views use none
 // (SCENE_FORMAT.md).
 //
-// Not done: densification and pruning, camera pose corrections.
+// With OptimizeOptions::pose each view's camera pose is corrected too (its
+// gradient from the Gaussians' mean and rotation gradients,
+// CameraMotionGradient); the corrections are the context views'
+// (OptimizeStats::poses), renders at new views use the recorded poses.
+//
+// Not done: densification and pruning.
 #ifndef POINTFORWARD_ENGINE_RECON_SCENE_OPTIMIZER_H_
 #define POINTFORWARD_ENGINE_RECON_SCENE_OPTIMIZER_H_
 
@@ -26,6 +31,7 @@
 #include "absl/status/statusor.h"
 #include "engine/recon/context_views.h"
 #include "engine/render/gaussian_scene.h"
+#include "engine/render/raster_backward.h"
 
 namespace pf {
 
@@ -56,6 +62,11 @@ struct OptimizeOptions {
   bool exposure = true;       // Fit an affine colour per view.
   double lr_exposure = 1e-3;
   double exposure_prior = 1e-2;  // Weight of |M - I|^2 + |b|^2 in the loss.
+  // Correct each view's camera pose: a CameraMotion per view
+  // (raster_backward.h), from zero, its rotation and translation stepped at
+  // their own rates (radians and metres a step, before Adam's scaling).
+  bool pose = false;
+  double lr_pose_rotation = 2e-5, lr_pose_translation = 5e-4;
   // Every rate rises linearly from 1 / warmup_steps of its value over the
   // first warmup_steps steps (0: one epoch, a step per view), so Adam's
   // first steps, each a full rate whatever the gradient's size, do not
@@ -75,6 +86,9 @@ struct OptimizeStats {
   double spread = 0;        // The position scale (m).
   // Per context view: the affine colour, row-major 3x4 ([M | b]).
   std::vector<std::array<float, 12>> exposures;
+  // Per context view: its pose correction (OptimizeOptions::pose; zero
+  // without), the view's camera moved by it.
+  std::vector<CameraMotion> poses;
 };
 
 // Optimises `scene` against `views` (the scene's context views) for

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <random>
 #include <vector>
 
@@ -122,6 +123,55 @@ TEST(SceneOptimizer, ExposuresFollowTheViewsGains) {
       EXPECT_LT(diagonal, 0.97) << "view " << v;
     }
   }
+}
+
+// A view recorded at the wrong pose: with pose corrections, and nothing else
+// moving, its camera is moved back to where its image was taken.
+TEST(SceneOptimizer, PoseCorrectionsMoveAViewBackToItsImage) {
+  const GaussianScene truth = WallScene();
+  std::vector<ContextView> views = ViewsOf(truth, {1, 1, 1, 1});
+  // View 2's image was taken from its recorded pose moved by `error`.
+  const CameraMotion error = {0, 0, 0.04, 0.12, -0.09, 0};
+  const Rigid step{RotationFromVector({error[0], error[1], error[2]}),
+                   {error[3], error[4], error[5]}};
+  views[2].world_from_camera = views[2].world_from_camera * step.Inverse();
+  GaussianScene scene = truth;
+  OptimizeOptions options;
+  options.steps = 160;
+  options.exposure = false;
+  options.lr_log_scale = options.lr_rotation = options.lr_opacity = options.lr_colour = 0;
+  options.pose = true;
+  options.lr_pose_rotation = 2e-3;
+  options.lr_pose_translation = 6e-3;
+  absl::StatusOr<OptimizeStats> stats = OptimizeScene(views, {}, options, &scene);
+  ASSERT_TRUE(stats.ok()) << stats.status();
+  ASSERT_EQ(stats->poses.size(), 4u);
+  const CameraMotion& found = stats->poses[2];
+  std::printf("found %.4f %.4f %.4f  %.4f %.4f %.4f\n", found[0], found[1], found[2], found[3],
+              found[4], found[5]);
+  EXPECT_NEAR(found[2], error[2], 0.008);  // The roll.
+  // The wall, 6 m away, moves in the image with t_x + 6 w_y and t_y - 6 w_x.
+  EXPECT_NEAR(found[3] + 6 * found[1], error[3], 0.03);
+  EXPECT_NEAR(found[4] - 6 * found[0], error[4], 0.03);
+  // View 2 is rendered as well as the others in the last epoch; the others
+  // were not moved far.
+  double worst = 1e9;
+  for (int k = 156; k < 160; ++k) worst = std::min(worst, double{stats->psnr[k]});
+  std::printf("last epoch's lowest PSNR %.2f dB\n", worst);
+  EXPECT_GT(worst, 30);
+  for (size_t v : {0, 1, 3}) {
+    for (int k = 0; k < 6; ++k) EXPECT_LT(std::abs(stats->poses[v][k]), 0.005) << v << " " << k;
+  }
+  // Without the corrections view 2 stays apart.
+  options.pose = false;
+  scene = truth;
+  stats = OptimizeScene(views, {}, options, &scene);
+  ASSERT_TRUE(stats.ok());
+  double off = 1e9;
+  for (int k = 156; k < 160; ++k) off = std::min(off, double{stats->psnr[k]});
+  std::printf("without the corrections %.2f dB\n", off);
+  EXPECT_LT(off, 25);
+  EXPECT_EQ(stats->poses[2], CameraMotion{});
 }
 
 TEST(SceneOptimizer, RejectsWhatItCannotOptimise) {

@@ -723,7 +723,102 @@ absl::StatusOr<GaussianParams<T>> Backward(const GaussianScene& scene, const Par
   return out;
 }
 
+// dL/d a camera motion (raster_backward.h) from the mean and rotation
+// gradients of the Gaussians of `frame`'s render. The camera moved by
+// (w, t) sees x_c' = R(w)^T (x_c - t) = x_c - t + x_c x w to first order,
+// and each Gaussian's camera-frame rotation turned by -w: in its owner's
+// frame q' = (1, -R^T w / 2) q (R camera from owner), whose derivative is
+// -(0, e_k) q / 2. Summed in chunks, then the chunks in order.
+template <typename T>
+CameraMotion MotionGradient(const GaussianScene& scene, const ParamView<T>& params,
+                            const RenderFrame& frame, const T* grad_means,
+                            const T* grad_rotations) {
+  const size_t n = scene.size();
+  constexpr size_t kChunk = 1 << 15;
+  const size_t chunks = (n + kChunk - 1) / kChunk;
+  std::vector<CameraMotion> partial(chunks, CameraMotion{});
+  DefaultThreadPool().ParallelFor(0, static_cast<int64_t>(chunks), 1, [&](int64_t c0, int64_t c1) {
+    for (int64_t c = c0; c < c1; ++c) {
+      CameraMotion& sum = partial[c];
+      for (size_t i = c * kChunk; i < std::min(n, (c + 1) * kChunk); ++i) {
+        const uint32_t owner = scene.owners[i];
+        if (!frame.owner_live[owner]) continue;
+        const raster::Transform& cam = frame.camera_from_owner[owner];
+        const T* m = &params.means[3 * i];
+        const T* gm = &grad_means[3 * i];
+        double x[3], g[3];
+        for (int r = 0; r < 3; ++r) {
+          const float* row = &cam.r[3 * r];
+          x[r] = row[0] * double(m[0]) + row[1] * double(m[1]) + row[2] * double(m[2]) + cam.t[r];
+          g[r] = row[0] * double(gm[0]) + row[1] * double(gm[1]) + row[2] * double(gm[2]);
+        }
+        const T* q = &params.rotations[4 * i];
+        const T* gq = &grad_rotations[4 * i];
+        const double qw = q[0], qx = q[1], qy = q[2], qz = q[3];
+        // (0, e_k) q for k = x, y, z.
+        const double turn[3][4] = {{-qx, qw, -qz, qy}, {-qy, qz, qw, -qx}, {-qz, -qy, qx, qw}};
+        double owner_w[3];
+        for (int k = 0; k < 3; ++k) {
+          owner_w[k] = -0.5 * (gq[0] * turn[k][0] + gq[1] * turn[k][1] + gq[2] * turn[k][2] +
+                               gq[3] * turn[k][3]);
+        }
+        sum[0] += g[1] * x[2] - g[2] * x[1];
+        sum[1] += g[2] * x[0] - g[0] * x[2];
+        sum[2] += g[0] * x[1] - g[1] * x[0];
+        for (int r = 0; r < 3; ++r) {
+          sum[r] += cam.r[3 * r] * owner_w[0] + cam.r[3 * r + 1] * owner_w[1] +
+                    cam.r[3 * r + 2] * owner_w[2];
+          sum[3 + r] -= g[r];
+        }
+      }
+    }
+  });
+  CameraMotion total{};
+  for (const CameraMotion& p : partial) {
+    for (int k = 0; k < 6; ++k) total[k] += p[k];
+  }
+  return total;
+}
+
+// MotionGradient for `camera`'s render at `timestamp_us`.
+template <typename T>
+absl::StatusOr<CameraMotion> MotionGradientOf(const GaussianScene& scene,
+                                              const ParamView<T>& params,
+                                              const RenderCamera& camera, int64_t timestamp_us,
+                                              const std::vector<ActorEdit>& edits,
+                                              const GaussianParams<T>& grads, double near_plane) {
+  if (grads.means.size() != 3 * scene.size() || grads.rotations.size() != 4 * scene.size()) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "grads: ", grads.means.size() / 3, " means and ", grads.rotations.size() / 4,
+        " rotations for ", scene.size(), " Gaussians; pass RenderBackward()'s gradients"));
+  }
+  RenderFrame frame;
+  if (absl::Status status = raster::SetUpRenderFrame(scene.instances, scene.time_origin_us, camera,
+                                                     timestamp_us, edits, near_plane, &frame);
+      !status.ok()) {
+    return status;
+  }
+  return MotionGradient(scene, params, frame, grads.means.data(), grads.rotations.data());
+}
+
 }  // namespace
+
+RenderCamera MovedCamera(const RenderCamera& camera, const CameraMotion& motion) {
+  RenderCamera moved = camera;
+  const Rigid step{RotationFromVector({motion[0], motion[1], motion[2]}),
+                   {motion[3], motion[4], motion[5]}};
+  moved.world_from_camera = camera.world_from_camera * step;
+  return moved;
+}
+
+absl::StatusOr<CameraMotion> CameraMotionGradient(const GaussianScene& scene,
+                                                  const RenderCamera& camera, int64_t timestamp_us,
+                                                  const std::vector<ActorEdit>& edits,
+                                                  const SceneGradients& grads,
+                                                  const RenderOptions& options) {
+  return MotionGradientOf<float>(scene, ViewOf<float>(scene), camera, timestamp_us, edits, grads,
+                                 options.near_plane);
+}
 
 absl::StatusOr<SceneGradients> RenderBackward(const GaussianScene& scene,
                                               const RenderCamera& camera, int64_t timestamp_us,
@@ -759,6 +854,13 @@ absl::StatusOr<DoubleRender> RenderBackwardInDouble(
   if (!g.ok()) return g.status();
   result.grads = *std::move(g);
   return result;
+}
+
+absl::StatusOr<CameraMotion> CameraMotionGradientInDouble(
+    const GaussianScene& scene, const GaussianParams<double>& params, const RenderCamera& camera,
+    int64_t timestamp_us, const GaussianParams<double>& grads, const RenderOptions& options) {
+  return MotionGradientOf<double>(scene, ViewOf<double>(params), camera, timestamp_us, {}, grads,
+                                  options.near_plane);
 }
 
 }  // namespace testing

@@ -26,11 +26,13 @@
 //
 // Not differentiated: the 0.99 clamp and the 1/255 and 1e-4 cut-offs (their
 // gradient is zero or a step), the Jacobian's clamp outside the image, the
-// instance ids, time and lifespan, poses and camera. Scenes with SH colour
+// instance ids, time and lifespan, the box poses, the camera's intrinsics (its
+// pose: CameraMotionGradient below). Scenes with SH colour
 // are rejected (their colours are not features).
 #ifndef POINTFORWARD_ENGINE_RENDER_RASTER_BACKWARD_H_
 #define POINTFORWARD_ENGINE_RENDER_RASTER_BACKWARD_H_
 
+#include <array>
 #include <cstdint>
 #include <vector>
 
@@ -88,6 +90,25 @@ absl::StatusOr<SceneGradients> RenderBackward(const GaussianScene& scene,
                                               const RenderOptions& options = {},
                                               BackwardStats* stats = nullptr);
 
+// A small motion of a camera in its own frame: rotation vector w (radians,
+// camera axes) then translation t (metres); the moved camera's
+// world_from_camera is the camera's times Rigid{RotationFromVector(w), t}
+// (MovedCamera).
+using CameraMotion = std::array<double, 6>;
+RenderCamera MovedCamera(const RenderCamera& camera, const CameraMotion& motion);
+
+// dL/d motion at zero motion: how the loss whose scene gradients are
+// `grads` (RenderBackward()'s, for the same camera, time, edits and
+// options) changes as the camera moves. Moving the camera is moving every
+// Gaussian the other way, so this is exact: each Gaussian's mean and
+// rotation gradients, taken into the camera's frame, summed. Deterministic.
+// INVALID_ARGUMENT for what Render() rejects or gradients of another size.
+absl::StatusOr<CameraMotion> CameraMotionGradient(const GaussianScene& scene,
+                                                  const RenderCamera& camera, int64_t timestamp_us,
+                                                  const std::vector<ActorEdit>& edits,
+                                                  const SceneGradients& grads,
+                                                  const RenderOptions& options = {});
+
 namespace testing {
 
 // The same render and backward pass in double precision, with the
@@ -102,6 +123,11 @@ struct DoubleRender {
 absl::StatusOr<DoubleRender> RenderBackwardInDouble(
     const GaussianScene& scene, const GaussianParams<double>& params, const RenderCamera& camera,
     int64_t timestamp_us, const OutputGradients<double>& grads, const RenderOptions& options = {});
+
+// CameraMotionGradient in double, with the parameters taken from `params`.
+absl::StatusOr<CameraMotion> CameraMotionGradientInDouble(
+    const GaussianScene& scene, const GaussianParams<double>& params, const RenderCamera& camera,
+    int64_t timestamp_us, const GaussianParams<double>& grads, const RenderOptions& options = {});
 
 // The scene's parameters in double.
 GaussianParams<double> ParamsInDouble(const GaussianScene& scene);

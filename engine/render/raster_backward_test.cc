@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "engine/render/random_scene_testing.h"
+#include "engine/render/raster_frame.h"
 #include "engine/render/reference_renderer.h"
 
 namespace pf {
@@ -300,6 +301,130 @@ TEST(RasterBackward, AStepAgainstTheGradientLowersTheError) {
   const double after = error(scene, nullptr);
   const double predicted = eps * norm2;
   EXPECT_NEAR(before - after, predicted, 0.2 * predicted) << before << " -> " << after;
+}
+
+// The parameters of `scene` moved as the camera moved by `motion` would see
+// them from the unmoved camera: per owner, x' = C^-1 M^-1 C x (C camera
+// from owner at kTime, M the motion), rotations turned likewise.
+GaussianParams<double> MovedAgainst(const GaussianScene& scene,
+                                    const GaussianParams<double>& params,
+                                    const RenderCamera& camera, const CameraMotion& motion) {
+  raster::RenderFrame frame;
+  EXPECT_TRUE(raster::SetUpRenderFrame(scene.instances, scene.time_origin_us, camera, kTime, {},
+                                       RenderOptions{}.near_plane, &frame)
+                  .ok());
+  const Rigid step{RotationFromVector({motion[0], motion[1], motion[2]}),
+                   {motion[3], motion[4], motion[5]}};
+  GaussianParams<double> out = params;
+  for (size_t i = 0; i < scene.size(); ++i) {
+    const raster::Transform& t = frame.camera_from_owner[scene.owners[i]];
+    Rigid c;
+    for (int r = 0; r < 3; ++r) {
+      for (int k = 0; k < 3; ++k) c.rotation.m[r][k] = t.r[3 * r + k];
+      c.translation[r] = t.t[r];
+    }
+    const Rigid m = c.Inverse() * step.Inverse() * c;
+    const Vec3 x = m * Vec3{params.means[3 * i], params.means[3 * i + 1], params.means[3 * i + 2]};
+    for (int k = 0; k < 3; ++k) out.means[3 * i + k] = x[k];
+    const double* q = &params.rotations[4 * i];
+    const Quat turned = FromMatrix(m.rotation) * Quat{q[0], q[1], q[2], q[3]};
+    out.rotations[4 * i] = turned.w;
+    out.rotations[4 * i + 1] = turned.x;
+    out.rotations[4 * i + 2] = turned.y;
+    out.rotations[4 * i + 3] = turned.z;
+  }
+  return out;
+}
+
+// Moving the camera renders what moving the Gaussians the other way does
+// (the identity CameraMotionGradient rests on), and MovedCamera moves it in
+// its own frame.
+TEST(RasterBackward, MovingTheCameraIsMovingTheGaussiansBack) {
+  for (int model = 0; model < testing_scenes::kCameraModels; ++model) {
+    SCOPED_TRACE(::testing::Message() << "camera model " << model);
+    const RenderCamera camera = MovedCameraOfModel(model);
+    const GaussianScene scene = SmallScene(camera, 30 + model, true);
+    const GaussianParams<double> base = testing::ParamsInDouble(scene);
+    const CameraMotion motion = {0.01, -0.02, 0.015, 0.05, -0.03, 0.02};
+    const RenderCamera moved = MovedCamera(camera, motion);
+    const Vec3 shift = moved.world_from_camera.translation - camera.world_from_camera.translation;
+    const Vec3 local = camera.world_from_camera.rotation * Vec3{0.05, -0.03, 0.02};
+    EXPECT_LT(Norm(shift - local), 1e-12);
+    absl::StatusOr<testing::DoubleRender> by_camera =
+        testing::RenderBackwardInDouble(scene, base, moved, kTime, {});
+    absl::StatusOr<testing::DoubleRender> by_gaussians = testing::RenderBackwardInDouble(
+        scene, MovedAgainst(scene, base, camera, motion), camera, kTime, {});
+    absl::StatusOr<testing::DoubleRender> unmoved =
+        testing::RenderBackwardInDouble(scene, base, camera, kTime, {});
+    ASSERT_TRUE(by_camera.ok() && by_gaussians.ok() && unmoved.ok());
+    double differ = 0, moved_by = 0;
+    for (size_t k = 0; k < by_camera->rgb.size(); ++k) {
+      differ += std::abs(by_camera->rgb[k] - by_gaussians->rgb[k]);
+      moved_by += std::abs(by_camera->rgb[k] - unmoved->rgb[k]);
+    }
+    differ /= by_camera->rgb.size();
+    moved_by /= by_camera->rgb.size();
+    EXPECT_GT(moved_by, 1e-2);
+    EXPECT_LT(differ, 1e-5) << "the motion moves the render by " << moved_by;
+  }
+}
+
+// The camera motion's gradient against central differences of the loss with
+// the Gaussians moved back (in double: steps far under the float camera's
+// resolution), every camera model, with actors.
+TEST(RasterBackward, CameraMotionGradientMatchesCentralDifferences) {
+  for (int model = 0; model < testing_scenes::kCameraModels; ++model) {
+    SCOPED_TRACE(::testing::Message() << "camera model " << model);
+    const RenderCamera camera = MovedCameraOfModel(model);
+    const GaussianScene scene = SmallScene(camera, 70 + model, model % 2 == 1);
+    const OutputGradients<double> g = RandomOutputGradients(camera, scene.num_channels, 50 + model);
+    const GaussianParams<double> base = testing::ParamsInDouble(scene);
+    absl::StatusOr<testing::DoubleRender> at =
+        testing::RenderBackwardInDouble(scene, base, camera, kTime, g);
+    ASSERT_TRUE(at.ok()) << at.status();
+    absl::StatusOr<CameraMotion> analytic =
+        testing::CameraMotionGradientInDouble(scene, base, camera, kTime, at->grads);
+    ASSERT_TRUE(analytic.ok()) << analytic.status();
+    auto difference = [&](int k, double h) {
+      CameraMotion motion{};
+      motion[k] = h;
+      const double up =
+          Loss(*testing::RenderBackwardInDouble(scene, MovedAgainst(scene, base, camera, motion),
+                                                camera, kTime, {}),
+               g);
+      motion[k] = -h;
+      const double down =
+          Loss(*testing::RenderBackwardInDouble(scene, MovedAgainst(scene, base, camera, motion),
+                                                camera, kTime, {}),
+               g);
+      return (up - down) / (2 * h);
+    };
+    double scale = 0, worst = 0;
+    int checked = 0;
+    constexpr double kSteps[] = {1e-5, 3e-6, 1e-6, 3e-7, 1e-7};
+    for (int k = 0; k < 6; ++k) {
+      // The first of two steps in turn that agree: a larger step may take
+      // a pixel across a cut-off, a smaller one meets the lens's rounding.
+      double numeric = std::nan("");
+      double previous = difference(k, kSteps[0]);
+      for (size_t step = 1; step < std::size(kSteps) && std::isnan(numeric); ++step) {
+        const double d = difference(k, kSteps[step]);
+        if (std::abs(d - previous) <= 1e-4 * (std::abs(d) + 10)) numeric = d;
+        previous = d;
+      }
+      if (std::isnan(numeric)) continue;
+      ++checked;
+      scale = std::max(scale, std::abs(numeric));
+      worst = std::max(worst, std::abs((*analytic)[k] - numeric));
+    }
+    std::printf("model %d camera motion relative error %.2e (%d of 6 checked)\n", model,
+                worst / scale, checked);
+    EXPECT_GE(checked, 5);
+    EXPECT_GT(scale, 1);
+    // The distortion's Jacobian is itself a central difference (as in
+    // GradientsMatchCentralDifferences).
+    EXPECT_LT(worst, (model == 0 ? 2e-5 : 1e-4) * scale);
+  }
 }
 
 TEST(RasterBackward, RejectsWhatItCannotDifferentiate) {
