@@ -82,7 +82,9 @@ std::vector<Spec> MakeTable() {
   table.push_back(Number("optimize_steps", Kind::kInt, 0, false, 1e6, " steps", Key::kTextWhenSet));
   table.push_back(
       Number("optimize_seconds", Kind::kReal, 0, false, 604800, " seconds", Key::kHexWhenSet));
-  table.push_back(Switch("optimize_poses", Key::kOnWhenSet));
+  Spec optimize_poses = Switch("optimize_poses", Key::kOnWhenSet);
+  optimize_poses.needs = "optimize_steps";
+  table.push_back(optimize_poses);
   table.push_back(
       Number("order_band", Kind::kReal, 0, false, kMaxOrderBand, "", Key::kHexFloatWhenSet));
   table.push_back(Switch("no_ego_layer", Key::kOffWhenSet, "ego_layer"));
@@ -244,6 +246,10 @@ absl::StatusOr<v1::ReconstructionOptions> ReconProtoFromFlags(
           return absl::InvalidArgumentError(
               absl::StrCat("--", FlagOf(spec.conflicts), ": given with ", name, "; give one"));
         }
+        if (spec.needs[0] != '\0' && !cl.Has(FlagOf(spec.needs))) {
+          return absl::InvalidArgumentError(
+              absl::StrCat(name, ": needs --", FlagOf(spec.needs), " too"));
+        }
         reflection->SetBool(&options, field, true);
         break;
       case Kind::kInt: {
@@ -296,6 +302,13 @@ absl::StatusOr<v1::ReconstructionOptions> NormalizeReconProto(
             IsSet(out, out.GetDescriptor()->FindFieldByName(spec.conflicts))) {
           return absl::InvalidArgumentError(
               absl::StrCat("options.", spec.conflicts, ": set together with ", name, "; set one"));
+        }
+        if (spec.needs[0] != '\0') {
+          const FieldDescriptor* needed = out.GetDescriptor()->FindFieldByName(spec.needs);
+          if (!IsSet(out, needed) || NumberOf(out, needed) <= 0) {
+            return absl::InvalidArgumentError(
+                absl::StrCat(name, ": needs options.", spec.needs, " too (above 0)"));
+          }
         }
         break;
       case Kind::kInt:

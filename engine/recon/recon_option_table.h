@@ -55,6 +55,7 @@ struct ReconOptionSpec {
   const char* key_name = "";   // In the key, when not `field`.
   bool fills_default = false;  // Unset is set to the default (the first model or choice).
   const char* conflicts = "";  // A switch that must not be set with this one.
+  const char* needs = "";      // A field that must be set (non-zero) with this one.
   bool clear_default = false;  // A value equal to the default is cleared (one key).
 };
 

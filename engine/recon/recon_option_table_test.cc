@@ -69,6 +69,24 @@ TEST(ReconOptionTable, FlagsAndFieldsAreRefusedWithTheSameWords) {
   }
 }
 
+// A switch that acts on another option's step is refused without it, by
+// the client and at the server's intake.
+TEST(ReconOptionTable, ASwitchIsRefusedWithoutTheOptionItNeeds) {
+  absl::Status flag = FromFlags({"--optimize-poses"}).status();
+  EXPECT_EQ(flag.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(flag.message(), "--optimize-poses: needs --optimize-steps too");
+  EXPECT_TRUE(FromFlags({"--optimize-poses", "--optimize-steps", "3"}).ok());
+  v1::ReconstructionOptions proto;
+  proto.set_optimize_poses(true);
+  absl::Status field = NormalizeReconProto(proto, Models()).status();
+  EXPECT_EQ(field.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(field.message(), "options.optimize_poses: needs options.optimize_steps too (above 0)");
+  proto.set_optimize_steps(0);
+  EXPECT_FALSE(NormalizeReconProto(proto, Models()).ok());
+  proto.set_optimize_steps(4);
+  EXPECT_TRUE(NormalizeReconProto(proto, Models()).ok());
+}
+
 TEST(ReconOptionTable, FlagsFillTheMessage) {
   absl::StatusOr<v1::ReconstructionOptions> proto = FromFlags({"--model",
                                                                "pixel-aligned",
@@ -96,6 +114,8 @@ TEST(ReconOptionTable, FlagsFillTheMessage) {
                                                                "ip-basic",
                                                                "--working-space",
                                                                "linear",
+                                                               "--optimize-steps",
+                                                               "10",
                                                                "--optimize-poses",
                                                                "--device",
                                                                "cuda:1"});
@@ -120,6 +140,7 @@ TEST(ReconOptionTable, FlagsFillTheMessage) {
   EXPECT_EQ(proto->completion(), "ip-basic");
   EXPECT_EQ(proto->working_space(), "linear");
   EXPECT_TRUE(proto->optimize_poses());
+  EXPECT_EQ(proto->optimize_steps(), 10);
   EXPECT_EQ(proto->device(), "cuda:1");
 
   // Nothing given: nothing set (the defaults are the engine's).

@@ -40,11 +40,6 @@ absl::StatusOr<ReconOptions> ReconOptionsFromProto(const v1::ReconstructionOptio
   if (p.has_optimize_steps()) options.optimize.steps = p.optimize_steps();
   if (p.has_optimize_seconds()) options.optimize.max_seconds = p.optimize_seconds();
   options.optimize.pose = p.optimize_poses();
-  if (options.optimize.pose && options.optimize.steps <= 0) {
-    return absl::InvalidArgumentError(
-        "options.optimize_poses: poses are corrected by the per-scene optimisation; set "
-        "optimize_steps too (--optimize-steps N)");
-  }
   if (!p.colour().empty()) options.colour_gradients = p.colour() == "gradients";
   if (!p.working_space().empty()) {
     ASSIGN_OR_RETURN(options.colour_encoding,

@@ -1,6 +1,7 @@
 // Tests of the per-scene optimisation: on views rendered from a known scene,
 // a perturbed copy is pulled back towards the views, fixed Gaussians keep
-// their geometry, and per-view exposures follow the views' gains.
+// their geometry, per-view exposures follow the views' gains, and pose
+// corrections bring a view recorded at the wrong pose back to its image.
 #include "engine/recon/scene_optimizer.h"
 
 #include <gtest/gtest.h>

@@ -787,6 +787,11 @@ absl::StatusOr<CameraMotion> MotionGradientOf(const GaussianScene& scene,
                                               const RenderCamera& camera, int64_t timestamp_us,
                                               const std::vector<ActorEdit>& edits,
                                               const GaussianParams<T>& grads, double near_plane) {
+  if (camera.rolling_shutter.has_value()) {
+    return absl::InvalidArgumentError(
+        "camera: the camera motion's gradient has no rolling shutter; global-shutter views only");
+  }
+  if (absl::Status status = CheckRenderable(scene); !status.ok()) return status;
   if (grads.means.size() != 3 * scene.size() || grads.rotations.size() != 4 * scene.size()) {
     return absl::InvalidArgumentError(absl::StrCat(
         "grads: ", grads.means.size() / 3, " means and ", grads.rotations.size() / 4,

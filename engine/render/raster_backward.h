@@ -102,7 +102,8 @@ RenderCamera MovedCamera(const RenderCamera& camera, const CameraMotion& motion)
 // options) changes as the camera moves. Moving the camera is moving every
 // Gaussian the other way, so this is exact: each Gaussian's mean and
 // rotation gradients, taken into the camera's frame, summed. Deterministic.
-// INVALID_ARGUMENT for what Render() rejects or gradients of another size.
+// INVALID_ARGUMENT for what Render() rejects, a rolling-shutter camera or
+// gradients of another size.
 absl::StatusOr<CameraMotion> CameraMotionGradient(const GaussianScene& scene,
                                                   const RenderCamera& camera, int64_t timestamp_us,
                                                   const std::vector<ActorEdit>& edits,

@@ -1,7 +1,7 @@
 // Tests of the rasterizer's backward pass: its forward half against the
 // reference renderer, its gradients against central differences in double
-// for every parameter kind and camera model, the float pass against the
-// double one, and bad input.
+// for every parameter kind and camera model, the camera motion's gradient
+// likewise, the float pass against the double one, and bad input.
 #include "engine/render/raster_backward.h"
 
 #include <gtest/gtest.h>
@@ -419,7 +419,7 @@ TEST(RasterBackward, CameraMotionGradientMatchesCentralDifferences) {
     }
     std::printf("model %d camera motion relative error %.2e (%d of 6 checked)\n", model,
                 worst / scale, checked);
-    EXPECT_GE(checked, 5);
+    EXPECT_EQ(checked, 6);
     EXPECT_GT(scale, 1);
     // The distortion's Jacobian is itself a central difference (as in
     // GradientsMatchCentralDifferences).
@@ -457,6 +457,18 @@ TEST(RasterBackward, RejectsWhatItCannotDifferentiate) {
   r = RenderBackward(scene, rolling, kTime, {}, {});
   ASSERT_FALSE(r.ok());
   EXPECT_NE(r.status().message().find("no rolling shutter"), std::string::npos) << r.status();
+
+  absl::StatusOr<SceneGradients> grads = RenderBackward(scene, camera, kTime, {}, {});
+  ASSERT_TRUE(grads.ok());
+  EXPECT_TRUE(CameraMotionGradient(scene, camera, kTime, {}, *grads).ok());
+  absl::StatusOr<CameraMotion> motion = CameraMotionGradient(scene, rolling, kTime, {}, *grads);
+  ASSERT_FALSE(motion.ok());
+  EXPECT_NE(motion.status().message().find("no rolling shutter"), std::string::npos)
+      << motion.status();
+  grads->means.pop_back();
+  motion = CameraMotionGradient(scene, camera, kTime, {}, *grads);
+  ASSERT_FALSE(motion.ok());
+  EXPECT_NE(motion.status().message().find("grads:"), std::string::npos) << motion.status();
 }
 
 }  // namespace
