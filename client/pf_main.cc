@@ -92,9 +92,9 @@ the token in PF_TOKEN):
         submit a render job (of a clip: reconstructed first unless cached);
         TUNING: [--refine N] [--splat-sigma S] [--low-pass PX2] [--order-band B] [--hidden-band PX]
         [--no-ground-fill] [--no-facades] [--no-stereo] [--no-ego-layer] [--colour gradients|flat]
-        [--completion M]
-        [--working-space srgb|linear], as pf reconstruct's (unset: the worker's
-        defaults; a scene made with other values is another scene);
+        [--completion M] [--working-space srgb|linear]
+        [--optimize-steps N [--optimize-seconds S] [--optimize-poses]], as pf reconstruct's
+        (unset: the worker's defaults; a scene made with other values is another scene);
         --wait waits and downloads every output file into DIR
   jobs list [--kind reconstruct|render] | jobs get ID | jobs cancel ID
   jobs wait ID [--out DIR]

@@ -39,9 +39,10 @@ constexpr char kRemoteRenderUsage[] =
     "[--outputs rgb,alpha,depth,features,instance,filled] [--chunk-frames N] [--request-id ID]\n"
     "       pf --server ADDR render --clip CLIP.json [--model M] [--ns N] [--nd N] [--fusion F] "
     "[--lifespan] [--device D] [--refine N] [--splat-sigma S] [--low-pass PX2] "
-    "[--hidden-band PX] [--no-ground-fill] [--no-facades] [--no-ego-layer] [--colour "
-    "gradients|flat] "
-    "[--completion nearest|ip-basic] [--working-space srgb|linear] --cameras "
+    "[--order-band B] [--hidden-band PX] [--no-ground-fill] [--no-facades] [--no-stereo] "
+    "[--no-ego-layer] [--colour gradients|flat] "
+    "[--completion nearest|ip-basic] [--working-space srgb|linear] "
+    "[--optimize-steps N [--optimize-seconds S] [--optimize-poses]] --cameras "
     "VIEWS.json [--out DIR --wait] "
     "...";
 

@@ -39,10 +39,11 @@ namespace {
 constexpr char kRemoteSceneUsage[] =
     "usage: pf --server ADDR scene create CLIP.json|file:///abs/clip.json [--wait] [--model M] "
     "[--ns N] [--nd N] [--fusion F] [--lifespan] [--device D] [--request-id ID]\n"
-    "         [--refine N] [--splat-sigma S] [--low-pass PX2] [--hidden-band PX] "
+    "         [--refine N] [--splat-sigma S] [--low-pass PX2] [--order-band B] [--hidden-band PX] "
     "[--no-ground-fill] "
-    "[--no-facades] [--no-ego-layer] [--colour gradients|flat] [--completion nearest|ip-basic] "
-    "[--working-space srgb|linear]\n"
+    "[--no-facades] [--no-stereo] [--no-ego-layer] [--colour gradients|flat] "
+    "[--completion nearest|ip-basic] [--working-space srgb|linear] "
+    "[--optimize-steps N [--optimize-seconds S] [--optimize-poses]]\n"
     "       pf --server ADDR scene get NAME | list [--page-size N [--page-token T]] | delete "
     "NAME\n"
     "       pf --server ADDR scene export NAME --ply OUT.ply [--time-us T]";
