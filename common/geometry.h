@@ -65,6 +65,9 @@ inline Mat3 Transpose(const Mat3& a) {
   return r;
 }
 inline double Determinant(const Mat3& a) { return Dot(a.Row(0), Cross(a.Row(1), a.Row(2))); }
+
+inline constexpr double kDegreesPerRadian = 180 / M_PI;
+
 // Returns the rotation by `radians` about z (counter-clockwise seen from +z).
 inline Mat3 RotationZ(double radians) {
   const double c = std::cos(radians), s = std::sin(radians);

@@ -19,7 +19,6 @@ constexpr double kMinRangeRatio = 1.5;
 // The histogram of elevation differences: 0.01 degree bins over +-10 degrees.
 constexpr double kBinDeg = 0.01;
 constexpr double kSpanDeg = 10.0;
-constexpr double kRadToDeg = 180.0 / M_PI;
 
 struct PointPair {
   Vec3 a, b;
@@ -53,9 +52,9 @@ double Concentration(const std::vector<PointPair>& pairs, const Vec3& centre) {
   std::vector<double> elevation(pairs.size()), azimuth(pairs.size());
   for (size_t k = 0; k < pairs.size(); ++k) {
     const Vec3 a = pairs[k].a - centre, b = pairs[k].b - centre;
-    elevation[k] =
-        (std::atan2(a.z, HorizontalRange(a)) - std::atan2(b.z, HorizontalRange(b))) * kRadToDeg;
-    double d = (std::atan2(a.y, a.x) - std::atan2(b.y, b.x)) * kRadToDeg;
+    elevation[k] = (std::atan2(a.z, HorizontalRange(a)) - std::atan2(b.z, HorizontalRange(b))) *
+                   kDegreesPerRadian;
+    double d = (std::atan2(a.y, a.x) - std::atan2(b.y, b.x)) * kDegreesPerRadian;
     if (d > 180) d -= 360;
     if (d < -180) d += 360;
     azimuth[k] = d;
@@ -108,9 +107,10 @@ LidarOriginEstimate EstimateSpinningLidarOrigin(
       // kMaxAcross |1/rp - 1/rq| radians.
       double azimuth = std::abs(std::atan2(p.position.y, p.position.x) -
                                 std::atan2(q.position.y, q.position.x)) *
-                       kRadToDeg;
+                       kDegreesPerRadian;
       if (azimuth > 180) azimuth = 360 - azimuth;
-      if (azimuth > kMaxPairAzimuthDeg + kMaxAcross * std::abs(1 / rp - 1 / rq) * kRadToDeg) {
+      if (azimuth >
+          kMaxPairAzimuthDeg + kMaxAcross * std::abs(1 / rp - 1 / rq) * kDegreesPerRadian) {
         continue;
       }
       pairs.push_back({p.position, q.position});

@@ -12,6 +12,7 @@
 #include "absl/strings/str_cat.h"
 #include "common/colour_space.h"
 #include "common/file_util.h"
+#include "common/geometry.h"
 #include "common/status_macros.h"
 #include "engine/recon/depth_completion.h"
 #include "engine/recon/eval_baselines.h"
@@ -523,11 +524,11 @@ std::string EvalReportJson(const EvalReport& report) {
     if (!report.stats.optimize_poses.empty()) {
       nlohmann::ordered_json poses = nlohmann::ordered_json::array();
       for (const ReconStats::PoseCorrection& p : report.stats.optimize_poses) {
-        constexpr double kDegrees = 180 / M_PI;
         poses.push_back({{"frame", p.frame_index},
                          {"camera", p.camera_id},
                          {"rotationDeg",
-                          {p.motion[0] * kDegrees, p.motion[1] * kDegrees, p.motion[2] * kDegrees}},
+                          {p.motion[0] * kDegreesPerRadian, p.motion[1] * kDegreesPerRadian,
+                           p.motion[2] * kDegreesPerRadian}},
                          {"translationM", {p.motion[3], p.motion[4], p.motion[5]}}});
       }
       j["optimize"]["poseCorrections"] = poses;

@@ -9,6 +9,7 @@
 #include <utility>
 
 #include "absl/strings/str_cat.h"
+#include "common/geometry.h"
 #include "common/status_macros.h"
 #include "engine/recon/cuda_colour_fit.h"
 #include "engine/recon/lidar_intensity.h"
@@ -37,10 +38,10 @@ std::string PoseSummary(const OptimizeStats& stats) {
   }
   if (shift_max == 0 && turn_max == 0) return "";
   const double views = static_cast<double>(stats.poses.size());
-  constexpr double kDegrees = 180 / M_PI;
-  return absl::StrCat("; pose corrections: mean ", absl::SixDigits(turn / views * kDegrees),
-                      " deg and ", absl::SixDigits(shift / views * 100), " cm, at most ",
-                      absl::SixDigits(turn_max * kDegrees), " deg and ",
+  return absl::StrCat("; pose corrections: mean ",
+                      absl::SixDigits(turn / views * kDegreesPerRadian), " deg and ",
+                      absl::SixDigits(shift / views * 100), " cm, at most ",
+                      absl::SixDigits(turn_max * kDegreesPerRadian), " deg and ",
                       absl::SixDigits(shift_max * 100), " cm");
 }
 
