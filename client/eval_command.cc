@@ -40,7 +40,8 @@ constexpr char kEvalUsage[] =
     "[--fusion softmax|average|no-depth] [--lifespan] [--refine N] [--splat-sigma S] "
     "[--low-pass PX2] [--order-band B] [--hidden-band PX] [--no-ground-fill] [--no-facades] "
     "[--no-stereo] [--no-ego-layer] "
-    "[--device cpu|cuda[:N]] [--optimize-steps N [--optimize-seconds S] [--optimize-poses]] "
+    "[--device cpu|cuda[:N]] [--optimize-steps N [--optimize-seconds S] [--optimize-poses] "
+    "[--optimize-densify]] "
     "[--allow-outside-paths] [--views VIEWS.json --truth TRUTH_DIR] "
     "[--lane-shift D1,D2,... --lane-shift-time-us T] (pf eval --help for more)";
 
@@ -81,9 +82,10 @@ reconstruction flags (as pf reconstruct):
   --lifespan  --refine N  --splat-sigma S  --low-pass PX2  --order-band B  --hidden-band PX
   --no-ground-fill  --no-facades  --no-stereo  --no-ego-layer  --colour gradients|flat  --working-space srgb|linear
   --completion nearest|ip-basic
-  --optimize-steps N  --optimize-seconds S  --optimize-poses (per-scene optimisation;
-                       report.json's "optimize": loss, context PSNR per step and,
-                       with --optimize-poses, each context view's pose correction)
+  --optimize-steps N  --optimize-seconds S  --optimize-poses  --optimize-densify
+                      (per-scene optimisation; report.json's "optimize": loss, context
+                       PSNR per step, with --optimize-poses each context view's pose
+                       correction, with --optimize-densify the Gaussians split and pruned)
   --device cpu|cuda[:N]  --allow-outside-paths
 
 extra views (views not in the clip, e.g. extrapolated poses):

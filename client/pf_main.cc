@@ -60,7 +60,8 @@ commands:
         [--low-pass PX2] [--order-band B] [--hidden-band PX] [--no-ground-fill] [--no-facades]
         [--no-stereo] [--no-ego-layer] [--device cpu|cuda[:N]]
         [--colour gradients|flat] [--working-space srgb|linear] [--completion nearest|ip-basic]
-        [--optimize-steps N [--optimize-seconds S] [--optimize-poses]] [--allow-outside-paths]
+        [--optimize-steps N [--optimize-seconds S] [--optimize-poses] [--optimize-densify]]
+        [--allow-outside-paths]
         check the clip as validate does, build a Gaussian scene from its CONTEXT frames
   eval CLIP.json --out DIR [--model ...] [same flags as reconstruct]
        [--views VIEWS.json --truth DIR2] [--lane-shift D1,D2,... --lane-shift-time-us T]
@@ -93,7 +94,8 @@ the token in PF_TOKEN):
         TUNING: [--refine N] [--splat-sigma S] [--low-pass PX2] [--order-band B] [--hidden-band PX]
         [--no-ground-fill] [--no-facades] [--no-stereo] [--no-ego-layer] [--colour gradients|flat]
         [--completion M] [--working-space srgb|linear]
-        [--optimize-steps N [--optimize-seconds S] [--optimize-poses]], as pf reconstruct's
+        [--optimize-steps N [--optimize-seconds S] [--optimize-poses] [--optimize-densify]],
+        as pf reconstruct's
         (unset: the worker's defaults; a scene made with other values is another scene);
         --wait waits and downloads every output file into DIR
   jobs list [--kind reconstruct|render] | jobs get ID | jobs cancel ID

@@ -5,7 +5,8 @@
 //                [--no-ego-layer]
 //                [--device cpu|cuda[:N]] [--colour gradients|flat]
 //                [--working-space srgb|linear]
-//                [--optimize-steps N [--optimize-seconds S] [--optimize-poses]]
+//                [--optimize-steps N [--optimize-seconds S] [--optimize-poses]
+//                 [--optimize-densify]]
 //                [--allow-outside-paths]
 // Checks the clip as pf validate does, then builds a Gaussian scene from the
 // clip's CONTEXT frames (engine/recon/reconstruction.h) and writes it
@@ -37,7 +38,7 @@ constexpr char kReconstructUsage[] =
     "[--no-facades] [--no-stereo] [--no-ego-layer] "
     "[--device cpu|cuda[:N]] [--colour gradients|flat] [--working-space srgb|linear] "
     "[--completion nearest|ip-basic] "
-    "[--optimize-steps N [--optimize-seconds S] [--optimize-poses]] "
+    "[--optimize-steps N [--optimize-seconds S] [--optimize-poses] [--optimize-densify]] "
     "[--allow-outside-paths]";
 
 absl::Status ReconstructCommand(const CommandLine& cl) {

@@ -10,6 +10,7 @@
 #include <fstream>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <regex>
 #include <sstream>
 #include <string>
 #include <tuple>
@@ -17,6 +18,7 @@
 
 #include "engine/image/image_io.h"
 #include "engine/recon/gaussian_decoder.h"
+#include "engine/recon/scene_optimizer.h"
 #include "engine/render/scene_file.h"
 #include "gtest/gtest.h"
 #include "tests/test_util.h"
@@ -741,7 +743,7 @@ TEST_F(ReconCli, OptimisationStepsAreReportedWithTheirLossCurve) {
   const std::string out = *dir_ + "/eval_optimize";
   const CommandResult result =
       RunCommand({Pf(), "eval", Clip(), "--out", out, "--ns", "4000", "--nd", "500",
-                  "--optimize-steps", "8", "--optimize-poses"});
+                  "--optimize-steps", "8", "--optimize-poses", "--optimize-densify"});
   ASSERT_EQ(result.exit_code, 0) << result.err;
   EXPECT_NE(result.err.find("optimize done in"), std::string::npos) << result.err;
   EXPECT_NE(result.err.find("pose corrections: mean"), std::string::npos) << result.err;
@@ -771,6 +773,12 @@ TEST_F(ReconCli, OptimisationStepsAreReportedWithTheirLossCurve) {
     if (pose["translationM"][0].get<double>() != 0) ++moved;
   }
   EXPECT_GT(moved, 0);  // The stepped views moved.
+  // Densification's counts; 8 steps end before its first round (two epochs).
+  const nlohmann::json& densify = report["optimize"]["densify"];
+  ASSERT_TRUE(densify.is_object()) << report["optimize"];
+  EXPECT_EQ(densify["split"], 0);
+  EXPECT_EQ(densify["cloned"], 0);
+  EXPECT_EQ(densify["pruned"], 0);
   absl::StatusOr<ImageInfo> curve = ReadImageInfo(out + "/optimize_loss.png");
   ASSERT_TRUE(curve.ok()) << curve.status();
   EXPECT_EQ(curve->width, 640);
@@ -786,6 +794,35 @@ TEST_F(ReconCli, OptimisationStepsAreReportedWithTheirLossCurve) {
   EXPECT_EQ(alone.exit_code, 2);
   EXPECT_NE(alone.err.find("--optimize-poses: needs --optimize-steps"), std::string::npos)
       << alone.err;
+}
+
+// --optimize-densify: the stage line counts what was split and pruned, and
+// the scene written holds that many visible Gaussians more or fewer than
+// the same steps without it.
+TEST_F(ReconCli, DensificationCountsMatchTheSceneWritten) {
+  const std::string path = *dir_ + "/densified.pfscene";
+  // 6 context views: a round after 12 steps, none after 60 % of them.
+  const CommandResult result = RunCommand({Pf(), "reconstruct", Clip(), "--out", path, "--ns",
+                                           "2000", "--optimize-steps", "24", "--optimize-densify"});
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  std::smatch m;
+  ASSERT_TRUE(std::regex_search(
+      result.err, m,
+      std::regex("densified: (\\d+) split, (\\d+) cloned, (\\d+) pruned, (\\d+) Gaussians")))
+      << result.err;
+  const int64_t split = std::stoll(m[1]), cloned = std::stoll(m[2]), pruned = std::stoll(m[3]),
+                gaussians = std::stoll(m[4]);
+  EXPECT_GT(split, 0);
+  EXPECT_EQ(cloned, 0);  // Positions stay by default.
+  absl::StatusOr<SceneFile> file = ReadSceneFile(path);
+  ASSERT_TRUE(file.ok()) << file.status();
+  const GaussianScene& scene = file->scene;
+  const int64_t visible = std::count_if(scene.opacity_logits.begin(), scene.opacity_logits.end(),
+                                        [](float logit) { return logit != kPrunedOpacityLogit; });
+  EXPECT_EQ(visible, gaussians);
+  const GaussianScene plain = ReconstructWith({"--optimize-steps", "24"});
+  EXPECT_EQ(gaussians, static_cast<int64_t>(plain.size()) + split + cloned - pruned);
+  EXPECT_GE(scene.size(), plain.size());
 }
 
 TEST_F(ReconCli, AblationFlagsChangeTheScene) {

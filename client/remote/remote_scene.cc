@@ -43,7 +43,7 @@ constexpr char kRemoteSceneUsage[] =
     "[--no-ground-fill] "
     "[--no-facades] [--no-stereo] [--no-ego-layer] [--colour gradients|flat] "
     "[--completion nearest|ip-basic] [--working-space srgb|linear] "
-    "[--optimize-steps N [--optimize-seconds S] [--optimize-poses]]\n"
+    "[--optimize-steps N [--optimize-seconds S] [--optimize-poses] [--optimize-densify]]\n"
     "       pf --server ADDR scene get NAME | list [--page-size N [--page-token T]] | delete "
     "NAME\n"
     "       pf --server ADDR scene export NAME --ply OUT.ply [--time-us T]";

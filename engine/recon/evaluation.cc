@@ -533,6 +533,12 @@ std::string EvalReportJson(const EvalReport& report) {
       }
       j["optimize"]["poseCorrections"] = poses;
     }
+    // --optimize-densify: Gaussians split, cloned and pruned.
+    if (report.stats.optimize_densify) {
+      j["optimize"]["densify"] = {{"split", report.stats.optimize_split},
+                                  {"cloned", report.stats.optimize_cloned},
+                                  {"pruned", report.stats.optimize_pruned}};
+    }
   } else {
     j["optimize"] = nullptr;
   }

@@ -45,6 +45,14 @@ std::string PoseSummary(const OptimizeStats& stats) {
                       absl::SixDigits(shift_max * 100), " cm");
 }
 
+std::string DensifySummary(const OptimizeOptions& options, const OptimizeStats& stats,
+                           const ReconStats& recon) {
+  if (!options.densify) return "";
+  return absl::StrCat("; densified: ", stats.split, " split, ", stats.cloned, " cloned, ",
+                      stats.pruned, " pruned, ", recon.static_gaussians + recon.dynamic_gaussians,
+                      " Gaussians");
+}
+
 }  // namespace
 
 Pipeline::Pipeline(ReconInputs inputs, const ReconOptions& options)
@@ -327,6 +335,26 @@ absl::Status Pipeline::Optimize() {
   result_.stats.optimize_steps = stats.steps;
   result_.stats.optimize_loss = stats.loss;
   result_.stats.optimize_psnr = stats.psnr;
+  if (optimize.densify) {
+    // The counts of the scene as optimised: split children added, pruned
+    // entries left out (they stay in the arrays, invisible).
+    ReconStats& s = result_.stats;
+    s.optimize_densify = true;
+    s.optimize_split = stats.split;
+    s.optimize_cloned = stats.cloned;
+    s.optimize_pruned = stats.pruned;
+    s.static_gaussians = s.far_gaussians = s.dynamic_gaussians = 0;
+    const GaussianScene& scene = result_.scene;
+    for (size_t i = 0; i < scene.size(); ++i) {
+      if (stats.pruned_entries[i]) continue;
+      if (scene.owners[i] == 0) {
+        ++s.static_gaussians;
+        s.far_gaussians += i < far_.size() && far_[i];
+      } else {
+        ++s.dynamic_gaussians;
+      }
+    }
+  }
   if (optimize.pose) {
     for (size_t v = 0; v < stats.poses.size(); ++v) {
       result_.stats.optimize_poses.push_back(
@@ -347,7 +375,8 @@ absl::Status Pipeline::Optimize() {
                     absl::SixDigits(mean_psnr(last_begin, stats.psnr.size())),
                     " dB in the last; render ", absl::SixDigits(stats.render_seconds),
                     " s, backward ", absl::SixDigits(stats.backward_seconds), " s, update ",
-                    absl::SixDigits(stats.update_seconds), " s", PoseSummary(stats), ")"));
+                    absl::SixDigits(stats.update_seconds), " s", PoseSummary(stats),
+                    DensifySummary(optimize, stats, result_.stats), ")"));
   return absl::OkStatus();
 }
 

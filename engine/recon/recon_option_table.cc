@@ -85,6 +85,9 @@ std::vector<Spec> MakeTable() {
   Spec optimize_poses = Switch("optimize_poses", Key::kOnWhenSet);
   optimize_poses.needs = "optimize_steps";
   table.push_back(optimize_poses);
+  Spec optimize_densify = Switch("optimize_densify", Key::kOnWhenSet);
+  optimize_densify.needs = "optimize_steps";
+  table.push_back(optimize_densify);
   table.push_back(
       Number("order_band", Kind::kReal, 0, false, kMaxOrderBand, "", Key::kHexFloatWhenSet));
   table.push_back(Switch("no_ego_layer", Key::kOffWhenSet, "ego_layer"));

@@ -76,6 +76,8 @@ TEST(ReconOptionTable, ASwitchIsRefusedWithoutTheOptionItNeeds) {
   EXPECT_EQ(flag.code(), absl::StatusCode::kInvalidArgument);
   EXPECT_EQ(flag.message(), "--optimize-poses: needs --optimize-steps too");
   EXPECT_TRUE(FromFlags({"--optimize-poses", "--optimize-steps", "3"}).ok());
+  EXPECT_EQ(FromFlags({"--optimize-densify"}).status().message(),
+            "--optimize-densify: needs --optimize-steps too");
   v1::ReconstructionOptions proto;
   proto.set_optimize_poses(true);
   absl::Status field = NormalizeReconProto(proto, Models()).status();
@@ -117,6 +119,7 @@ TEST(ReconOptionTable, FlagsFillTheMessage) {
                                                                "--optimize-steps",
                                                                "10",
                                                                "--optimize-poses",
+                                                               "--optimize-densify",
                                                                "--device",
                                                                "cuda:1"});
   ASSERT_TRUE(proto.ok()) << proto.status();
@@ -140,6 +143,7 @@ TEST(ReconOptionTable, FlagsFillTheMessage) {
   EXPECT_EQ(proto->completion(), "ip-basic");
   EXPECT_EQ(proto->working_space(), "linear");
   EXPECT_TRUE(proto->optimize_poses());
+  EXPECT_TRUE(proto->optimize_densify());
   EXPECT_EQ(proto->optimize_steps(), 10);
   EXPECT_EQ(proto->device(), "cuda:1");
 
@@ -210,6 +214,7 @@ TEST(ReconOptionTable, TheCacheKeyListsTheDefaultsAlwaysAndTheRestWhenSet) {
   tuned.set_completion("ip-basic");
   tuned.set_working_space("linear");
   tuned.set_optimize_poses(true);
+  tuned.set_optimize_densify(true);
   tuned.set_device("cuda:0");  // Not part of the key.
   EXPECT_EQ(SceneCacheKeyFields(tuned), (Fields{{"model", "analytic"},
                                                 {"ns", "0"},
@@ -227,6 +232,7 @@ TEST(ReconOptionTable, TheCacheKeyListsTheDefaultsAlwaysAndTheRestWhenSet) {
                                                 {"completion", "ip-basic"},
                                                 {"working_space", "linear"},
                                                 {"optimize_poses", "on"},
+                                                {"optimize_densify", "on"},
                                                 {"ego_layer", "off"}}));
 }
 

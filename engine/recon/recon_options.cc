@@ -40,6 +40,7 @@ absl::StatusOr<ReconOptions> ReconOptionsFromProto(const v1::ReconstructionOptio
   if (p.has_optimize_steps()) options.optimize.steps = p.optimize_steps();
   if (p.has_optimize_seconds()) options.optimize.max_seconds = p.optimize_seconds();
   options.optimize.pose = p.optimize_poses();
+  options.optimize.densify = p.optimize_densify();
   if (!p.colour().empty()) options.colour_gradients = p.colour() == "gradients";
   if (!p.working_space().empty()) {
     ASSIGN_OR_RETURN(options.colour_encoding,

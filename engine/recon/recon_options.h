@@ -36,6 +36,9 @@
 //   --optimize-seconds S             stop the optimisation after S seconds
 //   --optimize-poses                 the optimisation also corrects each context
 //                                    view's camera pose (scene_optimizer.h)
+//   --optimize-densify               the optimisation also splits Gaussians where
+//                                    the views disagree with the scene and prunes
+//                                    the faintest (scene_optimizer.h)
 //   --device cpu|cuda[:N]            where fusion and the colour fit's solve run (compute_device.h)
 //   --allow-outside-paths            accept manifest paths that are absolute or leave
 //                                    the clip's directory (as pf validate does)

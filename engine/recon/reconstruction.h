@@ -113,6 +113,10 @@ struct ReconStats {
     std::array<double, 6> motion{};  // CameraMotion (raster_backward.h): radians, then metres.
   };
   std::vector<PoseCorrection> optimize_poses;
+  // With OptimizeOptions::densify: Gaussians split, cloned and pruned (the
+  // counts above are then the optimised scene's, pruned entries left out).
+  bool optimize_densify = false;
+  int64_t optimize_split = 0, optimize_cloned = 0, optimize_pruned = 0;
   std::vector<std::pair<std::string, double>> stage_seconds;  // In order.
   double total_seconds = 0;
 };

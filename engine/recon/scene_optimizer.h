@@ -19,7 +19,18 @@
 // CameraMotionGradient); the corrections are the context views'
 // (OptimizeStats::poses), renders at new views use the recorded poses.
 //
-// Not done: densification and pruning.
+// With OptimizeOptions::densify the scene grows where the
+// views disagree with it and sheds what they no longer see, as 3DGS's
+// adaptive density control: every densify_interval steps, each Gaussian
+// whose screen-space centre gradient, averaged over the views that saw it
+// since the last time, passes densify_gradient is split in two (or, when
+// small and positions move, cloned), the largest gradients first, up to
+// max_gaussians; Gaussians fainter than prune_opacity are pruned. A pruned
+// Gaussian stays in the arrays as an invisible entry (opacity logit
+// kPrunedOpacityLogit, never stepped) unless it is at their end, so that
+// every other Gaussian keeps its index and with it its place in the depth
+// order band (GaussianScene::order_band); new Gaussians take pruned slots
+// first, then the end of the arrays.
 #ifndef POINTFORWARD_ENGINE_RECON_SCENE_OPTIMIZER_H_
 #define POINTFORWARD_ENGINE_RECON_SCENE_OPTIMIZER_H_
 
@@ -72,7 +83,25 @@ struct OptimizeOptions {
   // first steps, each a full rate whatever the gradient's size, do not
   // shake a scene that the colour fit already fitted.
   int warmup_steps = 0;
-  uint32_t seed = 1;  // View order.
+  // Densification and pruning (above), every densify_interval steps (0:
+  // two epochs, two steps per view).
+  // densify_gradient is in 3DGS's units (per normalised device coordinate:
+  // a pixel's gradient times half the view's width or height). It stops after
+  // densify_until of the run (of its steps, or of max_seconds when that comes
+  // first). A Gaussian is split when its largest scale passes percent_dense
+  // times the cameras' spread, else cloned, and only cloned when positions
+  // move (lr_mean > 0): a clone at the same place adds nothing. A split
+  // keeps the render close (not 3DGS's random draw, whose change a few
+  // hundred steps do not undo; SplitGaussian). max_gaussians 0: 1.5 times the
+  // scene's Gaussians at the start.
+  bool densify = false;
+  int densify_interval = 0;
+  double densify_until = 0.6;
+  double densify_gradient = 2e-4;
+  double percent_dense = 0.01;
+  double prune_opacity = 0.005;
+  size_t max_gaussians = 0;
+  uint32_t seed = 1;  // View order and split children.
   // Called after every step.
   std::function<void(const OptimizeProgress&)> progress;
 };
@@ -89,14 +118,28 @@ struct OptimizeStats {
   // Per context view: its pose correction (OptimizeOptions::pose; zero
   // without), the view's camera moved by it.
   std::vector<CameraMotion> poses;
+  // Densification: Gaussians split, cloned and pruned over the run; the
+  // scene's arrays at the end, and [N] 1 on the pruned entries among them.
+  int64_t split = 0, cloned = 0, pruned = 0;
+  std::vector<uint8_t> pruned_entries;
 };
+
+// Splits Gaussian i of `scene` into itself and j, which must hold a copy of
+// it: the two move half its std-dev either way along its longest axis,
+// narrow there to 0.75 of it, take the colour its colour gradients give at
+// their new centres, and the opacity 1 - (1 - o)^0.6, so that the pair
+// composites to about its alpha.
+void SplitGaussian(size_t i, size_t j, GaussianScene* scene);
+
+// The opacity logit of a pruned Gaussian (far below the 1/255 cut-off).
+inline constexpr float kPrunedOpacityLogit = -40.f;
 
 // Optimises `scene` against `views` (the scene's context views) for
 // options.steps steps or options.max_seconds, whichever ends first.
-// `fixed` ([N] or empty) marks Gaussians whose geometry stays. The scene
-// must be renderable with feature colours (no SH); INVALID_ARGUMENT
-// otherwise, or when `fixed` has the wrong size, a view is empty or has a
-// rolling shutter.
+// `fixed` ([N] or empty) marks Gaussians whose geometry stays (they are
+// never split or cloned). The scene must be renderable with feature colours (no SH);
+// INVALID_ARGUMENT otherwise, or when `fixed` has the wrong size, a view is empty or has a rolling
+// shutter.
 absl::StatusOr<OptimizeStats> OptimizeScene(const std::vector<ContextView>& views,
                                             const std::vector<uint8_t>& fixed,
                                             const OptimizeOptions& options, GaussianScene* scene);

@@ -553,7 +553,8 @@ absl::StatusOr<GaussianParams<T>> Backward(const GaussianScene& scene, const Par
                                            const std::vector<ActorEdit>& edits,
                                            const OutputGradients<T>& grads,
                                            const RenderOptions& options, BackwardStats* stats,
-                                           testing::DoubleRender* forward) {
+                                           testing::DoubleRender* forward,
+                                           ScreenGradients* screen_out) {
   if (camera.rolling_shutter.has_value()) {
     return absl::InvalidArgumentError(
         "camera: the backward pass has no rolling shutter; optimise global-shutter views only");
@@ -676,6 +677,10 @@ absl::StatusOr<GaussianParams<T>> Backward(const GaussianScene& scene, const Par
   }
   GaussianParams<T> out;
   ZeroParams(scene, &out);
+  if (screen_out != nullptr) {
+    screen_out->visible = visible;
+    screen_out->centre.assign(2 * n, 0.f);
+  }
   const SlotLayout layout = pass.layout;
   pool.ParallelFor(0, static_cast<int64_t>((n + kChunk - 1) / kChunk), 1,
                    [&](int64_t c0, int64_t c1) {
@@ -703,6 +708,10 @@ absl::StatusOr<GaussianParams<T>> Backward(const GaussianScene& scene, const Par
                            g_frame[2] += xs * gv;
                            g_frame[3] += ys * gv;
                          }
+                       }
+                       if (screen_out != nullptr) {
+                         screen_out->centre[2 * i] = static_cast<float>(sc[kMx]);
+                         screen_out->centre[2 * i + 1] = static_cast<float>(sc[kMy]);
                        }
                        BackwardProjection(scene, params, i, frame, sc, g_frame, &out);
                      }
@@ -829,9 +838,10 @@ absl::StatusOr<SceneGradients> RenderBackward(const GaussianScene& scene,
                                               const RenderCamera& camera, int64_t timestamp_us,
                                               const std::vector<ActorEdit>& edits,
                                               const RenderOutputGradients& grads,
-                                              const RenderOptions& options, BackwardStats* stats) {
+                                              const RenderOptions& options, BackwardStats* stats,
+                                              ScreenGradients* screen) {
   return Backward<float>(scene, ViewOf<float>(scene), camera, timestamp_us, edits, grads, options,
-                         stats, nullptr);
+                         stats, nullptr, screen);
 }
 
 namespace testing {
@@ -854,8 +864,9 @@ absl::StatusOr<DoubleRender> RenderBackwardInDouble(
     return absl::InvalidArgumentError("params: sizes differ from the scene's");
   }
   DoubleRender result;
-  absl::StatusOr<GaussianParams<double>> g = Backward<double>(
-      scene, ViewOf<double>(params), camera, timestamp_us, {}, grads, options, nullptr, &result);
+  absl::StatusOr<GaussianParams<double>> g =
+      Backward<double>(scene, ViewOf<double>(params), camera, timestamp_us, {}, grads, options,
+                       nullptr, &result, nullptr);
   if (!g.ok()) return g.status();
   result.grads = *std::move(g);
   return result;

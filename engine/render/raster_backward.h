@@ -78,17 +78,26 @@ struct BackwardStats {
   int64_t working_bytes = 0;
 };
 
+// Per Gaussian, what one backward pass saw of it on screen (densification
+// reads it, as 3DGS reads the gradient of the projected means).
+struct ScreenGradients {
+  std::vector<uint8_t> visible;  // [N] 1 where the view projects the Gaussian.
+  std::vector<float> centre;     // [N, 2] dL/d (projected centre), per pixel; 0 where not visible.
+};
+
 // The gradient of the loss whose output gradients are `grads` through
 // Render(scene, camera, timestamp_us, edits, options). INVALID_ARGUMENT for
 // what Render() rejects, a rolling-shutter camera, a scene with SH colour,
 // or a gradient of the wrong size (naming it). Deterministic; uses
-// DefaultThreadPool().
+// DefaultThreadPool(). `screen`, when given, receives the screen-space
+// centre gradients.
 absl::StatusOr<SceneGradients> RenderBackward(const GaussianScene& scene,
                                               const RenderCamera& camera, int64_t timestamp_us,
                                               const std::vector<ActorEdit>& edits,
                                               const RenderOutputGradients& grads,
                                               const RenderOptions& options = {},
-                                              BackwardStats* stats = nullptr);
+                                              BackwardStats* stats = nullptr,
+                                              ScreenGradients* screen = nullptr);
 
 // A small motion of a camera in its own frame: rotation vector w (radians,
 // camera axes) then translation t (metres); the moved camera's

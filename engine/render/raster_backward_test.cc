@@ -45,6 +45,16 @@ OutputGradients<double> RandomOutputGradients(const RenderCamera& camera, int ch
   return g;
 }
 
+// The same output gradients in float, as RenderBackward() takes them.
+RenderOutputGradients InFloat(const OutputGradients<double>& g) {
+  RenderOutputGradients f;
+  f.rgb.assign(g.rgb.begin(), g.rgb.end());
+  f.alpha.assign(g.alpha.begin(), g.alpha.end());
+  f.depth.assign(g.depth.begin(), g.depth.end());
+  f.features.assign(g.features.begin(), g.features.end());
+  return f;
+}
+
 // sum of grads . outputs of a double render.
 double Loss(const testing::DoubleRender& r, const OutputGradients<double>& g) {
   double sum = 0;
@@ -208,11 +218,7 @@ TEST(RasterBackward, FloatPassMatchesTheDoublePass) {
     absl::StatusOr<testing::DoubleRender> exact =
         testing::RenderBackwardInDouble(scene, testing::ParamsInDouble(scene), camera, kTime, g);
     ASSERT_TRUE(exact.ok()) << exact.status();
-    RenderOutputGradients gf;
-    gf.rgb.assign(g.rgb.begin(), g.rgb.end());
-    gf.alpha.assign(g.alpha.begin(), g.alpha.end());
-    gf.depth.assign(g.depth.begin(), g.depth.end());
-    gf.features.assign(g.features.begin(), g.features.end());
+    const RenderOutputGradients gf = InFloat(g);
     BackwardStats stats;
     absl::StatusOr<SceneGradients> fast = RenderBackward(scene, camera, kTime, {}, gf, {}, &stats);
     ASSERT_TRUE(fast.ok()) << fast.status();
@@ -425,6 +431,72 @@ TEST(RasterBackward, CameraMotionGradientMatchesCentralDifferences) {
     // GradientsMatchCentralDifferences).
     EXPECT_LT(worst, (model == 0 ? 2e-5 : 1e-4) * scale);
   }
+}
+
+// Moving a pinhole camera's principal point by h pixels moves every
+// Gaussian's projected centre by h pixels and nothing else, so the loss's
+// derivative along it is the sum of the screen-space centre gradients
+// (none for a Gaussian the camera does not see). The Gaussians are wide enough that no pixel of the
+// image is near their 1/255 cut-off, whose steps a finite difference would count.
+TEST(RasterBackward, ScreenCentreGradientsSumToThePrincipalPointsGradient) {
+  RenderCamera camera;
+  camera.model = CameraModel(96, 72, 76.8, 76.8, 48, 36);
+  GaussianScene scene;
+  scene.num_channels = 3;
+  std::mt19937 rng(21);
+  std::uniform_real_distribution<float> u(0.f, 1.f);
+  scene.Resize(6);
+  for (size_t i = 0; i < scene.size(); ++i) {
+    scene.means[3 * i] = 1.2f * u(rng) - 0.6f;
+    scene.means[3 * i + 1] = 0.9f * u(rng) - 0.45f;
+    scene.means[3 * i + 2] = 5.f + 3.f * u(rng);
+    for (int k = 0; k < 4; ++k) scene.rotations[4 * i + k] = u(rng) - 0.5f;
+    for (int k = 0; k < 3; ++k) {
+      scene.log_scales[3 * i + k] = std::log(3.f + 1.5f * u(rng));
+      scene.features[3 * i + k] = u(rng);
+    }
+    scene.opacity_logits[i] = -1.f + u(rng);  // Opacity 0.27-0.5.
+  }
+  scene.Resize(7);  // And one behind the camera.
+  scene.means[3 * 6 + 2] = -3.f;
+  scene.log_scales[3 * 6] = scene.log_scales[3 * 6 + 1] = scene.log_scales[3 * 6 + 2] = 0.f;
+  const OutputGradients<double> g = RandomOutputGradients(camera, scene.num_channels, 9);
+  const RenderOutputGradients gf = InFloat(g);
+  RenderOptions options;
+  ScreenGradients screen;
+  absl::StatusOr<SceneGradients> grads =
+      RenderBackward(scene, camera, kTime, {}, gf, options, nullptr, &screen);
+  ASSERT_TRUE(grads.ok()) << grads.status();
+  ASSERT_EQ(screen.visible.size(), scene.size());
+  ASSERT_EQ(screen.centre.size(), 2 * scene.size());
+  double sum[2] = {0, 0};
+  int visible = 0;
+  for (size_t i = 0; i < scene.size(); ++i) {
+    visible += screen.visible[i];
+    if (!screen.visible[i]) {
+      EXPECT_EQ(screen.centre[2 * i], 0.f);
+      EXPECT_EQ(screen.centre[2 * i + 1], 0.f);
+    }
+    sum[0] += screen.centre[2 * i];
+    sum[1] += screen.centre[2 * i + 1];
+  }
+  EXPECT_EQ(visible, 6);
+  EXPECT_EQ(screen.visible[6], 0);
+  const CameraModel& m = camera.model;
+  auto loss_at = [&](double dx, double dy) {
+    RenderCamera moved = camera;
+    moved.model = CameraModel(m.width(), m.height(), m.fx(), m.fy(), m.cx() + dx, m.cy() + dy);
+    return Loss(
+        *testing::RenderBackwardInDouble(scene, testing::ParamsInDouble(scene), moved, kTime, {}),
+        g);
+  };
+  // The lens keeps the principal point in float: a step of 1/100 pixel.
+  constexpr double kH = 1e-2;
+  const double numeric[2] = {(loss_at(kH, 0) - loss_at(-kH, 0)) / (2 * kH),
+                             (loss_at(0, kH) - loss_at(0, -kH)) / (2 * kH)};
+  const double scale = std::abs(numeric[0]) + std::abs(numeric[1]);
+  EXPECT_GT(scale, 0.1);  // The loss does move with the centres.
+  for (int a = 0; a < 2; ++a) EXPECT_NEAR(sum[a], numeric[a], 1e-3 * scale) << a;
 }
 
 TEST(RasterBackward, RejectsWhatItCannotDifferentiate) {
