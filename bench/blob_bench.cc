@@ -15,6 +15,7 @@
 
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
+#include "common/elapsed.h"
 #include "common/file_util.h"
 #include "grpcpp/security/server_credentials.h"
 #include "grpcpp/server.h"
@@ -27,9 +28,7 @@
 
 namespace {
 
-double SecondsSince(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
+using pf::SecondsSince;
 
 int Fail(const std::string& message) {
   std::fprintf(stderr, "pf_blob_bench: %s\n", message.c_str());

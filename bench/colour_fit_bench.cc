@@ -25,6 +25,7 @@
 #include "absl/status/statusor.h"
 #include "absl/strings/str_cat.h"
 #include "common/command_line.h"
+#include "common/elapsed.h"
 #include "common/memory_reuse.h"
 #include "common/status_macros.h"
 #include "common/thread_pool.h"
@@ -47,8 +48,7 @@ absl::StatusOr<nlohmann::json> TimeRuns(int runs, const Part& part) {
   for (int r = 0; r < runs; ++r) {
     const auto start = std::chrono::steady_clock::now();
     RETURN_IF_ERROR(part());
-    seconds.push_back(
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+    seconds.push_back(SecondsSince(start));
   }
   std::sort(seconds.begin(), seconds.end());
   return nlohmann::json{

@@ -32,6 +32,7 @@
 #include "absl/status/statusor.h"
 #include "absl/strings/str_cat.h"
 #include "common/command_line.h"
+#include "common/elapsed.h"
 #include "common/status_macros.h"
 #include "common/thread_pool.h"
 #include "engine/recon/compute_device.h"
@@ -122,8 +123,7 @@ absl::StatusOr<std::pair<Timing, FusedQueries>> TimeRuns(int runs, const Fuse& f
   for (int r = 0; r < runs; ++r) {
     const auto start = std::chrono::steady_clock::now();
     ASSIGN_OR_RETURN(result, fuse());
-    timing.seconds.push_back(
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+    timing.seconds.push_back(SecondsSince(start));
   }
   return std::make_pair(std::move(timing), std::move(result));
 }

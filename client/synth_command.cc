@@ -9,6 +9,7 @@
 #include "absl/strings/str_cat.h"
 #include "client/commands.h"
 #include "common/command_line.h"
+#include "common/elapsed.h"
 #include "common/file_util.h"
 #include "common/status_macros.h"
 #include "engine/synth/synth_clip_writer.h"
@@ -65,8 +66,7 @@ absl::Status Synth(const std::vector<std::string>& args) {
 
   const auto start = std::chrono::steady_clock::now();
   ASSIGN_OR_RETURN(SynthClipSummary summary, WriteSynthClip(options, out));
-  const double seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const double seconds = SecondsSince(start);
   std::fprintf(stderr,
                "pf synth: wrote %s/clip.json: %d cameras, %d frames (%d CONTEXT, %d TARGET), "
                "%d LiDAR sweeps (%lld points), %d instances in %.1f s\n",

@@ -11,6 +11,7 @@
 #include <utility>
 
 #include "absl/strings/str_cat.h"
+#include "common/elapsed.h"
 #include "common/file_util.h"
 #include "common/status_macros.h"
 #include "engine/clip/clip_io.h"
@@ -25,10 +26,6 @@ namespace {
 
 namespace fs = std::filesystem;
 namespace pb = ::pointforward::v1;
-
-double SecondsSince(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
 
 // The stages of a reconstruction task in order: the download, the engine's
 // stages (recon_stages.h; refine only with the colour fit on, optimize only

@@ -16,6 +16,7 @@
 
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
+#include "common/elapsed.h"
 #include "common/file_util.h"
 #include "common/logging.h"
 #include "common/metrics.h"
@@ -42,10 +43,6 @@ constexpr auto kRetryInterval = std::chrono::seconds(1);
 // How long CompleteTask / FailTask keep retrying while the server is down.
 constexpr auto kReportRetryFor = std::chrono::minutes(2);
 constexpr auto kCallDeadline = std::chrono::seconds(30);
-
-double SecondsSince(Clock::time_point start) {
-  return std::chrono::duration<double>(Clock::now() - start).count();
-}
 
 // Returns `s` with characters other than letters, digits, '-', '_' and '.'
 // replaced, for use as a directory name.

@@ -8,6 +8,7 @@
 #include <fstream>
 #include <string>
 
+#include "common/elapsed.h"
 #include "engine/clip/clip_test_util.h"
 #include "tests/test_util.h"
 
@@ -25,7 +26,7 @@ constexpr char kNoServer[] = "127.0.0.1:1";
 CommandResult RunTimed(const std::vector<std::string>& argv, double* seconds) {
   const auto start = std::chrono::steady_clock::now();
   CommandResult result = RunCommand(argv);
-  *seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  *seconds = SecondsSince(start);
   return result;
 }
 

@@ -11,6 +11,7 @@
 #include <memory>
 
 #include "absl/strings/str_cat.h"
+#include "common/elapsed.h"
 #include "common/status_macros.h"
 #include "common/thread_pool.h"
 #include "engine/recon/colour_fit_blocks.h"
@@ -534,8 +535,7 @@ absl::Status SolveOnGpu(const std::vector<FitView>& fit, const Layout& layout,
   ASSIGN_OR_RETURN(
       std::unique_ptr<CudaColourFit> gpu,
       CudaColourFit::Upload(views, scene->size(), layout.k == 3, options.device.index));
-  stats->upload_seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - upload_start).count();
+  stats->upload_seconds = SecondsSince(upload_start);
   stats->gpu_bytes = static_cast<int64_t>(gpu->device_bytes());
   ASSIGN_OR_RETURN(const ChannelSums before, gpu->Residual(*x, /*start=*/true));
   stats->rmse_before = Rmse(before, stats->pixels);

@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "absl/strings/str_cat.h"
+#include "common/elapsed.h"
 #include "engine/recon/depth_stage.h"
 
 namespace pf {
@@ -195,7 +196,7 @@ absl::StatusOr<DepthHoldOutReport> EvaluateDepthHoldOut(ReconInputs inputs,
       report.methods[m].common.Add(MeasureDepthCompletion(dense[m], common));
     }
   }
-  report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  report.seconds = SecondsSince(start);
   return report;
 }
 

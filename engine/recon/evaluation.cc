@@ -11,6 +11,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "common/colour_space.h"
+#include "common/elapsed.h"
 #include "common/file_util.h"
 #include "common/geometry.h"
 #include "common/status_macros.h"
@@ -28,10 +29,6 @@
 
 namespace pf {
 namespace {
-
-double SecondsSince(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
 
 nlohmann::json OptionalNumber(const std::optional<double>& value) {
   return value.has_value() && std::isfinite(*value) ? nlohmann::json(*value) : nlohmann::json();

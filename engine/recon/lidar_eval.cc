@@ -11,6 +11,7 @@
 
 #include "absl/container/flat_hash_map.h"
 #include "absl/strings/str_cat.h"
+#include "common/elapsed.h"
 #include "common/status_macros.h"
 #include "engine/camera/image_pixel.h"
 
@@ -268,8 +269,7 @@ absl::StatusOr<LidarSweepFigures> EvaluateLidarRender(const GaussianScene& scene
   ASSIGN_OR_RETURN(const std::vector<LidarReturn> returns,
                    RenderLidarRays(scene, rays, pose, options));
   LidarSweepFigures figures;
-  figures.render_seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  figures.render_seconds = SecondsSince(start);
   figures.timestamp_us = sweep.timestamp_us;
   figures.sweep_points = sweep_points;
   figures.points = static_cast<int64_t>(rays.size());
@@ -367,8 +367,7 @@ absl::StatusOr<LidarSweepFigures> EvaluateLidarRender(const GaussianScene& scene
   const auto cells_start = std::chrono::steady_clock::now();
   ASSIGN_OR_RETURN(const std::vector<LidarReturn> cell_returns,
                    RenderLidarRays(scene, cell_rays, pose, options));
-  figures.render_seconds +=
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - cells_start).count();
+  figures.render_seconds += SecondsSince(cells_start);
   int64_t recorded_drops = 0, rendered_drops = 0, agree = 0;
   for (size_t c = 0; c < cell_rays.size(); ++c) {
     recorded_drops += !cell_returned[c];

@@ -4,6 +4,7 @@
 #include <chrono>
 
 #include "absl/strings/str_cat.h"
+#include "common/elapsed.h"
 #include "common/status_macros.h"
 #include "engine/recon/recon_model.h"
 
@@ -51,8 +52,7 @@ absl::StatusOr<ReconResult> Reconstruct(const LoadedClip& loaded, const ReconOpt
   const auto start = std::chrono::steady_clock::now();
   ReportNote(options.progress, ReconStage::kLoad, "loading context frames");
   ASSIGN_OR_RETURN(ReconInputs inputs, LoadReconInputs(loaded, options));
-  const double load_seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const double load_seconds = SecondsSince(start);
   ASSIGN_OR_RETURN(ReconResult result, ReconstructInputs(std::move(inputs), options));
   result.stats.stage_seconds.insert(result.stats.stage_seconds.begin(),
                                     {ReconStageName(ReconStage::kLoad), load_seconds});

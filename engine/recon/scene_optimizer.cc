@@ -9,6 +9,7 @@
 #include <span>
 
 #include "absl/strings/str_cat.h"
+#include "common/elapsed.h"
 #include "common/geometry.h"
 #include "common/thread_pool.h"
 #include "engine/recon/image_metrics.h"
@@ -18,10 +19,6 @@
 
 namespace pf {
 namespace {
-
-double ElapsedSeconds(std::chrono::steady_clock::time_point t) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
-}
 
 // Adam (Kingma and Ba) over one parameter array, its step count its own.
 class Adam {
@@ -367,7 +364,7 @@ absl::StatusOr<OptimizeStats> OptimizeScene(const std::vector<ContextView>& view
   double epoch_loss = 0, epoch_psnr = 0;
   int epoch_count = 0;
   for (int step = 0; step < options.steps; ++step) {
-    if (options.max_seconds > 0 && ElapsedSeconds(start) >= options.max_seconds) break;
+    if (options.max_seconds > 0 && SecondsSince(start) >= options.max_seconds) break;
     const size_t slot = static_cast<size_t>(step) % views.size();
     if (slot == 0) {
       std::iota(order.begin(), order.end(), 0);
@@ -384,7 +381,7 @@ absl::StatusOr<OptimizeStats> OptimizeScene(const std::vector<ContextView>& view
     absl::StatusOr<RenderBuffers> render =
         Render(*scene, camera, view.timestamp_us, {}, render_options);
     if (!render.ok()) return render.status();
-    stats.render_seconds += ElapsedSeconds(t0);
+    stats.render_seconds += SecondsSince(t0);
     const size_t pixels = static_cast<size_t>(view.width()) * view.height();
     std::array<float, 12>& e = stats.exposures[vi];
     std::vector<float> exposed(3 * pixels);
@@ -424,7 +421,7 @@ absl::StatusOr<OptimizeStats> OptimizeScene(const std::vector<ContextView>& view
     // seconds, whichever comes first.
     const double done =
         std::max(double(step) / options.steps,
-                 options.max_seconds > 0 ? ElapsedSeconds(start) / options.max_seconds : 0.0);
+                 options.max_seconds > 0 ? SecondsSince(start) / options.max_seconds : 0.0);
     const bool gather = densify && done < options.densify_until;
     t0 = std::chrono::steady_clock::now();
     ScreenGradients screen;
@@ -441,7 +438,7 @@ absl::StatusOr<OptimizeStats> OptimizeScene(const std::vector<ContextView>& view
       if (!motion.ok()) return motion.status();
       g_pose = *motion;
     }
-    stats.backward_seconds += ElapsedSeconds(t0);
+    stats.backward_seconds += SecondsSince(t0);
 
     // Adam.
     t0 = std::chrono::steady_clock::now();
@@ -484,13 +481,13 @@ absl::StatusOr<OptimizeStats> OptimizeScene(const std::vector<ContextView>& view
       keep = &densifier.frozen();
       still = &densifier.pruned();
     }
-    stats.update_seconds += ElapsedSeconds(t0);
+    stats.update_seconds += SecondsSince(t0);
     stats.steps = step + 1;
     if (options.progress) {
       OptimizeProgress p;
       p.step = step + 1;
       p.steps = options.steps;
-      p.seconds = ElapsedSeconds(start);
+      p.seconds = SecondsSince(start);
       p.loss = epoch_loss / epoch_count;
       p.psnr = epoch_psnr / epoch_count;
       options.progress(p);
@@ -501,7 +498,7 @@ absl::StatusOr<OptimizeStats> OptimizeScene(const std::vector<ContextView>& view
     densifier.TrimEnd(scene);
     stats.pruned_entries = densifier.pruned();
   }
-  stats.seconds = ElapsedSeconds(start);
+  stats.seconds = SecondsSince(start);
   return stats;
 }
 

@@ -9,6 +9,7 @@
 #include <cstring>
 
 #include "absl/strings/str_cat.h"
+#include "common/elapsed.h"
 #include "common/file_util.h"
 #include "common/status_macros.h"
 #include "engine/image/oiio_write.h"
@@ -90,8 +91,7 @@ absl::StatusOr<RenderedSweep> RenderLidarSweep(const GaussianScene& scene, const
   options.max_range = spec.max_range_m;
   RenderedSweep out{spec, pose, {}, 0, 0};
   ASSIGN_OR_RETURN(out.returns, RenderLidarRays(scene, LidarSpecRays(spec), pose, options, edits));
-  out.render_seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  out.render_seconds = SecondsSince(start);
   for (const LidarReturn& r : out.returns) out.hits += r.hit ? 1 : 0;
   return out;
 }

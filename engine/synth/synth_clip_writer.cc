@@ -7,6 +7,7 @@
 #include <cstring>
 
 #include "absl/strings/str_cat.h"
+#include "common/elapsed.h"
 #include "common/file_util.h"
 #include "common/status_macros.h"
 #include "engine/image/image_io.h"
@@ -138,8 +139,7 @@ absl::StatusOr<SynthClipSummary> WriteSynthClip(const SynthOptions& options,
         WriteFileAtomic(absl::StrCat(out_dir, "/", LidarPath(t)), EncodeLidarPoints(sweep.points)));
     ++summary.lidar_sweeps;
     summary.lidar_points += static_cast<int64_t>(sweep.size());
-    const double elapsed =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    const double elapsed = SecondsSince(start);
     spdlog::info("synth: frame {}/{} (t = {:.1f} s) done, {:.1f} s elapsed", f + 1,
                  timestamps.size(), Seconds(t), elapsed);
   }
