@@ -141,7 +141,8 @@ class Densifier {
             size_t n)
       : options_(options),
         spread_(spread),
-        frozen_(fixed.empty() ? std::vector<uint8_t>(n, 0) : fixed),
+        fixed_(fixed.empty() ? std::vector<uint8_t>(n, 0) : fixed),
+        frozen_(fixed_),
         pruned_(n, 0),
         gradient_sum_(n, 0.0),
         seen_(n, 0) {
@@ -172,7 +173,8 @@ class Densifier {
         ++stats->pruned;
       }
       if (pruned_[i]) {
-        free_slots.push_back(i);
+        // A fixed Gaussian's slot stays its own: the caller's mask names it.
+        if (!fixed_[i]) free_slots.push_back(i);
       } else {
         ++live;
       }
@@ -197,7 +199,7 @@ class Densifier {
     if (appended > 0) {
       scene->Resize(n + appended);
       adam->Resize(*scene);
-      for (std::vector<uint8_t>* v : {&frozen_, &pruned_}) v->resize(n + appended, 0);
+      for (std::vector<uint8_t>* v : {&fixed_, &frozen_, &pruned_}) v->resize(n + appended, 0);
       for (size_t j = n; j < n + appended; ++j) free_slots.push_back(j);
     }
     for (size_t c = 0; c < candidates.size(); ++c) {
@@ -210,7 +212,8 @@ class Densifier {
         adam->Forget(i, *scene);
         ++stats->split;
       } else {
-        // Two at one place: each 1 - sqrt(1 - o), the pair's alpha the parent's.
+        // Two at one place: each 1 - sqrt(1 - o), the pair's alpha at the
+        // centre the parent's.
         const double o = 1 / (1 + std::exp(-double{scene->opacity_logits[i]}));
         const double half = std::max(1e-6, 1 - std::sqrt(1 - o));
         scene->opacity_logits[i] = scene->opacity_logits[j] =
@@ -245,7 +248,7 @@ class Densifier {
 
   const OptimizeOptions& options_;
   double spread_;
-  std::vector<uint8_t> frozen_, pruned_;
+  std::vector<uint8_t> fixed_, frozen_, pruned_;
   std::vector<double> gradient_sum_;
   std::vector<int> seen_;
   size_t budget_ = 0;
@@ -256,7 +259,8 @@ class Densifier {
 void SplitGaussian(size_t i, size_t j, GaussianScene* scene) {
   // Offset and width along the axis (of the std-dev) and the opacity rule,
   // fitted to the parent's alpha under compositing: the largest difference
-  // is 5-7 % of its opacity up to 0.7, 14 % at 0.95.
+  // is 5-7 % of its opacity up to 0.7, 14 % at 0.95 (before the 1/255
+  // cut-off, which takes more of a faint pair).
   constexpr double kSplitOffset = 0.5, kNarrow = 0.75, kOpacityPower = 0.6;
   float* s = &scene->log_scales[3 * i];
   const int axis = static_cast<int>(std::max_element(s, s + 3) - s);

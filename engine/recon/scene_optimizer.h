@@ -101,7 +101,7 @@ struct OptimizeOptions {
   double percent_dense = 0.01;
   double prune_opacity = 0.005;
   size_t max_gaussians = 0;
-  uint32_t seed = 1;  // View order and split children.
+  uint32_t seed = 1;  // View order.
   // Called after every step.
   std::function<void(const OptimizeProgress&)> progress;
 };
@@ -137,9 +137,10 @@ inline constexpr float kPrunedOpacityLogit = -40.f;
 // Optimises `scene` against `views` (the scene's context views) for
 // options.steps steps or options.max_seconds, whichever ends first.
 // `fixed` ([N] or empty) marks Gaussians whose geometry stays (they are
-// never split or cloned). The scene must be renderable with feature colours (no SH);
-// INVALID_ARGUMENT otherwise, or when `fixed` has the wrong size, a view is empty or has a rolling
-// shutter.
+// never split or cloned; they may be pruned, and their slots then stay
+// theirs, so `fixed` still names the first N entries). The scene must be renderable with feature
+// colours (no SH); INVALID_ARGUMENT otherwise, or when `fixed` has the wrong size, a view is empty
+// or has a rolling shutter.
 absl::StatusOr<OptimizeStats> OptimizeScene(const std::vector<ContextView>& views,
                                             const std::vector<uint8_t>& fixed,
                                             const OptimizeOptions& options, GaussianScene* scene);

@@ -436,8 +436,9 @@ TEST(RasterBackward, CameraMotionGradientMatchesCentralDifferences) {
 // Moving a pinhole camera's principal point by h pixels moves every
 // Gaussian's projected centre by h pixels and nothing else, so the loss's
 // derivative along it is the sum of the screen-space centre gradients
-// (none for a Gaussian the camera does not see). The Gaussians are wide enough that no pixel of the
-// image is near their 1/255 cut-off, whose steps a finite difference would count.
+// (none for a Gaussian the camera does not see), their colour gradients'
+// share included. The Gaussians are wide enough that no pixel of the image
+// is near their 1/255 cut-off, whose steps a finite difference would count.
 TEST(RasterBackward, ScreenCentreGradientsSumToThePrincipalPointsGradient) {
   RenderCamera camera;
   camera.model = CameraModel(96, 72, 76.8, 76.8, 48, 36);
@@ -457,6 +458,8 @@ TEST(RasterBackward, ScreenCentreGradientsSumToThePrincipalPointsGradient) {
     }
     scene.opacity_logits[i] = -1.f + u(rng);  // Opacity 0.27-0.5.
   }
+  scene.colour_gradients.resize(6 * scene.size());
+  for (float& g : scene.colour_gradients) g = 0.2f * (u(rng) - 0.5f);
   scene.Resize(7);  // And one behind the camera.
   scene.means[3 * 6 + 2] = -3.f;
   scene.log_scales[3 * 6] = scene.log_scales[3 * 6 + 1] = scene.log_scales[3 * 6 + 2] = 0.f;
