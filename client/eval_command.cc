@@ -83,7 +83,7 @@ reconstruction flags (as pf reconstruct):
   --no-ground-fill  --no-facades  --no-stereo  --no-ego-layer  --colour gradients|flat  --working-space srgb|linear
   --completion nearest|ip-basic
   --optimize-steps N  --optimize-seconds S  --optimize-poses  --optimize-densify
-                      (per-scene optimisation; report.json's "optimize": loss, context
+                       (per-scene optimisation; report.json's "optimize": loss, context
                        PSNR per step, with --optimize-poses each context view's pose
                        correction, with --optimize-densify the Gaussians split and pruned)
   --device cpu|cuda[:N]  --allow-outside-paths
