@@ -45,6 +45,23 @@ std::string PoseSummary(const OptimizeStats& stats) {
                       absl::SixDigits(shift_max * 100), " cm");
 }
 
+// ReconStats' static, far and dynamic Gaussians of a scene with these
+// owners; `far` covers a prefix of them (entries past it are not far),
+// entries set in `left_out` ([N] or empty) are not counted.
+void CountGaussians(const std::vector<uint32_t>& owners, const std::vector<uint8_t>& far,
+                    const std::vector<uint8_t>& left_out, ReconStats* stats) {
+  stats->static_gaussians = stats->far_gaussians = stats->dynamic_gaussians = 0;
+  for (size_t i = 0; i < owners.size(); ++i) {
+    if (!left_out.empty() && left_out[i]) continue;
+    if (owners[i] == 0) {
+      ++stats->static_gaussians;
+      stats->far_gaussians += i < far.size() && far[i];
+    } else {
+      ++stats->dynamic_gaussians;
+    }
+  }
+}
+
 std::string DensifySummary(const OptimizeOptions& options, const OptimizeStats& stats,
                            const ReconStats& recon) {
   if (!options.densify) return "";
@@ -213,14 +230,7 @@ void Pipeline::Decode() {
   result_.scene =
       DecodeGaussians(queries_, fused_, times, inputs_.time_origin_us, inputs_.tracks, decoder);
   result_.scene.colour_encoding = inputs_.colour_encoding;
-  for (size_t i = 0; i < queries_.size(); ++i) {
-    if (queries_.owners[i] == 0) {
-      ++stats.static_gaussians;
-      stats.far_gaussians += queries_.far[i];
-    } else {
-      ++stats.dynamic_gaussians;
-    }
-  }
+  CountGaussians(queries_.owners, queries_.far, {}, &stats);
   // The scene holds what the stages after this one need: the queries, their
   // fusion and the views' depths, owners and masks are freed, so the colour
   // fit's weights can take their memory.
@@ -343,17 +353,7 @@ absl::Status Pipeline::Optimize() {
     s.optimize_split = stats.split;
     s.optimize_cloned = stats.cloned;
     s.optimize_pruned = stats.pruned;
-    s.static_gaussians = s.far_gaussians = s.dynamic_gaussians = 0;
-    const GaussianScene& scene = result_.scene;
-    for (size_t i = 0; i < scene.size(); ++i) {
-      if (stats.pruned_entries[i]) continue;
-      if (scene.owners[i] == 0) {
-        ++s.static_gaussians;
-        s.far_gaussians += i < far_.size() && far_[i];
-      } else {
-        ++s.dynamic_gaussians;
-      }
-    }
+    CountGaussians(result_.scene.owners, far_, stats.pruned_entries, &s);
   }
   if (optimize.pose) {
     for (size_t v = 0; v < stats.poses.size(); ++v) {

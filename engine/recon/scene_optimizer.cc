@@ -80,6 +80,9 @@ double CameraSpread(const std::vector<ContextView>& views) {
   return std::max(1.0, 1.1 * radius);
 }
 
+double OpacityOf(float logit) { return 1 / (1 + std::exp(-double{logit})); }
+float LogitOf(double opacity) { return static_cast<float>(std::log(opacity / (1 - opacity))); }
+
 // Copies Gaussian `from` over Gaussian `to`.
 void CopyGaussian(size_t from, size_t to, GaussianScene* scene) {
   auto copy = [&](auto& array, size_t width) {
@@ -162,8 +165,7 @@ class Densifier {
   // One round: prunes, then splits or clones; resizes `adam` with the scene.
   void Round(GaussianScene* scene, SceneAdam* adam, OptimizeStats* stats) {
     const size_t n = scene->size();
-    const float prune_logit =
-        static_cast<float>(std::log(options_.prune_opacity / (1 - options_.prune_opacity)));
+    const float prune_logit = LogitOf(options_.prune_opacity);
     std::vector<size_t> free_slots;
     size_t live = 0;
     for (size_t i = 0; i < n; ++i) {
@@ -214,10 +216,8 @@ class Densifier {
       } else {
         // Two at one place: each 1 - sqrt(1 - o), the pair's alpha at the
         // centre the parent's.
-        const double o = 1 / (1 + std::exp(-double{scene->opacity_logits[i]}));
-        const double half = std::max(1e-6, 1 - std::sqrt(1 - o));
-        scene->opacity_logits[i] = scene->opacity_logits[j] =
-            static_cast<float>(std::log(half / (1 - half)));
+        const double half = std::max(1e-6, 1 - std::sqrt(1 - OpacityOf(scene->opacity_logits[i])));
+        scene->opacity_logits[i] = scene->opacity_logits[j] = LogitOf(half);
         adam->Forget(i, *scene);
         ++stats->cloned;
       }
@@ -271,13 +271,11 @@ void SplitGaussian(size_t i, size_t j, GaussianScene* scene) {
   (axis == 0 ? e.x : axis == 1 ? e.y : e.z) = kSplitOffset * sigma;
   const Vec3 d = rotation * e;
   const double offset[3] = {d.x, d.y, d.z};
-  const double narrow = kNarrow;
-  const double o = 1 / (1 + std::exp(-double{scene->opacity_logits[i]}));
-  const double child = std::clamp(1 - std::pow(1 - o, kOpacityPower), 1e-6, 0.99);
-  const float logit = static_cast<float>(std::log(child / (1 - child)));
+  const double o = OpacityOf(scene->opacity_logits[i]);
+  const float logit = LogitOf(std::clamp(1 - std::pow(1 - o, kOpacityPower), 1e-6, 0.99));
   for (const auto& [k, sign] : {std::pair{i, 1.0}, std::pair{j, -1.0}}) {
     for (int a = 0; a < 3; ++a) scene->means[3 * k + a] += static_cast<float>(sign * offset[a]);
-    scene->log_scales[3 * k + axis] += static_cast<float>(std::log(narrow));
+    scene->log_scales[3 * k + axis] += static_cast<float>(std::log(kNarrow));
     scene->opacity_logits[k] = logit;
     if (scene->has_colour_gradients() && axis < 2) {
       // Channel c is features[c] + g_cu u + g_cv v, (u, v) in std-devs along
@@ -285,7 +283,7 @@ void SplitGaussian(size_t i, size_t j, GaussianScene* scene) {
       for (int c = 0; c < 3; ++c) {
         float& g = scene->colour_gradients[6 * k + 2 * c + axis];
         scene->features[k * scene->num_channels + c] += static_cast<float>(sign * kSplitOffset) * g;
-        g *= static_cast<float>(narrow);
+        g *= static_cast<float>(kNarrow);
       }
     }
   }
@@ -331,7 +329,9 @@ absl::StatusOr<OptimizeStats> OptimizeScene(const std::vector<ContextView>& view
   const bool densify = options.densify;
   const int densify_interval =
       options.densify_interval > 0 ? options.densify_interval : 2 * static_cast<int>(views.size());
-  Densifier densifier(options, stats.spread, fixed, densify ? n : 0);
+  // Sized only when on (it copies `fixed`).
+  Densifier densifier(options, stats.spread, densify ? fixed : std::vector<uint8_t>{},
+                      densify ? n : 0);
   // Whose geometry stays, and what does not move at all.
   const std::vector<uint8_t>* keep = fixed.empty() ? nullptr : &fixed;
   const std::vector<uint8_t>* still = nullptr;
