@@ -12,6 +12,17 @@ namespace {
 // The agreement channel of a visible query is at least this.
 constexpr float kMinAgreement = 1e-6f;
 
+// The opacity of a visible query of the given agreement and observations.
+double AgreementOpacity(double agreement, int observations, const DecoderOptions& options) {
+  const double contradictions =
+      agreement > 0 ? std::round(observations * (1 / agreement - 1)) : 0.0;
+  if (options.contradicted_views > 0 && contradictions >= options.contradicted_views) {
+    const double low = options.contradicted_min_opacity;
+    return low + (options.max_opacity - low) * agreement * agreement * agreement;
+  }
+  return options.min_opacity + (options.max_opacity - options.min_opacity) * agreement;
+}
+
 }  // namespace
 
 Quat DiscFrame(const Vec3& normal_in, const Vec3& ray_in, double max_stretch, double* stretch) {
@@ -58,8 +69,7 @@ GaussianScene DecodeGaussians(const QuerySet& queries, const FusedQueries& fused
       const bool hidden = queries.is_hidden(i);
       const double a = std::clamp(double(fused.agreement[i]), 0.0, 1.0);
       const double opacity =
-          hidden ? options.max_opacity
-                 : options.min_opacity + (options.max_opacity - options.min_opacity) * a;
+          hidden ? options.max_opacity : AgreementOpacity(a, fused.observations[i], options);
       scene.opacity_logits[i] = float(std::log(opacity / (1 - opacity)));
       float* feat = &scene.features[static_cast<size_t>(i) * kReconChannels];
       // A hidden query has no observation of its own (its source view sees

@@ -17,7 +17,14 @@
 //   ray and normal, the stretch capped at max_stretch). Standard deviations
 //   are tangent_sigma times those spacings, and normal_sigma x f across.
 // - Opacity: min_opacity + (max_opacity - min_opacity) x agreement (a
-//   hidden query takes max_opacity: it stands for an opaque surface).
+//   hidden query takes max_opacity: it stands for an opaque surface). A
+//   query that at least contradicted_views views see past (fusion's
+//   contradictions, observations x (1 / agreement - 1)) is a floater of its
+//   view's depth more likely than a surface: contradicted_min_opacity +
+//   (max_opacity - contradicted_min_opacity) x agreement^3, so one seen
+//   through by many views all but vanishes (on a clip of many views of one
+//   street its floaters, left at half opacity, hid the surfaces of the other
+//   views: docs/QUALITY.md, "Floaters seen through by several views").
 // - Time: the source view's time (seconds since time_origin_us); lifespan
 //   from fusion.
 // - The scene's screen-space low-pass (GaussianScene::low_pass) is
@@ -58,6 +65,8 @@ struct DecoderOptions {
   double max_stretch = 4.0;     // Cap of 1 / |cos theta|.
   double min_opacity = 0.5;
   double max_opacity = 0.98;
+  int contradicted_views = 3;  // Views seeing past a query that make it a floater; 0: off.
+  double contradicted_min_opacity = 0.01;
   // The scene's screen-space low-pass, pixels^2; unset: DefaultLowPass().
   std::optional<float> low_pass;
   float order_band = 0.0005f;  // The scene's order band (GaussianScene::order_band).

@@ -5,6 +5,8 @@
 
 #include <cmath>
 #include <limits>
+#include <utility>
+#include <vector>
 
 namespace pf {
 namespace {
@@ -70,6 +72,49 @@ TEST(GaussianDecoder, DecodesScaleOpacityFeaturesAndTime) {
   EXPECT_EQ(scene.owners[1], 1u);
   ASSERT_EQ(scene.instances.size(), 1u);
   EXPECT_EQ(scene.instances[0].id, "car");
+}
+
+TEST(GaussianDecoder, QueriesThatThreeViewsSeePastAllButVanish) {
+  // (agreement, observations): contradictions are observations x (1 / a - 1).
+  const std::vector<std::pair<float, uint16_t>> cases = {
+      {0.25f, 1},  // 3 views see past it: a floater.
+      {0.4f, 2},   // 3 as well.
+      {0.5f, 2},   // 2: the usual opacity.
+      {0.2f, 1},   // 4.
+      {1.f, 5}};   // None.
+  QuerySet q;
+  FusedQueries f;
+  for (size_t i = 0; i < cases.size(); ++i) {
+    for (float x : {0.f, 0.f, 5.f + float(i)}) q.positions.push_back(x);
+    for (float x : {0.5f, 0.5f, 0.5f}) q.rgb.push_back(x);
+    for (float x : {0.f, 0.f, -1.f}) q.normals.push_back(x);
+    for (float x : {0.f, 0.f, 1.f}) q.rays.push_back(x);
+    q.depths.push_back(5.f + float(i));
+    q.footprints.push_back(0.1f);
+    q.views.push_back(0);
+    q.pixels.push_back(0);
+    q.owners.push_back(0);
+    q.far.push_back(0);
+    for (float x : {0.5f, 0.5f, 0.5f}) f.rgb.push_back(x);
+    f.agreement.push_back(cases[i].first);
+    f.observations.push_back(cases[i].second);
+    f.lifespans.push_back(std::numeric_limits<float>::infinity());
+  }
+  auto opacity = [](const GaussianScene& scene, size_t i) {
+    return 1 / (1 + std::exp(-double(scene.opacity_logits[i])));
+  };
+  const GaussianScene scene = DecodeGaussians(q, f, {0}, 0, {}, DecoderOptions{});
+  EXPECT_NEAR(opacity(scene, 0), 0.01 + 0.97 * 0.25 * 0.25 * 0.25, 1e-5);
+  EXPECT_NEAR(opacity(scene, 1), 0.01 + 0.97 * 0.4 * 0.4 * 0.4, 1e-5);
+  EXPECT_NEAR(opacity(scene, 2), 0.5 + 0.48 * 0.5, 1e-5);
+  EXPECT_NEAR(opacity(scene, 3), 0.01 + 0.97 * 0.2 * 0.2 * 0.2, 1e-5);
+  EXPECT_NEAR(opacity(scene, 4), 0.98, 1e-5);
+  // Off: the agreement alone, as for every query before.
+  DecoderOptions off;
+  off.contradicted_views = 0;
+  const GaussianScene plain = DecodeGaussians(q, f, {0}, 0, {}, off);
+  EXPECT_NEAR(opacity(plain, 0), 0.5 + 0.48 * 0.25, 1e-5);
+  EXPECT_NEAR(opacity(plain, 3), 0.5 + 0.48 * 0.2, 1e-5);
 }
 
 TEST(GaussianDecoder, HiddenQueriesKeepTheirColourAndAreMarked) {
