@@ -24,7 +24,7 @@
 //   (max_opacity - contradicted_min_opacity) x agreement^3, so one seen
 //   through by many views all but vanishes (on a clip of many views of one
 //   street its floaters, left at half opacity, hid the surfaces of the other
-//   views: docs/QUALITY.md, "Floaters seen through by several views").
+//   views: docs/QUALITY.md, "Where pandaset_half loses: floaters").
 // - Time: the source view's time (seconds since time_origin_us); lifespan
 //   from fusion.
 // - The scene's screen-space low-pass (GaussianScene::low_pass) is
