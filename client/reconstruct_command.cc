@@ -1,8 +1,8 @@
 // pf reconstruct CLIP.json --out SCENE [--model analytic|pixel-aligned]
 //                [--ns N --nd N] [--fusion softmax|average|no-depth]
 //                [--lifespan] [--refine N] [--splat-sigma S] [--low-pass PX2] [--order-band B]
-//                [--hidden-band PX] [--no-ground-fill] [--no-facades] [--no-stereo]
-//                [--no-ego-layer]
+//                [--hidden-band PX] [--colour-fit-memory GB] [--no-ground-fill] [--no-facades]
+//                [--no-stereo] [--no-ego-layer]
 //                [--device cpu|cuda[:N]] [--colour gradients|flat]
 //                [--working-space srgb|linear]
 //                [--optimize-steps N [--optimize-seconds S] [--optimize-poses]
@@ -34,8 +34,8 @@ namespace {
 constexpr char kReconstructUsage[] =
     "usage: pf reconstruct CLIP.json --out SCENE [--model analytic|pixel-aligned] "
     "[--ns N --nd N] [--fusion softmax|average|no-depth] [--lifespan] [--refine N] "
-    "[--splat-sigma S] [--low-pass PX2] [--order-band B] [--hidden-band PX] [--no-ground-fill] "
-    "[--no-facades] [--no-stereo] [--no-ego-layer] "
+    "[--splat-sigma S] [--low-pass PX2] [--order-band B] [--hidden-band PX] "
+    "[--colour-fit-memory GB] [--no-ground-fill] [--no-facades] [--no-stereo] [--no-ego-layer] "
     "[--device cpu|cuda[:N]] [--colour gradients|flat] [--working-space srgb|linear] "
     "[--completion nearest|ip-basic] "
     "[--optimize-steps N [--optimize-seconds S] [--optimize-poses] [--optimize-densify]] "

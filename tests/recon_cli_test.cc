@@ -916,6 +916,29 @@ TEST_F(ReconCli, TheScenesOrderBandIsStoredAndReported) {
   EXPECT_NE(bad.err.find("--order-band: must be in [0, 0.05]"), std::string::npos) << bad.err;
 }
 
+// The colour fit's memory bound: by default 2 GB raised to half of the
+// memory free (report.json "colourFitBoundGB"); --colour-fit-memory fixes it,
+// and one too small for even 1 pixel in 4 skips the fit, saying so.
+TEST_F(ReconCli, ColourFitMemoryFixesTheBound) {
+  EXPECT_GE(Report("analytic")["colourFitBoundGB"].get<double>(), 2.048);
+  CommandResult result = RunCommand({Pf(), "reconstruct", Clip(), "--out", *dir_ + "/tight.pfscene",
+                                     "--colour-fit-memory", "0.001"});
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_NE(result.err.find("skipped: the context views' weights pass the fit's memory bound, "
+                            "0.001 GB, even on 1 pixel in 4"),
+            std::string::npos)
+      << result.err;
+  result = RunCommand(
+      {Pf(), "reconstruct", Clip(), "--out", *dir_ + "/roomy.pfscene", "--colour-fit-memory", "5"});
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_NE(result.err.find("GB of weights within a 5 GB bound"), std::string::npos) << result.err;
+  const CommandResult bad =
+      RunCommand({Pf(), "reconstruct", Clip(), "--out", *dir_ + "/x", "--colour-fit-memory", "0"});
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_NE(bad.err.find("--colour-fit-memory: must be in (0, 10000]"), std::string::npos)
+      << bad.err;
+}
+
 // Colour gradients (GaussianScene::colour_gradients): the analytic model's
 // colour fit gives each Gaussian a colour ramp across its disc by default,
 // stored in the scene file, reported as "colour"; --colour flat is one

@@ -9,9 +9,11 @@
 #include <cmath>
 #include <limits>
 #include <memory>
+#include <mutex>
 
 #include "absl/strings/str_cat.h"
 #include "common/elapsed.h"
+#include "common/memory_info.h"
 #include "common/status_macros.h"
 #include "common/thread_pool.h"
 #include "engine/recon/colour_fit_blocks.h"
@@ -195,6 +197,9 @@ void Scatter(const std::vector<FitView>& views, size_t first, int per,
 // Recording stops early once the views counted (two at least) put the
 // whole clip on course for this many times the bound.
 constexpr double kProjectedOverBudget = 1.25;
+constexpr int64_t kProjectionViews = 6;
+// RefinementOptions::max_pixel_stride at most (CountLattices' bits).
+constexpr int kMaxPixelStride = 7;
 
 // Every view's weights (one view per task) and fitted pixels, recorded at
 // 1 pixel in `pixel_stride`; recording stops once the views together pass
@@ -206,7 +211,49 @@ struct RecordedViews {
   int64_t units = 0;          // Of the views counted.
   int64_t frame_units = 0;    // Of which screen frames.
   int64_t counted_views = 0;  // Views whose units are counted.
+  // Recorded on every pixel (stride 1): of the views counted, the entries
+  // and the contributing Gaussians (screen frames) on the lattice of each
+  // stride k in [1, max_pixel_stride], at [k]; empty otherwise.
+  std::vector<int64_t> entries_at;
+  std::vector<int64_t> frames_at;
 };
+
+// Adds what `a` (recorded on every pixel) would hold on the lattice of each
+// stride k in [1, entries_at->size()) to (*entries_at)[k] and (*frames_at)[k]
+// (entries, and contributing Gaussians).
+void CountLattices(const CompositingWeights& a, std::vector<int64_t>* entries_at,
+                   std::vector<int64_t>* frames_at) {
+  const int max_stride = static_cast<int>(entries_at->size()) - 1;
+  std::vector<uint8_t> seen(a.gaussians.size(), 0);  // Bit k: on stride k's lattice.
+  for (size_t p = 0; p < a.pixel_count.size(); ++p) {
+    const int x = static_cast<int>(p % static_cast<size_t>(a.width));
+    const int y = static_cast<int>(p / static_cast<size_t>(a.width));
+    uint8_t strides = 0;
+    for (int k = 1; k <= max_stride; ++k) {
+      if (!OnPixelLattice(x, y, k)) continue;
+      strides |= uint8_t(1u << k);
+      (*entries_at)[k] += a.pixel_count[p];
+    }
+    for (uint64_t e = a.pixel_begin[p]; e < a.pixel_begin[p] + a.pixel_count[p]; ++e) {
+      seen[a.local[e]] |= strides;
+    }
+  }
+  for (uint8_t strides : seen)
+    for (int k = 1; k <= max_stride; ++k) (*frames_at)[k] += (strides >> k) & 1;
+}
+
+// The smallest stride in [2, max_pixel_stride] at which the whole clip's
+// weights, estimated from the views a stride-1 recording counted, fit in
+// `room` units, with screen frames or without; 0 if none does.
+int StrideThatFits(const RecordedViews& recorded, int64_t num_views, double room, bool gradients) {
+  const double scale = double(num_views) / double(std::max<int64_t>(1, recorded.counted_views));
+  for (size_t k = 2; k < recorded.entries_at.size(); ++k) {
+    const double units =
+        double(recorded.entries_at[k]) + (gradients ? 3.0 * double(recorded.frames_at[k]) : 0.0);
+    if (scale * units <= room) return static_cast<int>(k);
+  }
+  return 0;
+}
 
 absl::StatusOr<RecordedViews> RecordViews(const std::vector<ContextView>& views,
                                           const GaussianScene& scene,
@@ -218,6 +265,14 @@ absl::StatusOr<RecordedViews> RecordViews(const std::vector<ContextView>& views,
   std::vector<absl::Status> errors(views.size());
   std::atomic<int64_t> units{0}, frame_units{0}, counted{0};
   std::atomic<bool> over_budget{false};
+  // Before a stride is known (every pixel), each view's counts at the other
+  // strides, so that one recording tells the stride that fits.
+  const bool count_lattices = pixel_stride == 1 && options.max_pixel_stride > 1;
+  std::mutex lattice_mutex;
+  if (count_lattices) {
+    out.entries_at.assign(options.max_pixel_stride + 1, 0);
+    out.frames_at.assign(options.max_pixel_stride + 1, 0);
+  }
   DefaultThreadPool().ParallelFor(0, num_views, 1, [&](int64_t b, int64_t e) {
     for (int64_t v = b; v < e; ++v) {
       if (over_budget.load()) break;
@@ -235,14 +290,25 @@ absl::StatusOr<RecordedViews> RecordViews(const std::vector<ContextView>& views,
       }
       const int64_t frames = gradients ? 3 * static_cast<int64_t>(a->gaussians.size()) : 0;
       const int64_t cost = static_cast<int64_t>(a->entries()) + frames;
+      if (count_lattices) {
+        std::vector<int64_t> entries_at(out.entries_at.size(), 0);
+        std::vector<int64_t> frames_at(out.frames_at.size(), 0);
+        CountLattices(*a, &entries_at, &frames_at);
+        std::lock_guard<std::mutex> lock(lattice_mutex);
+        for (size_t k = 0; k < entries_at.size(); ++k) {
+          out.entries_at[k] += entries_at[k];
+          out.frames_at[k] += frames_at[k];
+        }
+      }
       frame_units += frames;
       const int64_t views_counted = ++counted;
       const int64_t total = units.fetch_add(cost) + cost;
-      // Over the bound, or on course for kProjectedOverBudget times it: the
-      // rest need not be recorded to know.
-      if (total > options.max_pairs ||
-          (views_counted >= 2 && double(total) * double(num_views) / double(views_counted) >
-                                     kProjectedOverBudget * double(options.max_pairs))) {
+      // Over the bound, or on course for kProjectedOverBudget times it
+      // after kProjectionViews views (a rig's cameras differ): the rest need
+      // not be recorded to know.
+      if (total > options.max_pairs || (views_counted >= std::min(num_views, kProjectionViews) &&
+                                        double(total) * double(num_views) / double(views_counted) >
+                                            kProjectedOverBudget * double(options.max_pairs))) {
         over_budget = true;
         break;
       }
@@ -549,6 +615,23 @@ absl::Status SolveOnGpu(const std::vector<FitView>& fit, const Layout& layout,
   return absl::OkStatus();
 }
 
+// RefinementOptions::max_pairs, raised by available_memory_share where the
+// solve runs on the CPU (a GPU's memory is its own).
+int64_t FitBound(const std::vector<ContextView>& views, const RefinementOptions& options,
+                 size_t num_gaussians) {
+  if (!(options.available_memory_share > 0) || options.device.kind == ComputeDevice::Kind::kCuda) {
+    return options.max_pairs;
+  }
+  const int64_t available = AvailableMemoryBytes();
+  if (available <= 0) return options.max_pairs;
+  double pixels = 0;
+  for (const ContextView& view : views) pixels += double(view.width()) * view.height();
+  const double room = options.available_memory_share * double(available) -
+                      double(kFitBytesPerGaussian) * double(num_gaussians) -
+                      double(kFitBytesPerPixel) * pixels;
+  return std::max(options.max_pairs, static_cast<int64_t>(room / double(kWeightUnitBytes)));
+}
+
 }  // namespace
 
 absl::StatusOr<RefinementStats> RefineColours(const std::vector<ContextView>& views,
@@ -560,12 +643,16 @@ absl::StatusOr<RefinementStats> RefineColours(const std::vector<ContextView>& vi
   }
   if (options.iterations < 0 || !(options.prior_weight > 0) || !(options.min_alpha >= 0) ||
       options.max_pairs <= 0 || !(options.gradient_prior_weight > 0) ||
-      !(options.max_gradient >= 0)) {
+      !(options.max_gradient >= 0) || !(options.available_memory_share >= 0) ||
+      !(options.available_memory_share <= 1) || options.max_pixel_stride < 1 ||
+      options.max_pixel_stride > kMaxPixelStride) {
     return absl::InvalidArgumentError(absl::StrCat(
         "RefineColours: iterations ", options.iterations, " must be >= 0, prior_weight ",
         options.prior_weight, " > 0, min_alpha ", options.min_alpha, " >= 0, max_pairs ",
         options.max_pairs, " > 0, gradient_prior_weight ", options.gradient_prior_weight,
-        " > 0 and max_gradient ", options.max_gradient, " >= 0"));
+        " > 0, max_gradient ", options.max_gradient, " >= 0, available_memory_share ",
+        options.available_memory_share, " in [0, 1] and max_pixel_stride ",
+        options.max_pixel_stride, " in [1, ", kMaxPixelStride, "]"));
   }
   RefinementStats stats;
   if (options.iterations == 0 || views.empty()) return stats;
@@ -581,12 +668,15 @@ absl::StatusOr<RefinementStats> RefineColours(const std::vector<ContextView>& vi
     }
   }
 
-  // A_v of every view and the fitted pixels within max_pairs: every pixel
-  // if they fit, else 1 pixel in k, k as small as the views recorded so far
-  // say fits, up to max_pixel_stride; with gradients that do not fit even
-  // then, flat colours the same way; the fit is skipped when those do not
-  // fit either.
+  // A_v of every view and the fitted pixels within the bound: every pixel
+  // if they fit, else 1 pixel in k, k the smallest that the views recorded
+  // so far say fits (a recording on every pixel measures every k), up to
+  // max_pixel_stride; with gradients that do not fit even then, flat colours
+  // the same way; the fit is skipped when those do not fit either.
   const int64_t num_views = static_cast<int64_t>(views.size());
+  RefinementOptions bounded = options;
+  bounded.max_pairs = FitBound(views, options, n);
+  stats.max_pairs = bounded.max_pairs;
   bool gradients = options.colour_gradients;
   int pixel_stride = 1;
   RecordedViews recorded;
@@ -596,26 +686,35 @@ absl::StatusOr<RefinementStats> RefineColours(const std::vector<ContextView>& vi
     return std::chrono::duration<double>(Clock::now() - start).count();
   };
   for (;;) {
-    ASSIGN_OR_RETURN(recorded, RecordViews(views, *scene, options, gradients, pixel_stride));
+    ASSIGN_OR_RETURN(recorded, RecordViews(views, *scene, bounded, gradients, pixel_stride));
     stats.record_seconds = seconds_since(record_start);
     if (!recorded.over_budget) break;
-    // The whole clip's units at stride 1, estimated from the views counted.
-    const double scale = double(num_views) / double(std::max<int64_t>(1, recorded.counted_views));
-    const double entries = double(recorded.units - recorded.frame_units) * pixel_stride * scale;
-    const double frames = double(recorded.frame_units) * scale;
     // Exact when every view was counted; else 10 % to spare.
     const double room =
-        (recorded.counted_views == num_views ? 1.0 : 0.9) * double(options.max_pairs);
-    auto stride_for = [&](double fixed) {
-      return room > fixed ? static_cast<int64_t>(std::ceil(entries / (room - fixed)))
-                          : std::numeric_limits<int64_t>::max();
-    };
-    int64_t next = std::max<int64_t>(stride_for(gradients ? frames : 0), pixel_stride + 1);
-    if (next > options.max_pixel_stride && gradients) {
-      gradients = false;
-      next = std::max<int64_t>(1, stride_for(0));
+        (recorded.counted_views == num_views ? 1.0 : 0.9) * double(bounded.max_pairs);
+    int64_t next = 0;
+    if (!recorded.entries_at.empty()) {
+      next = StrideThatFits(recorded, num_views, room, gradients);
+      if (next == 0 && gradients) {
+        gradients = false;
+        next = StrideThatFits(recorded, num_views, room, false);
+      }
+    } else {
+      // The whole clip's units at stride 1, estimated from the views counted.
+      const double scale = double(num_views) / double(std::max<int64_t>(1, recorded.counted_views));
+      const double entries = double(recorded.units - recorded.frame_units) * pixel_stride * scale;
+      const double frames = double(recorded.frame_units) * scale;
+      auto stride_for = [&](double fixed) {
+        return room > fixed ? static_cast<int64_t>(std::ceil(entries / (room - fixed)))
+                            : std::numeric_limits<int64_t>::max();
+      };
+      next = std::max<int64_t>(stride_for(gradients ? frames : 0), pixel_stride + 1);
+      if (next > options.max_pixel_stride && gradients) {
+        gradients = false;
+        next = std::max<int64_t>(1, stride_for(0));
+      }
     }
-    if (next > options.max_pixel_stride) {
+    if (next == 0 || next > options.max_pixel_stride) {
       stats.pairs = recorded.units - recorded.frame_units;
       stats.skipped_over_budget = true;
       stats.flat_fallback = options.colour_gradients;

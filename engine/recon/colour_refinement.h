@@ -48,6 +48,11 @@ namespace pf {
 // The unit of RefinementOptions::max_pairs: the bytes of one recorded
 // pixel-Gaussian pair (a weight and a Gaussian index).
 constexpr int64_t kWeightUnitBytes = 8;
+// What the fit holds besides the weights: per Gaussian, its vectors with
+// colour gradients (four of 9 floats, the preconditioner's 9 and the sums'
+// 7), and per pixel of every view, its entry range, mask and target.
+constexpr int64_t kFitBytesPerGaussian = 4 * (4 * 9 + 9 + 7);
+constexpr int64_t kFitBytesPerPixel = 8 + 4 + 1 + 12;
 
 struct RefinementOptions {
   int iterations = 20;         // Conjugate-gradient iterations; 0: no refinement.
@@ -91,6 +96,15 @@ struct RefinementOptions {
   // clips.
   int64_t max_pairs = 256'000'000;
   int max_pixel_stride = 4;
+  // Where > 0 and the solve runs on the CPU, max_pairs is raised (never
+  // lowered) to this share of the memory the process may still take when the
+  // fit starts (AvailableMemoryBytes(), common/memory_info.h), less what the
+  // fit holds besides the weights: its vectors (kFitBytesPerGaussian) and
+  // the views' per-pixel arrays (kFitBytesPerPixel). A clip over max_pairs is
+  // then fitted on more of its pixels, or with gradients, where the machine
+  // has the memory; RefinementStats::max_pairs says the bound used. 0: the
+  // bound is max_pairs, whatever the machine.
+  double available_memory_share = 0;
   // Where the solve runs (the residuals, sums and iterations over the
   // recorded weights): the CPU, or GPU cuda:N (cuda_colour_fit.h; the
   // weights are recorded on the CPU either way, and the results agree to
@@ -106,6 +120,9 @@ struct RefinementStats {
   int64_t weight_bytes = 0;
   // The fit's pixels: 1 in pixel_stride of each view (1: every pixel).
   int pixel_stride = 1;
+  // The memory bound the fit ran under, in units of kWeightUnitBytes
+  // (RefinementOptions::max_pairs, or more by available_memory_share).
+  int64_t max_pairs = 0;
   double rmse_before = 0;  // RGB root mean square error of the renders, [0, 1] units.
   double rmse_after = 0;
   // True when the views needed more than max_pairs pairs and the colours

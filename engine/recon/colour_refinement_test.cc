@@ -8,6 +8,7 @@
 #include <cmath>
 #include <random>
 
+#include "common/memory_info.h"
 #include "engine/recon/gaussian_decoder.h"
 #include "engine/render/compositing_weights.h"
 #include "engine/render/rasterizer.h"
@@ -556,6 +557,87 @@ TEST(ColourRefinement, GradientsOverThePairBudgetFallBackToAFlatFit) {
   EXPECT_LE(stats->weight_bytes, kWeightUnitBytes * options.max_pairs);
   EXPECT_EQ(stats->weight_bytes,
             kWeightUnitBytes * (stats->pairs + 3 * int64_t(a->gaussians.size())));
+}
+
+TEST(ColourRefinement, OneRecordingOnEveryPixelTellsTheStrideThatFits) {
+  // One view of the wall with gradients: what each stride k needs (its
+  // lattice's pairs and 3 units per Gaussian they reach) is counted from the
+  // recording on every pixel, so a bound of exactly stride k's units is
+  // fitted at k, and one unit less at the next stride.
+  const ContextView view = UniformView(40, 30, 40, 0.8f);
+  const GaussianScene scene = GreyWall(40, 30);
+  RefinementOptions options;
+  options.min_alpha = 0;
+  std::vector<int64_t> units(5, 0);
+  for (int k = 1; k <= 4; ++k) {
+    WeightOptions recorded;
+    recorded.min_weight = options.min_weight;
+    recorded.pixel_stride = k;
+    absl::StatusOr<CompositingWeights> a = ComputeCompositingWeights(
+        scene, {view.camera, view.world_from_camera}, view.timestamp_us, recorded);
+    ASSERT_TRUE(a.ok()) << a.status();
+    units[k] = int64_t(a->entries()) + 3 * int64_t(a->gaussians.size());
+  }
+  ASSERT_GT(units[1], units[2]);
+  ASSERT_GT(units[2], units[3]);
+  ASSERT_GT(units[3], units[4]);
+  for (int k = 2; k <= 4; ++k) {
+    for (int64_t slack : {int64_t{0}, int64_t{-1}}) {
+      options.max_pairs = units[k] + slack;
+      GaussianScene fitted = scene;
+      absl::StatusOr<RefinementStats> stats = RefineColours({view}, options, &fitted);
+      ASSERT_TRUE(stats.ok()) << stats.status();
+      SCOPED_TRACE(::testing::Message() << "stride " << k << ", bound " << options.max_pairs);
+      EXPECT_EQ(stats->max_pairs, options.max_pairs);
+      if (slack == 0) {
+        EXPECT_EQ(stats->pixel_stride, k);
+        EXPECT_FALSE(stats->flat_fallback);
+        EXPECT_EQ(stats->weight_bytes, kWeightUnitBytes * units[k]);
+      } else if (k < 4) {
+        EXPECT_EQ(stats->pixel_stride, k + 1);
+        EXPECT_EQ(stats->weight_bytes, kWeightUnitBytes * units[k + 1]);
+      } else {
+        EXPECT_TRUE(stats->flat_fallback);  // Flat colours on fewer units.
+        EXPECT_FALSE(fitted.has_colour_gradients());
+      }
+    }
+  }
+}
+
+TEST(ColourRefinement, AShareOfTheFreeMemoryRaisesTheBound) {
+  // A bound of 100 pairs skips the wall's fit; half of the memory the
+  // machine has free takes every pixel, and says so.
+  const TwoViewWall wall;
+  RefinementOptions options = wall.options;
+  options.max_pairs = 100;
+  GaussianScene bounded = wall.scene;
+  absl::StatusOr<RefinementStats> skipped = RefineColours(wall.views, options, &bounded);
+  ASSERT_TRUE(skipped.ok()) << skipped.status();
+  EXPECT_TRUE(skipped->skipped_over_budget);
+  EXPECT_EQ(skipped->max_pairs, 100);
+  EXPECT_EQ(bounded.features, wall.scene.features);
+
+  if (AvailableMemoryBytes() < (int64_t{1} << 28)) {
+    GTEST_SKIP() << "under 256 MiB free: too little to tell a raised bound";
+  }
+  options.available_memory_share = 0.5;
+  GaussianScene raised = wall.scene;
+  absl::StatusOr<RefinementStats> fitted = RefineColours(wall.views, options, &raised);
+  ASSERT_TRUE(fitted.ok()) << fitted.status();
+  EXPECT_FALSE(fitted->skipped_over_budget);
+  EXPECT_EQ(fitted->pixel_stride, 1);
+  EXPECT_GT(fitted->max_pairs, (int64_t{1} << 28) / 2 / kWeightUnitBytes / 2);
+  EXPECT_NE(raised.features, wall.scene.features);
+
+  // Never lowered: a bound over what half of the machine could take stays.
+  options.max_pairs = int64_t{1} << 50;
+  absl::StatusOr<RefinementStats> kept = RefineColours(wall.views, options, &raised);
+  ASSERT_TRUE(kept.ok()) << kept.status();
+  EXPECT_EQ(kept->max_pairs, options.max_pairs);
+
+  options.available_memory_share = 1.5;
+  EXPECT_EQ(RefineColours(wall.views, options, &raised).status().code(),
+            absl::StatusCode::kInvalidArgument);
 }
 
 TEST(ColourRefinement, RejectsBadOptionsAndScenes) {

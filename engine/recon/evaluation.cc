@@ -493,6 +493,11 @@ std::string EvalReportJson(const EvalReport& report) {
   // memory bound, leaves it flat.
   j["colour"] = report.stats.colour_gradients ? "gradients" : "flat";
   // 1 pixel in k of each view fitted (1: all; null: no fit).
+  if (report.stats.colour_fit_bound_bytes > 0) {
+    j["colourFitBoundGB"] = 1e-9 * double(report.stats.colour_fit_bound_bytes);
+  } else {
+    j["colourFitBoundGB"] = nullptr;
+  }
   if (report.stats.colour_fit_pixel_stride > 0) {
     j["colourFitPixelStride"] = report.stats.colour_fit_pixel_stride;
   } else {

@@ -305,20 +305,22 @@ absl::Status Pipeline::FitColours() {
   if (!refined.skipped_over_budget && refined.pixels > 0) {
     result_.stats.colour_fit_pixel_stride = refined.pixel_stride;
   }
+  result_.stats.colour_fit_bound_bytes = kWeightUnitBytes * refined.max_pairs;
+  const std::string bound = absl::StrCat(
+      absl::SixDigits(1e-9 * double(kWeightUnitBytes) * double(refined.max_pairs)), " GB");
   if (refined.skipped_over_budget) {
     Done(ReconStage::kRefine,
-         absl::StrCat(" (skipped: the context views' weights pass the fit's memory bound, ",
-                      absl::SixDigits(1e-9 * double(kWeightUnitBytes) *
-                                      double(options_.refinement.max_pairs)),
-                      " GB, even on 1 pixel in ", max_stride,
+         absl::StrCat(" (skipped: the context views' weights pass the fit's memory bound, ", bound,
+                      ", even on 1 pixel in ", max_stride,
                       " of each view; colours kept as decoded)"));
   } else {
     Done(ReconStage::kRefine,
          absl::StrCat(" (", refined.pairs, " pixel-Gaussian pairs, ",
                       absl::SixDigits(double(refined.weight_bytes) / 1e9),
-                      " GB of weights, context RMSE ", refined.rmse_before, " -> ",
-                      refined.rmse_after, "; weights ", absl::SixDigits(refined.record_seconds),
-                      " s, fit ", absl::SixDigits(refined.solve_seconds), " s", detail, ")"));
+                      " GB of weights within a ", bound, " bound, context RMSE ",
+                      refined.rmse_before, " -> ", refined.rmse_after, "; weights ",
+                      absl::SixDigits(refined.record_seconds), " s, fit ",
+                      absl::SixDigits(refined.solve_seconds), " s", detail, ")"));
   }
   return absl::OkStatus();
 }

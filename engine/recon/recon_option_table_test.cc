@@ -215,7 +215,8 @@ TEST(ReconOptionTable, TheCacheKeyListsTheDefaultsAlwaysAndTheRestWhenSet) {
   tuned.set_working_space("linear");
   tuned.set_optimize_poses(true);
   tuned.set_optimize_densify(true);
-  tuned.set_device("cuda:0");  // Not part of the key.
+  tuned.set_device("cuda:0");        // Not part of the key.
+  tuned.set_colour_fit_memory(4.5);  // Nor this.
   EXPECT_EQ(SceneCacheKeyFields(tuned), (Fields{{"model", "analytic"},
                                                 {"ns", "0"},
                                                 {"nd", "0"},

@@ -1,6 +1,8 @@
 // ReconOptions from the option table: see recon_options.h.
 #include "engine/recon/recon_options.h"
 
+#include <algorithm>
+
 #include "absl/strings/str_cat.h"
 #include "common/colour_space.h"
 #include "common/status_macros.h"
@@ -33,6 +35,11 @@ absl::StatusOr<ReconOptions> ReconOptionsFromProto(const v1::ReconstructionOptio
   options.completion.method = p.completion() == "ip-basic" ? CompletionOptions::Method::kIpBasic
                                                            : CompletionOptions::Method::kNearest;
   if (p.has_refine()) options.refinement.iterations = p.refine();
+  if (p.has_colour_fit_memory()) {
+    options.refinement.max_pairs = std::max<int64_t>(
+        1, static_cast<int64_t>(p.colour_fit_memory() * 1e9 / double(kWeightUnitBytes)));
+    options.refinement.available_memory_share = 0;
+  }
   if (p.has_splat_sigma()) options.decoder.tangent_sigma = p.splat_sigma();
   if (p.has_low_pass()) options.decoder.low_pass = static_cast<float>(p.low_pass());
   if (p.has_order_band()) options.decoder.order_band = static_cast<float>(p.order_band());

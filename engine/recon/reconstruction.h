@@ -40,7 +40,14 @@ struct ReconOptions {
   int64_t dynamic_per_instance = 0;
   FusionOptions fusion;
   DecoderOptions decoder;
-  RefinementOptions refinement;  // iterations = 0: no refinement.
+  // iterations = 0: no refinement. The fit's memory bound is its max_pairs
+  // raised to half of what the machine has free when the fit starts
+  // (RefinementOptions::available_memory_share).
+  RefinementOptions refinement = [] {
+    RefinementOptions defaults;
+    defaults.available_memory_share = 0.5;
+    return defaults;
+  }();
   // Whether the colour fit gives each Gaussian a colour gradient
   // (GaussianScene::colour_gradients); unset: the model's default, on for
   // analytic, off for pixel-aligned (one Gaussian per pixel has no room
@@ -95,6 +102,9 @@ struct ReconStats {
   // The colour fit's pixels: 1 in colour_fit_pixel_stride of each view (1:
   // every pixel; 0: no fit ran).
   int colour_fit_pixel_stride = 0;
+  // The memory bound the colour fit's weights ran under, bytes
+  // (RefinementStats::max_pairs; 0: no fit ran).
+  int64_t colour_fit_bound_bytes = 0;
   // Where the colour fit's solve ran ("cpu" or "cuda:N"; empty: no fit), and
   // its seconds recording the weights and solving (RefinementStats).
   std::string colour_fit_device;
