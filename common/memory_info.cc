@@ -34,7 +34,17 @@ int64_t ParseBytes(std::string_view text) {
   return value;
 }
 
-// The room under the process's cgroup limit, or -1.
+// The value of `key` in a cgroup memory.stat text ("key value" lines), or 0.
+int64_t StatValue(std::string_view stat, std::string_view key) {
+  std::istringstream lines{std::string(stat)};
+  for (std::string name, value; lines >> name >> value;) {
+    if (name == key) return std::max<int64_t>(0, ParseBytes(value));
+  }
+  return 0;
+}
+
+// The least room under the limits of the process's cgroup and its
+// ancestors, or -1.
 int64_t CgroupRoomOfProcess() {
   // cgroup v2: "0::/path" in /proc/self/cgroup; inside a container the
   // group is usually the namespace's root, /sys/fs/cgroup itself.
@@ -43,12 +53,27 @@ int64_t CgroupRoomOfProcess() {
   for (std::string line; std::getline(groups, line);) {
     if (line.rfind("0::", 0) == 0) path = line.substr(3);
   }
-  for (const std::string& dir : {"/sys/fs/cgroup" + path, std::string("/sys/fs/cgroup")}) {
+  constexpr std::string_view kRoot = "/sys/fs/cgroup";
+  int64_t least = -1;
+  bool any_v2 = false;
+  for (std::string dir = std::string(kRoot) + path;;) {
+    while (dir.size() > kRoot.size() && dir.back() == '/') dir.pop_back();
     const std::string limit = ReadSmallFile(dir + "/memory.max");
-    if (!limit.empty()) return CgroupRoom(limit, ReadSmallFile(dir + "/memory.current"));
+    if (!limit.empty()) {
+      any_v2 = true;
+      const int64_t room =
+          CgroupRoom(limit, ReadSmallFile(dir + "/memory.current"),
+                     StatValue(ReadSmallFile(dir + "/memory.stat"), "inactive_file"));
+      if (room >= 0) least = least < 0 ? room : std::min(least, room);
+    }
+    if (dir.size() <= kRoot.size()) break;
+    dir = dir.substr(0, dir.rfind('/'));
   }
-  return CgroupRoom(ReadSmallFile("/sys/fs/cgroup/memory/memory.limit_in_bytes"),
-                    ReadSmallFile("/sys/fs/cgroup/memory/memory.usage_in_bytes"));
+  if (any_v2) return least;
+  const std::string v1 = std::string(kRoot) + "/memory";
+  return CgroupRoom(ReadSmallFile(v1 + "/memory.limit_in_bytes"),
+                    ReadSmallFile(v1 + "/memory.usage_in_bytes"),
+                    StatValue(ReadSmallFile(v1 + "/memory.stat"), "total_inactive_file"));
 }
 
 }  // namespace
@@ -65,13 +90,13 @@ int64_t MemAvailableFromMeminfo(std::string_view meminfo) {
   return kib < 0 ? -1 : 1024 * kib;
 }
 
-int64_t CgroupRoom(std::string_view limit, std::string_view usage) {
+int64_t CgroupRoom(std::string_view limit, std::string_view usage, int64_t reclaimable) {
   const int64_t max = ParseBytes(limit);
   const int64_t used = ParseBytes(usage);
   // cgroup v1 writes "no limit" as the largest page multiple under 2^63.
   constexpr int64_t kNoLimit = int64_t{1} << 62;
   if (max < 0 || used < 0 || max >= kNoLimit) return -1;
-  return std::max<int64_t>(0, max - used);
+  return std::max<int64_t>(0, max - std::max<int64_t>(0, used - std::max<int64_t>(0, reclaimable)));
 }
 
 int64_t AvailableMemoryBytes() {

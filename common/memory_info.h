@@ -10,9 +10,11 @@
 namespace pf {
 
 // The least of the system's available memory (MemAvailable in
-// /proc/meminfo) and the room left under the process's cgroup limit
-// (cgroup v2 memory.max less memory.current, or v1 memory.limit_in_bytes
-// less memory.usage_in_bytes), in bytes; -1 where neither can be read.
+// /proc/meminfo) and the room left under the limits of the process's cgroup
+// and its ancestors (cgroup v2 memory.max less memory.current, or v1
+// memory.limit_in_bytes less memory.usage_in_bytes; the usage less the
+// inactive page cache, which the kernel reclaims first), in bytes; -1 where
+// neither can be read.
 // Memory this process has freed but keeps for reuse (memory_reuse.h) is not
 // counted, so the figure errs low.
 int64_t AvailableMemoryBytes();
@@ -21,9 +23,10 @@ int64_t AvailableMemoryBytes();
 int64_t MemAvailableFromMeminfo(std::string_view meminfo);
 
 // The room under a cgroup limit: `limit` less `usage` (the two files'
-// texts, decimal bytes), at least 0; -1 when there is no limit ("max", or
+// texts, decimal bytes) less `reclaimable` of that usage (memory.stat's
+// inactive page cache), at least 0; -1 when there is no limit ("max", or
 // v1's near-2^63 figure) or a text is not a number.
-int64_t CgroupRoom(std::string_view limit, std::string_view usage);
+int64_t CgroupRoom(std::string_view limit, std::string_view usage, int64_t reclaimable = 0);
 
 }  // namespace pf
 

@@ -194,8 +194,8 @@ void Scatter(const std::vector<FitView>& views, size_t first, int per,
   }
 }
 
-// Recording stops early once the views counted (two at least) put the
-// whole clip on course for this many times the bound.
+// Recording stops early once the views counted (kProjectionViews at least,
+// or all) put the whole clip on course for this many times the bound.
 constexpr double kProjectedOverBudget = 1.25;
 constexpr int64_t kProjectionViews = 6;
 // RefinementOptions::max_pixel_stride at most (CountLattices' bits).
@@ -242,12 +242,13 @@ void CountLattices(const CompositingWeights& a, std::vector<int64_t>* entries_at
     for (int k = 1; k <= max_stride; ++k) (*frames_at)[k] += (strides >> k) & 1;
 }
 
-// The smallest stride in [2, max_pixel_stride] at which the whole clip's
-// weights, estimated from the views a stride-1 recording counted, fit in
-// `room` units, with screen frames or without; 0 if none does.
-int StrideThatFits(const RecordedViews& recorded, int64_t num_views, double room, bool gradients) {
+// The smallest stride in [first, max_pixel_stride] at which the whole
+// clip's weights, estimated from the views a stride-1 recording counted, fit
+// in `room` units, with screen frames or without; 0 if none does.
+int StrideThatFits(const RecordedViews& recorded, int64_t num_views, double room, bool gradients,
+                   size_t first) {
   const double scale = double(num_views) / double(std::max<int64_t>(1, recorded.counted_views));
-  for (size_t k = 2; k < recorded.entries_at.size(); ++k) {
+  for (size_t k = first; k < recorded.entries_at.size(); ++k) {
     const double units =
         double(recorded.entries_at[k]) + (gradients ? 3.0 * double(recorded.frames_at[k]) : 0.0);
     if (scale * units <= room) return static_cast<int>(k);
@@ -615,13 +616,11 @@ absl::Status SolveOnGpu(const std::vector<FitView>& fit, const Layout& layout,
   return absl::OkStatus();
 }
 
-// RefinementOptions::max_pairs, raised by available_memory_share where the
-// solve runs on the CPU (a GPU's memory is its own).
+// RefinementOptions::max_pairs, raised by available_memory_share (the
+// weights are recorded in host memory wherever the solve runs).
 int64_t FitBound(const std::vector<ContextView>& views, const RefinementOptions& options,
                  size_t num_gaussians) {
-  if (!(options.available_memory_share > 0) || options.device.kind == ComputeDevice::Kind::kCuda) {
-    return options.max_pairs;
-  }
+  if (!(options.available_memory_share > 0)) return options.max_pairs;
   const int64_t available = AvailableMemoryBytes();
   if (available <= 0) return options.max_pairs;
   double pixels = 0;
@@ -694,10 +693,12 @@ absl::StatusOr<RefinementStats> RefineColours(const std::vector<ContextView>& vi
         (recorded.counted_views == num_views ? 1.0 : 0.9) * double(bounded.max_pairs);
     int64_t next = 0;
     if (!recorded.entries_at.empty()) {
-      next = StrideThatFits(recorded, num_views, room, gradients);
+      // Stride 1 did not fit as recorded; flat colours on every pixel may,
+      // where gradients were recorded.
+      next = StrideThatFits(recorded, num_views, room, gradients, 2);
       if (next == 0 && gradients) {
         gradients = false;
-        next = StrideThatFits(recorded, num_views, room, false);
+        next = StrideThatFits(recorded, num_views, room, false, 1);
       }
     } else {
       // The whole clip's units at stride 1, estimated from the views counted.

@@ -95,15 +95,15 @@ struct RefinementOptions {
   // memory limit (8 GiB, half of it scene cache, in deploy/k8s) does not run out on large real
   // clips.
   int64_t max_pairs = 256'000'000;
-  int max_pixel_stride = 4;
-  // Where > 0 and the solve runs on the CPU, max_pairs is raised (never
-  // lowered) to this share of the memory the process may still take when the
-  // fit starts (AvailableMemoryBytes(), common/memory_info.h), less what the
-  // fit holds besides the weights: its vectors (kFitBytesPerGaussian) and
-  // the views' per-pixel arrays (kFitBytesPerPixel). A clip over max_pairs is
-  // then fitted on more of its pixels, or with gradients, where the machine
-  // has the memory; RefinementStats::max_pairs says the bound used. 0: the
-  // bound is max_pairs, whatever the machine.
+  int max_pixel_stride = 4;  // In [1, 7].
+  // Where > 0, max_pairs is raised (never lowered) to this share of the
+  // memory the process may still take when the fit starts
+  // (AvailableMemoryBytes(), common/memory_info.h), less what the fit holds
+  // besides the weights: its vectors (kFitBytesPerGaussian) and the views'
+  // per-pixel arrays (kFitBytesPerPixel). A clip over max_pairs is then
+  // fitted on more of its pixels, or with gradients, where the machine has
+  // the memory; RefinementStats::max_pairs says the bound used. 0: the bound
+  // is max_pairs, whatever the machine.
   double available_memory_share = 0;
   // Where the solve runs (the residuals, sums and iterations over the
   // recorded weights): the CPU, or GPU cuda:N (cuda_colour_fit.h; the

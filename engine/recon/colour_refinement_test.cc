@@ -559,6 +559,24 @@ TEST(ColourRefinement, GradientsOverThePairBudgetFallBackToAFlatFit) {
             kWeightUnitBytes * (stats->pairs + 3 * int64_t(a->gaussians.size())));
 }
 
+// What the fit of one view records at a pixel stride: its pairs and,
+// with gradients, 3 units per Gaussian they reach (its screen frame).
+struct StrideUnits {
+  int64_t pairs = 0;
+  int64_t frames = 0;
+};
+StrideUnits UnitsAtStride(const GaussianScene& scene, const ContextView& view,
+                          const RefinementOptions& options, int stride) {
+  WeightOptions recorded;
+  recorded.min_weight = options.min_weight;
+  recorded.pixel_stride = stride;
+  absl::StatusOr<CompositingWeights> a = ComputeCompositingWeights(
+      scene, {view.camera, view.world_from_camera}, view.timestamp_us, recorded);
+  EXPECT_TRUE(a.ok()) << a.status();
+  if (!a.ok()) return {};
+  return {int64_t(a->entries()), 3 * int64_t(a->gaussians.size())};
+}
+
 TEST(ColourRefinement, OneRecordingOnEveryPixelTellsTheStrideThatFits) {
   // One view of the wall with gradients: what each stride k needs (its
   // lattice's pairs and 3 units per Gaussian they reach) is counted from the
@@ -570,13 +588,8 @@ TEST(ColourRefinement, OneRecordingOnEveryPixelTellsTheStrideThatFits) {
   options.min_alpha = 0;
   std::vector<int64_t> units(5, 0);
   for (int k = 1; k <= 4; ++k) {
-    WeightOptions recorded;
-    recorded.min_weight = options.min_weight;
-    recorded.pixel_stride = k;
-    absl::StatusOr<CompositingWeights> a = ComputeCompositingWeights(
-        scene, {view.camera, view.world_from_camera}, view.timestamp_us, recorded);
-    ASSERT_TRUE(a.ok()) << a.status();
-    units[k] = int64_t(a->entries()) + 3 * int64_t(a->gaussians.size());
+    const StrideUnits at = UnitsAtStride(scene, view, options, k);
+    units[k] = at.pairs + at.frames;
   }
   ASSERT_GT(units[1], units[2]);
   ASSERT_GT(units[2], units[3]);
@@ -602,6 +615,36 @@ TEST(ColourRefinement, OneRecordingOnEveryPixelTellsTheStrideThatFits) {
       }
     }
   }
+}
+
+TEST(ColourRefinement, FlatColoursOnEveryPixelWhereGradientsFitAtNoStride) {
+  // Discs a pixel or so across, one every 2 pixels: their screen frames
+  // (3 units each) outweigh the pairs, so with strides up to 2 the gradients
+  // fit nowhere within the pairs of every pixel, and the flat fit takes
+  // every pixel rather than 1 in 2.
+  const ContextView view = UniformView(40, 30, 40, 0.8f);
+  GaussianScene scene = EmptyScene();
+  scene.low_pass = 0.05f;
+  for (int y = 0; y < 30; y += 2) {
+    for (int x = 0; x < 40; x += 2) {
+      AddGaussian(&scene, {(x + 0.5 - 20) / 4, (y + 0.5 - 15) / 4, 10}, 0.05, 0.9, {0.5, 0.5, 0.5});
+    }
+  }
+  RefinementOptions options;
+  options.min_alpha = 0;
+  options.max_pixel_stride = 2;
+  const StrideUnits every = UnitsAtStride(scene, view, options, 1);
+  const StrideUnits half = UnitsAtStride(scene, view, options, 2);
+  ASSERT_GT(half.pairs + half.frames, every.pairs);
+  options.max_pairs = every.pairs;
+  GaussianScene fitted = scene;
+  absl::StatusOr<RefinementStats> stats = RefineColours({view}, options, &fitted);
+  ASSERT_TRUE(stats.ok()) << stats.status();
+  EXPECT_TRUE(stats->flat_fallback);
+  EXPECT_FALSE(stats->skipped_over_budget);
+  EXPECT_EQ(stats->pixel_stride, 1);
+  EXPECT_EQ(stats->pairs, every.pairs);
+  EXPECT_NE(fitted.features, scene.features);
 }
 
 TEST(ColourRefinement, AShareOfTheFreeMemoryRaisesTheBound) {

@@ -492,12 +492,13 @@ std::string EvalReportJson(const EvalReport& report) {
   // What the scene has, not what was asked: --refine 0, or a fit over the
   // memory bound, leaves it flat.
   j["colour"] = report.stats.colour_gradients ? "gradients" : "flat";
-  // 1 pixel in k of each view fitted (1: all; null: no fit).
+  // The fit's memory bound (null: no fit ran).
   if (report.stats.colour_fit_bound_bytes > 0) {
     j["colourFitBoundGB"] = 1e-9 * double(report.stats.colour_fit_bound_bytes);
   } else {
     j["colourFitBoundGB"] = nullptr;
   }
+  // 1 pixel in k of each view fitted (1: all; null: no fit).
   if (report.stats.colour_fit_pixel_stride > 0) {
     j["colourFitPixelStride"] = report.stats.colour_fit_pixel_stride;
   } else {

@@ -68,7 +68,7 @@ std::vector<Spec> MakeTable() {
   table.push_back(
       Number("low_pass", Kind::kReal, 0, false, kMaxLowPass, " pixels^2", Key::kHexFloatWhenSet));
   table.push_back(Number("hidden_band", Kind::kInt, 0, false, 256, " pixels", Key::kTextWhenSet));
-  table.push_back(Number("colour_fit_memory", Kind::kReal, 0, true, 1e4, " GB", Key::kNone));
+  table.push_back(Number("colour_fit_memory", Kind::kReal, 0, true, 1e4, " GB", Key::kHexWhenSet));
   table.push_back(Switch("no_ground_fill", Key::kOffWhenSet, "ground_fill"));
   table.push_back(Switch("no_facades", Key::kOffWhenSet, "facades"));
   table.push_back(Switch("no_stereo", Key::kOffWhenSet, "stereo"));

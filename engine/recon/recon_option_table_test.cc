@@ -215,8 +215,8 @@ TEST(ReconOptionTable, TheCacheKeyListsTheDefaultsAlwaysAndTheRestWhenSet) {
   tuned.set_working_space("linear");
   tuned.set_optimize_poses(true);
   tuned.set_optimize_densify(true);
-  tuned.set_device("cuda:0");        // Not part of the key.
-  tuned.set_colour_fit_memory(4.5);  // Nor this.
+  tuned.set_colour_fit_memory(4.5);
+  tuned.set_device("cuda:0");  // Not part of the key.
   EXPECT_EQ(SceneCacheKeyFields(tuned), (Fields{{"model", "analytic"},
                                                 {"ns", "0"},
                                                 {"nd", "0"},
@@ -226,6 +226,7 @@ TEST(ReconOptionTable, TheCacheKeyListsTheDefaultsAlwaysAndTheRestWhenSet) {
                                                 {"splat_sigma", absl::StrFormat("%a", 0.5)},
                                                 {"low_pass", absl::StrFormat("%a", double(0.3f))},
                                                 {"hidden_band", "0"},
+                                                {"colour_fit_memory", absl::StrFormat("%a", 4.5)},
                                                 {"ground_fill", "off"},
                                                 {"facades", "off"},
                                                 {"stereo", "off"},
