@@ -2,35 +2,26 @@
 #include "common/memory_info.h"
 
 #include <algorithm>
-#include <charconv>
-#include <fstream>
 #include <sstream>
 #include <string>
+
+#include "absl/strings/ascii.h"
+#include "absl/strings/numbers.h"
+#include "absl/strings/strip.h"
+#include "common/file_util.h"
 
 namespace pf {
 namespace {
 
 // The whole file, or "" where it cannot be read.
-std::string ReadSmallFile(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) return "";
-  std::ostringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
+std::string ReadSmallFile(const std::string& path) { return ReadFileToString(path).value_or(""); }
 
-std::string_view Trim(std::string_view text) {
-  const size_t begin = text.find_first_not_of(" \t\r\n");
-  if (begin == std::string_view::npos) return {};
-  return text.substr(begin, text.find_last_not_of(" \t\r\n") - begin + 1);
-}
-
-// A decimal count of bytes, or -1.
+// A decimal count of bytes (surrounding whitespace allowed), or -1.
 int64_t ParseBytes(std::string_view text) {
-  text = Trim(text);
   int64_t value = -1;
-  const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), value);
-  if (error != std::errc() || end != text.data() + text.size() || value < 0) return -1;
+  if (!absl::SimpleAtoi(absl::string_view(text.data(), text.size()), &value) || value < 0) {
+    return -1;
+  }
   return value;
 }
 
@@ -82,11 +73,11 @@ int64_t MemAvailableFromMeminfo(std::string_view meminfo) {
   constexpr std::string_view kKey = "MemAvailable:";
   const size_t at = meminfo.find(kKey);
   if (at == std::string_view::npos) return -1;
-  std::string_view rest = meminfo.substr(at + kKey.size());
-  rest = rest.substr(0, rest.find('\n'));
-  rest = Trim(rest);
-  if (rest.size() < 2 || rest.substr(rest.size() - 2) != "kB") return -1;
-  const int64_t kib = ParseBytes(rest.substr(0, rest.size() - 2));
+  std::string_view line = meminfo.substr(at + kKey.size());
+  line = line.substr(0, line.find('\n'));
+  absl::string_view rest = absl::StripAsciiWhitespace(absl::string_view(line.data(), line.size()));
+  if (!absl::ConsumeSuffix(&rest, "kB")) return -1;
+  const int64_t kib = ParseBytes(std::string_view(rest.data(), rest.size()));
   return kib < 0 ? -1 : 1024 * kib;
 }
 

@@ -198,6 +198,8 @@ void Scatter(const std::vector<FitView>& views, size_t first, int per,
 // or all) put the whole clip on course for this many times the bound.
 constexpr double kProjectedOverBudget = 1.25;
 constexpr int64_t kProjectionViews = 6;
+// Units of a Gaussian's screen frame in a view's weights, with gradients.
+constexpr int64_t kFrameUnits = 3;
 // RefinementOptions::max_pixel_stride at most (CountLattices' bits).
 constexpr int kMaxPixelStride = 7;
 
@@ -249,8 +251,8 @@ int StrideThatFits(const RecordedViews& recorded, int64_t num_views, double room
                    size_t first) {
   const double scale = double(num_views) / double(std::max<int64_t>(1, recorded.counted_views));
   for (size_t k = first; k < recorded.entries_at.size(); ++k) {
-    const double units =
-        double(recorded.entries_at[k]) + (gradients ? 3.0 * double(recorded.frames_at[k]) : 0.0);
+    const double units = double(recorded.entries_at[k]) +
+                         (gradients ? double(kFrameUnits) * double(recorded.frames_at[k]) : 0.0);
     if (scale * units <= room) return static_cast<int>(k);
   }
   return 0;
@@ -289,7 +291,8 @@ absl::StatusOr<RecordedViews> RecordViews(const std::vector<ContextView>& views,
         errors[v] = a.status();
         continue;
       }
-      const int64_t frames = gradients ? 3 * static_cast<int64_t>(a->gaussians.size()) : 0;
+      const int64_t frames =
+          gradients ? kFrameUnits * static_cast<int64_t>(a->gaussians.size()) : 0;
       const int64_t cost = static_cast<int64_t>(a->entries()) + frames;
       if (count_lattices) {
         std::vector<int64_t> entries_at(out.entries_at.size(), 0);
