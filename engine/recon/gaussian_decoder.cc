@@ -70,7 +70,7 @@ GaussianScene DecodeGaussians(const QuerySet& queries, const FusedQueries& fused
       const double a = std::clamp(double(fused.agreement[i]), 0.0, 1.0);
       const double opacity =
           hidden ? options.max_opacity : AgreementOpacity(a, fused.observations[i], options);
-      scene.opacity_logits[i] = float(std::log(opacity / (1 - opacity)));
+      scene.opacity_logits[i] = LogitOfOpacity(opacity);
       float* feat = &scene.features[static_cast<size_t>(i) * kReconChannels];
       // A hidden query has no observation of its own (its source view sees
       // the foreground there): it keeps the background colour it was given.

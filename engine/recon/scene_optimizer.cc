@@ -80,9 +80,6 @@ double CameraSpread(const std::vector<ContextView>& views) {
   return std::max(1.0, 1.1 * radius);
 }
 
-double OpacityOf(float logit) { return 1 / (1 + std::exp(-double{logit})); }
-float LogitOf(double opacity) { return static_cast<float>(std::log(opacity / (1 - opacity))); }
-
 // Copies Gaussian `from` over Gaussian `to`.
 void CopyGaussian(size_t from, size_t to, GaussianScene* scene) {
   auto copy = [&](auto& array, size_t width) {
@@ -165,7 +162,7 @@ class Densifier {
   // One round: prunes, then splits or clones; resizes `adam` with the scene.
   void Round(GaussianScene* scene, SceneAdam* adam, OptimizeStats* stats) {
     const size_t n = scene->size();
-    const float prune_logit = LogitOf(options_.prune_opacity);
+    const float prune_logit = LogitOfOpacity(options_.prune_opacity);
     std::vector<size_t> free_slots;
     size_t live = 0;
     for (size_t i = 0; i < n; ++i) {
@@ -216,8 +213,9 @@ class Densifier {
       } else {
         // Two at one place: each 1 - sqrt(1 - o), the pair's alpha at the
         // centre the parent's.
-        const double half = std::max(1e-6, 1 - std::sqrt(1 - OpacityOf(scene->opacity_logits[i])));
-        scene->opacity_logits[i] = scene->opacity_logits[j] = LogitOf(half);
+        const double half =
+            std::max(1e-6, 1 - std::sqrt(1 - OpacityOfLogit(scene->opacity_logits[i])));
+        scene->opacity_logits[i] = scene->opacity_logits[j] = LogitOfOpacity(half);
         adam->Forget(i, *scene);
         ++stats->cloned;
       }
@@ -271,8 +269,8 @@ void SplitGaussian(size_t i, size_t j, GaussianScene* scene) {
   (axis == 0 ? e.x : axis == 1 ? e.y : e.z) = kSplitOffset * sigma;
   const Vec3 d = rotation * e;
   const double offset[3] = {d.x, d.y, d.z};
-  const double o = OpacityOf(scene->opacity_logits[i]);
-  const float logit = LogitOf(std::clamp(1 - std::pow(1 - o, kOpacityPower), 1e-6, 0.99));
+  const double o = OpacityOfLogit(scene->opacity_logits[i]);
+  const float logit = LogitOfOpacity(std::clamp(1 - std::pow(1 - o, kOpacityPower), 1e-6, 0.99));
   for (const auto& [k, sign] : {std::pair{i, 1.0}, std::pair{j, -1.0}}) {
     for (int a = 0; a < 3; ++a) scene->means[3 * k + a] += static_cast<float>(sign * offset[a]);
     scene->log_scales[3 * k + axis] += static_cast<float>(std::log(kNarrow));

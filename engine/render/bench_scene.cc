@@ -74,7 +74,7 @@ class SceneBuilder {
     scene_->rotations[4 * i + 2] = static_cast<float>(q.y);
     scene_->rotations[4 * i + 3] = static_cast<float>(q.z);
     opacity = std::clamp(opacity, 0.01, 0.995);
-    scene_->opacity_logits[i] = static_cast<float>(std::log(opacity / (1 - opacity)));
+    scene_->opacity_logits[i] = LogitOfOpacity(opacity);
     const int nc = scene_->num_channels;
     for (int c = 0; c < nc; ++c) {
       const double base = c < 3 ? colour[c] : colour[c % 3] * rng_->Uniform(0.5, 1.0);

@@ -34,6 +34,7 @@
 #ifndef POINTFORWARD_ENGINE_RENDER_GAUSSIAN_SCENE_H_
 #define POINTFORWARD_ENGINE_RENDER_GAUSSIAN_SCENE_H_
 
+#include <cmath>
 #include <cstdint>
 #include <limits>
 #include <string>
@@ -132,6 +133,12 @@ struct GaussianScene {
   // (colour gradients only when the scene has them).
   void Resize(size_t n);
 };
+
+// opacity_logits' conversions: sigmoid and its inverse (opacity in (0, 1)).
+inline double OpacityOfLogit(float logit) { return 1 / (1 + std::exp(-double{logit})); }
+inline float LogitOfOpacity(double opacity) {
+  return static_cast<float>(std::log(opacity / (1 - opacity)));
+}
 
 inline void GaussianScene::Resize(size_t n) {
   const size_t old = size();

@@ -71,7 +71,7 @@ RenderBuffers ReferenceRender(const GaussianScene& scene, const RenderCamera& ca
     if (p.z < options.near_plane) continue;
     if (!model.Project(p, &s.u, &s.v)) continue;
     s.depth = p.z;
-    s.opacity = 1.0 / (1.0 + std::exp(-static_cast<double>(scene.opacity_logits[i])));
+    s.opacity = OpacityOfLogit(scene.opacity_logits[i]);
     if (!std::isinf(scene.lifespans[i])) {
       const double x = (t_render - scene.times[i]) / (scene.lifespans[i] + 1.0);
       s.opacity *= std::exp(-0.5 * x * x);
