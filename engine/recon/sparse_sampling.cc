@@ -1127,7 +1127,8 @@ QuerySet SampleQueries(const std::vector<SamplingView>& views,
   const double budget =
       double(views.size()) * double(std::max<int64_t>(1, options.static_per_view));
   if (options.fill_static_budget && !options.dense && kept > 0 && kept < 0.95 * budget) {
-    const double refine = std::max(options.min_refine, std::sqrt(double(kept) / budget));
+    const double refine =
+        std::max(1 / std::sqrt(options.max_refill), std::sqrt(double(kept) / budget));
     out = QuerySet();
     colours.clear();
     SampleStatic(views, footprints, options, refine, floor, &out, &colours);

@@ -16,7 +16,8 @@
 // queries, not budget: the paper's query count is N = V N_s + O N_d, so when
 // they leave fewer than V N_s static queries, all views are sampled again on
 // grids refined by sqrt(kept / (V N_s)) (fill_static_budget), which spends
-// the freed budget on detail instead of dropping it.
+// the freed budget on detail instead of dropping it, on cells at most
+// sqrt(max_refill) = sqrt(2) finer (about twice what was kept).
 //
 // A visible query on the near side of an occluding edge gets a smaller
 // footprint (edge_footprint_scale), so its disc does not spread over the
@@ -77,12 +78,14 @@ struct SamplingOptions {
   int far_stride = 3;             // Far-layer cells taken: one in far_stride^2.
   bool skip_covered = true;       // Skip static points whose voxel an earlier view filled.
   double finer_view_ratio = 1.2;  // Leave points to views this much finer; <= 0: off.
-  // Keep the paper's count of static queries, V x N_s: when the two rules
-  // above leave fewer than 95 % of it, every view's cell side is multiplied
-  // by sqrt(kept / (V x N_s)) (at least min_refine) and the views are
-  // sampled again, once.
+  // Keep the paper's count of static queries, V x N_s, up to about
+  // max_refill times what the two rules above kept: when they leave fewer
+  // than 95 % of it, every view's cell side is multiplied by
+  // max(sqrt(kept / (V x N_s)), 1 / sqrt(max_refill)) and the views are
+  // sampled again, once. (Many views of one street leave little each; their
+  // full V x N_s crowds every view with discs.)
   bool fill_static_budget = true;
-  double min_refine = 0.5;
+  double max_refill = 2.0;
   bool dense = false;  // Every valid pixel, no thinning (pixel-aligned).
   // Hidden queries (FindBehindSources, view_depth.h): a sampled pixel within
   // this many pixels of a deeper background also gets a query on its ray

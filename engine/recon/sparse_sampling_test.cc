@@ -121,6 +121,33 @@ TEST(SparseSampling, RedundancyRemovalFreesBudgetForDetail) {
   EXPECT_LT(twice.footprints[0], 0.8 * once.footprints[0]);
 }
 
+// Four views of the same plane leave the later three little (about a
+// quarter of V x N_s kept): the refill refines each view's cells by at most
+// sqrt(max_refill) = sqrt(2), to about twice what was kept (somewhat more:
+// with finer footprints the later views add more), not to V x N_s, so many
+// views of one street do not each crowd the scene with discs.
+TEST(SparseSampling, TheRefillRefinesTheCellsByAtMostTheSquareRootOfTwo) {
+  const PlaneView a(192, 144, Rigid{}), b(192, 144, Rigid{}), c(192, 144, Rigid{}),
+      d(192, 144, Rigid{});
+  const std::vector<SamplingView> views = {a.sampling(), b.sampling(), c.sampling(), d.sampling()};
+  const size_t budget = 4 * 1728;
+  SamplingOptions options;
+  options.static_per_view = 1728;
+  options.fill_static_budget = false;
+  const size_t kept = SampleQueries(views, {}, options).size();
+  EXPECT_LT(kept, budget * 3 / 10);
+  options.fill_static_budget = true;
+  const QuerySet filled = SampleQueries(views, {}, options);
+  EXPECT_GT(filled.size(), kept * 2);
+  EXPECT_LT(filled.size(), kept * 27 / 10);
+  // Cell side 4 px at 10 m and 192 px across: footprint 0.208 m, here / sqrt(2).
+  EXPECT_NEAR(filled.footprints[0], 4 * 10.0 / 192 / std::sqrt(2.0), 1e-3);
+  options.max_refill = 100;  // Unbounded: back to about V x N_s.
+  const size_t unbounded = SampleQueries(views, {}, options).size();
+  EXPECT_GT(unbounded, budget * 85 / 100);
+  EXPECT_LT(unbounded, budget * 125 / 100);
+}
+
 // A 192 x 144 view of the red plane z = 10 with a green 32 x 32 square at
 // `square_depth` in front of it (columns and rows 80..111 and 56..87).
 PlaneView SquareInFront(float square_depth = 5.f) {
