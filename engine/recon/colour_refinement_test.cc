@@ -16,8 +16,6 @@
 namespace pf {
 namespace {
 
-float Logit(double p) { return static_cast<float>(std::log(p / (1 - p))); }
-
 // Adds a round Gaussian of std-dev `scale` with colour `rgb` (grey if one
 // value) to a kReconChannels scene.
 void AddGaussian(GaussianScene* scene, const Vec3& mean, double scale, double opacity,
@@ -30,7 +28,7 @@ void AddGaussian(GaussianScene* scene, const Vec3& mean, double scale, double op
     scene->features[i * kReconChannels + c] = static_cast<float>(rgb[c]);
   }
   scene->features[i * kReconChannels + 6] = 0.25f;  // Not a colour: must stay.
-  scene->opacity_logits[i] = Logit(opacity);
+  scene->opacity_logits[i] = LogitOfOpacity(opacity);
 }
 
 GaussianScene EmptyScene() {

@@ -15,8 +15,6 @@
 namespace pf {
 namespace {
 
-float Logit(double p) { return static_cast<float>(std::log(p / (1 - p))); }
-
 // A pinhole camera at the world origin looking down +z.
 RenderCamera SimpleCamera(int width, int height, double f) {
   RenderCamera camera;
@@ -37,7 +35,7 @@ void AddGaussian(GaussianScene* scene, const Vec3& mean, const Vec3& scale, cons
   scene->rotations[4 * i + 1] = static_cast<float>(rotation.x);
   scene->rotations[4 * i + 2] = static_cast<float>(rotation.y);
   scene->rotations[4 * i + 3] = static_cast<float>(rotation.z);
-  scene->opacity_logits[i] = Logit(opacity);
+  scene->opacity_logits[i] = LogitOfOpacity(opacity);
   scene->owners[i] = owner;
 }
 

@@ -35,8 +35,6 @@ using testing_scenes::YawQuat;
 constexpr double kPi = 3.14159265358979323846;
 constexpr float kInf = std::numeric_limits<float>::infinity();
 
-float Logit(double p) { return static_cast<float>(std::log(p / (1 - p))); }
-
 // Adds an isotropic Gaussian of std-dev `scale` and returns its index.
 size_t AddGaussian(GaussianScene* scene, const Vec3& mean, double scale, double opacity,
                    std::vector<float> feature, uint32_t owner = 0) {
@@ -46,7 +44,7 @@ size_t AddGaussian(GaussianScene* scene, const Vec3& mean, double scale, double 
     scene->means[3 * i + c] = static_cast<float>(mean[c]);
     scene->log_scales[3 * i + c] = static_cast<float>(std::log(scale));
   }
-  scene->opacity_logits[i] = Logit(opacity);
+  scene->opacity_logits[i] = LogitOfOpacity(opacity);
   feature.resize(scene->num_channels, 0.f);
   for (int c = 0; c < scene->num_channels; ++c)
     scene->features[i * scene->num_channels + c] = feature[c];
@@ -573,7 +571,7 @@ TEST(Rasterizer, InstanceIdIsTheLargestContributor) {
   absl::StatusOr<RenderBuffers> out = Render(scene, camera, 0, {});
   ASSERT_TRUE(out.ok());
   EXPECT_EQ(out->instance[Pixel(*out, 30, 30)], 2u);
-  scene.opacity_logits[0] = Logit(0.7);  // Now 0.7 versus 0.27.
+  scene.opacity_logits[0] = LogitOfOpacity(0.7);  // Now 0.7 versus 0.27.
   out = Render(scene, camera, 0, {});
   EXPECT_EQ(out->instance[Pixel(*out, 30, 30)], 1u);
   EXPECT_EQ(out->instance[Pixel(*out, 0, 0)], 0u);
