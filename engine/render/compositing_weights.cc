@@ -2,8 +2,9 @@
 //
 // The projection is the rasterizer's own (splat_projection.h: the same
 // centres, conics and extents); the compositing runs raster_tile_kernel.h's
-// per-row spans, pixel groups and lane arithmetic, 4 lanes wide, so the
-// weights are the ones the render blends with, to the bit.
+// per-row spans, pixel groups and lane arithmetic (compositing_weights_tile.h),
+// 4 lanes wide, or 8 with AVX2, so the weights are the ones the render blends
+// with, to the bit.
 #include "engine/render/compositing_weights.h"
 
 #include <algorithm>
@@ -13,30 +14,34 @@
 
 #include "absl/strings/str_cat.h"
 #include "engine/render/compositing_weights_avx2.h"
+#include "engine/render/compositing_weights_tile.h"
 #include "engine/render/instance_pose.h"
 #include "engine/render/raster_frame.h"
 #include "engine/render/raster_tile.h"
-#include "engine/render/raster_tile_kernel.h"
 #include "engine/render/splat_projection.h"
 
 namespace pf {
 namespace {
 
-using raster::kMaxAlpha;
-using raster::kMinAlpha;
-using raster::kMinTransmittance;
 using raster::kTile;
 using raster::kTilePixels;
 
-// The recording runs the tile kernel's lanes at the x86-64 baseline's width.
-constexpr int kLanes = 4;
-using LaneFloats = raster::Lanes<kLanes>::F;
-using LaneInts = raster::Lanes<kLanes>::I;
-
 using Splat = raster::SplatGeometry;
 
-// How many splats of a tile's list ahead the compositing loop prefetches.
-constexpr uint64_t kPrefetchAhead = 8;
+// How many splats ahead the binning prefetches.
+constexpr uint64_t kPrefetchAhead = weights_tile::kPrefetchAhead;
+
+// Whether to record with the AVX2 build of the tile loop: where the CPU has
+// it and the render's tile kernel is not the baseline (the same bits either
+// way; PF_RENDER_KERNEL=baseline picks the baseline).
+bool UseAvx2() {
+#if defined(PF_RENDER_HAVE_AVX2_KERNEL)
+  static const bool avx2 = __builtin_cpu_supports("avx2");
+  return avx2 && std::strcmp(raster::TileKernelName(), "baseline") != 0;
+#else
+  return false;
+#endif
+}
 
 // The camera as the projection reads it, and per owner (0 background, k
 // instance k) the camera-from-owner transform: row-major r, then t.
@@ -170,31 +175,30 @@ absl::StatusOr<CompositingWeights> ComputeCompositingWeights(const GaussianScene
   out.pixel_count.assign(pixels, 0);
   out.alpha.assign(pixels, 0.f);
   std::vector<uint32_t> entry_visible;  // Visible index per entry, made local below.
-  struct Entry {
-    uint32_t gaussian;  // Visible index.
-    float weight;
-    uint8_t pixel;
-  };
-  std::vector<Entry> tile_entries;
+  std::vector<weights_tile::Entry> tile_entries;
   if (options.omitted_colours) out.omitted.assign(3 * pixels, 0.f);
-  // The tile's omitted colours, per channel (CompositingWeights::omitted).
-  alignas(16) float omitted[3][kTilePixels + kLanes];  // Padded as `trans`.
-  // Padded by a group: the last row's lanes past the tile read and write back
-  // (unchanged) the padding, as the tile kernel's do.
-  alignas(16) float trans[kTilePixels + kLanes];
-  // -1 for the tile's pixels on the lattice (pixel_stride), else 0; padded
-  // as `trans`.
-  alignas(16) int32_t recorded[kTilePixels + kLanes] = {};
+  // The tile's transmittance, omitted colours (CompositingWeights::omitted)
+  // per channel, and -1 for its pixels on the lattice (pixel_stride), else 0.
+  alignas(32) float trans[weights_tile::kPadded];
+  alignas(32) float omitted[3][weights_tile::kPadded];
+  alignas(32) int32_t recorded[weights_tile::kPadded] = {};
   uint32_t counts[kTilePixels];
-  LaneFloats lane;
-  for (int l = 0; l < kLanes; ++l) lane[l] = static_cast<float>(l);
+  const bool wide = UseAvx2();
+  weights_tile::Tile tile;
+  tile.visible = visible.data();
+  tile.visible_colour = options.omitted_colours ? visible_colour.data() : nullptr;
+  tile.min_weight = options.min_weight;
+  tile.trans = trans;
+  tile.recorded = recorded;
+  tile.omitted = omitted;
+  tile.entries = &tile_entries;
   for (int ty = 0; ty < tiles_y; ++ty) {
     for (int tx = 0; tx < tiles_x; ++tx) {
       const size_t t = static_cast<size_t>(ty) * tiles_x + tx;
       const int x_begin = tx * kTile, y_begin = ty * kTile;
       const int x_end = std::min(x_begin + kTile, frame.width);
       const int y_end = std::min(y_begin + kTile, frame.height);
-      std::fill(trans, trans + kTilePixels + kLanes, 1.f);
+      std::fill(trans, trans + weights_tile::kPadded, 1.f);
       for (int row = y_begin; row < y_end; ++row) {
         for (int col = x_begin; col < x_end; ++col) {
           recorded[(row - y_begin) * kTile + (col - x_begin)] =
@@ -203,83 +207,24 @@ absl::StatusOr<CompositingWeights> ComputeCompositingWeights(const GaussianScene
       }
       tile_entries.clear();
       if (options.omitted_colours) std::memset(omitted, 0, sizeof(omitted));
-      int active = (x_end - x_begin) * (y_end - y_begin);  // Pixels not done yet.
-      for (uint64_t k = tile_begin[t]; k < tile_begin[t + 1] && active > 0; ++k) {
-        // A tile's splats lie far apart in depth order: ask for one ahead.
-        if (k + kPrefetchAhead < tile_begin[t + 1]) {
-          __builtin_prefetch(&visible[tile_lists[k + kPrefetchAhead]]);
-          if (options.omitted_colours)
-            __builtin_prefetch(&visible_colour[3 * size_t(tile_lists[k + kPrefetchAhead])]);
-        }
-        const uint32_t i = tile_lists[k];
-        const Splat& g = visible[i];
-        const float det = g.ca * g.cc - g.cb * g.cb;
-        const float inv_ca = 1.f / g.ca;
-        const int row0 = std::max(y_begin, static_cast<int>(std::ceil(g.my - g.ext_y - 0.5f)));
-        const int row1 = std::min(y_end - 1, static_cast<int>(std::floor(g.my + g.ext_y - 0.5f)));
-        const LaneFloats opacity = LaneFloats{} + g.opacity;
-        const float dx_origin = x_begin + 0.5f - g.mx;  // dx at tile column 0.
-        LaneInts done{};
-        for (int row = row0; row <= row1; ++row) {
-          const float dy = row + 0.5f - g.my;
-          const float disc = g.ca * g.span_d2 - det * dy * dy;
-          if (!(disc >= 0.f)) continue;
-          const float half = std::sqrt(disc) * inv_ca;
-          const float mid = g.mx - 0.5f - g.cb * dy * inv_ca;
-          const int col0 =
-              std::max(x_begin, static_cast<int>(std::ceil(std::max(mid - half, -1e9f))));
-          const int col1 =
-              std::min(x_end - 1, static_cast<int>(std::floor(std::min(mid + half, 1e9f))));
-          if (col0 > col1) continue;
-          const float row_term = g.cc * dy * dy;
-          const float cross = 2.f * g.cb * dy;
-          const float lx0 = static_cast<float>(col0 - x_begin);
-          const float lx1 = static_cast<float>(col1 - x_begin);
-          const int row_base = (row - y_begin) * kTile;
-          // The tile kernel's groups and arithmetic (raster_tile_kernel.h),
-          // so each weight has the bits the render blends with.
-          for (int gx = col0 - x_begin; gx <= col1 - x_begin; gx += kLanes) {
-            const int p = row_base + gx;
-            const LaneFloats lx = lane + static_cast<float>(gx);
-            const LaneFloats tp = raster::Load<LaneFloats>(trans + p);
-            const LaneInts live = (lx >= lx0) & (lx <= lx1) & (tp >= kMinTransmittance);
-            if (raster::MoveMask<kLanes>(live) == 0) continue;
-            const LaneFloats dx = lx + dx_origin;
-            const LaneFloats d2 = g.ca * dx * dx + cross * dx + row_term;
-            LaneFloats alpha = opacity * raster::FastExp2<kLanes>(d2 * raster::kMinusHalfLog2e);
-            alpha = alpha < kMaxAlpha ? alpha : LaneFloats{} + kMaxAlpha;
-            const LaneInts blend = live & (alpha >= kMinAlpha);
-            if (raster::MoveMask<kLanes>(blend) == 0) continue;
-            const LaneFloats weight = alpha * tp;
-            const LaneFloats next = blend ? tp * (1.f - alpha) : tp;
-            raster::Store(trans + p, next);
-            done += blend & (next < kMinTransmittance);  // -1 per newly done pixel.
-            // Blended on the lattice: an entry at min_weight or more, else
-            // an omitted colour.
-            const LaneInts on_lattice = blend & raster::Load<LaneInts>(recorded + p);
-            unsigned bits = raster::MoveMask<kLanes>(on_lattice & (weight >= options.min_weight));
-            for (; bits != 0; bits &= bits - 1) {
-              const int l = __builtin_ctz(bits);
-              tile_entries.push_back({i, weight[l], static_cast<uint8_t>(p + l)});
-            }
-            if (options.omitted_colours) {
-              const LaneInts left_out = on_lattice & (weight < options.min_weight);
-              if (raster::MoveMask<kLanes>(left_out) != 0) {
-                const float* colour = &visible_colour[3 * size_t(i)];
-                const LaneFloats w = left_out ? weight : LaneFloats{};
-                for (int c = 0; c < 3; ++c) {
-                  raster::Store(omitted[c] + p,
-                                raster::Load<LaneFloats>(omitted[c] + p) + w * colour[c]);
-                }
-              }
-            }
-          }
-        }
-        for (int l = 0; l < kLanes; ++l) active += done[l];
+      tile.x_begin = x_begin;
+      tile.y_begin = y_begin;
+      tile.x_end = x_end;
+      tile.y_end = y_end;
+      tile.list = tile_lists.data() + tile_begin[t];
+      tile.list_size = tile_begin[t + 1] - tile_begin[t];
+#if defined(PF_RENDER_HAVE_AVX2_KERNEL)
+      if (wide) {
+        RecordTileAvx2(tile);
+      } else {
+        RecordTileLanes<4>(tile);
       }
+#else
+      RecordTileLanes<4>(tile);
+#endif
       // Regroup by pixel (stable: front to back within a pixel).
       std::fill(counts, counts + kTilePixels, 0u);
-      for (const Entry& e : tile_entries) ++counts[e.pixel];
+      for (const weights_tile::Entry& e : tile_entries) ++counts[e.pixel];
       uint64_t start = entry_visible.size();
       uint64_t cursor[kTilePixels];
       for (int p = 0; p < kTilePixels; ++p) {
@@ -298,7 +243,7 @@ absl::StatusOr<CompositingWeights> ComputeCompositingWeights(const GaussianScene
       }
       entry_visible.resize(start);
       out.weights.resize(start);
-      for (const Entry& e : tile_entries) {
+      for (const weights_tile::Entry& e : tile_entries) {
         const uint64_t slot = cursor[e.pixel]++;
         entry_visible[slot] = e.gaussian;
         out.weights[slot] = e.weight;
@@ -441,10 +386,7 @@ void AccumulateNormal(const CompositingWeights& a, const std::vector<uint8_t>& m
     return;
   }
 #if defined(PF_RENDER_HAVE_AVX2_KERNEL)
-  // The AVX2 build where the render's tile kernel is not the baseline (the
-  // same bits either way; PF_RENDER_KERNEL=baseline picks the baseline).
-  static const bool avx2 = __builtin_cpu_supports("avx2");
-  if (avx2 && std::strcmp(raster::TileKernelName(), "baseline") != 0) {
+  if (UseAvx2()) {
     AccumulateNormalTexturedAvx2(a, mask, x, out);
     return;
   }

@@ -1,7 +1,8 @@
 // AccumulateNormal's textured product built with AVX2: each entry's 8 first
 // coefficients (w, w u, w v per channel) in one vector, where the baseline
 // (compositing_weights.cc) takes three 4-wide ones; every sum runs over the
-// same terms in the same order, so both give the same bits.
+// same terms in the same order, so both give the same bits. The recording's
+// tile loop at 8 lanes (compositing_weights_tile.h).
 #include "engine/render/compositing_weights_avx2.h"
 
 #include <cstdint>
@@ -57,5 +58,7 @@ void AccumulateNormalTexturedAvx2(const CompositingWeights& a, const std::vector
     }
   });
 }
+
+void RecordTileAvx2(const weights_tile::Tile& tile) { RecordTileLanes<8>(tile); }
 
 }  // namespace pf

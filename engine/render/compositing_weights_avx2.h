@@ -1,8 +1,9 @@
-// AccumulateNormal's textured product (compositing_weights.h) built with
-// AVX2, for CPUs that have it: compositing_weights_avx2.cc, compiled with
-// -mavx2 and no fused multiply-adds on x86-64 builds only. The same bits as
-// the baseline in compositing_weights.cc; both walk the pixels with
-// ForEachMaskedPixelByTile. Include only from those two files.
+// AccumulateNormal's textured product and the recording's tile loop
+// (compositing_weights.h) built with AVX2, for CPUs that have it:
+// compositing_weights_avx2.cc, compiled with -mavx2 and no fused
+// multiply-adds on x86-64 builds only. The same bits as the baseline in
+// compositing_weights.cc; both walk the pixels with ForEachMaskedPixelByTile
+// and record tiles with RecordTileLanes. Include only from those two files.
 #ifndef POINTFORWARD_ENGINE_RENDER_COMPOSITING_WEIGHTS_AVX2_H_
 #define POINTFORWARD_ENGINE_RENDER_COMPOSITING_WEIGHTS_AVX2_H_
 
@@ -12,6 +13,7 @@
 #include <vector>
 
 #include "engine/render/compositing_weights.h"
+#include "engine/render/compositing_weights_tile.h"
 #include "engine/render/raster_tile.h"
 
 namespace pf {
@@ -63,6 +65,9 @@ inline TexturedEntry TexturedEntryAt(const CompositingWeights& a, uint64_t e, fl
 // `out` are [a.gaussians.size(), 3, 3], M the pixels where `mask` is non-zero.
 void AccumulateNormalTexturedAvx2(const CompositingWeights& a, const std::vector<uint8_t>& mask,
                                   const float* x, float* out);
+
+// RecordTileLanes<8>(tile).
+void RecordTileAvx2(const weights_tile::Tile& tile);
 
 }  // namespace pf
 

@@ -434,6 +434,47 @@ TEST(CompositingWeights, OmittedColoursAddWhatTheEntriesLeftOutGiveTheRender) {
   EXPECT_EQ(exact->omitted, std::vector<float>(render->rgb.size(), 0.f));
 }
 
+TEST(CompositingWeights, EveryKernelRecordsTheBaselinesWeights) {
+  // The recording's tile loop at the width of each kernel this CPU runs
+  // (AVX2: 8 lanes) gives the baseline's 4-lane record to the bit: every
+  // entry, pixel range, alpha, omitted colour and screen frame, on an image
+  // whose last tiles are cut, with entries left out and on a lattice.
+  const GaussianScene scene = RandomScene(5, 3000);
+  const RenderCamera camera = SimpleCamera(93, 70, 80);
+  for (const int stride : {1, 3}) {
+    SCOPED_TRACE(stride);
+    WeightOptions options;
+    options.min_weight = 0.02f;
+    options.omitted_colours = true;
+    options.local_coords = true;
+    options.pixel_stride = stride;
+    ASSERT_TRUE(raster::UseTileKernelForTesting("baseline"));
+    absl::StatusOr<CompositingWeights> baseline =
+        ComputeCompositingWeights(scene, camera, 0, options);
+    ASSERT_TRUE(baseline.ok()) << baseline.status();
+    EXPECT_GT(baseline->entries(), 20000u / stride);
+    EXPECT_GT(*std::max_element(baseline->omitted.begin(), baseline->omitted.end()), 0.02f);
+    int kernels = 0;
+    for (const char* kernel : {"avx2", "avx512"}) {
+      if (!raster::UseTileKernelForTesting(kernel)) continue;  // The CPU lacks it.
+      SCOPED_TRACE(kernel);
+      ++kernels;
+      absl::StatusOr<CompositingWeights> a = ComputeCompositingWeights(scene, camera, 0, options);
+      ASSERT_TRUE(a.ok()) << a.status();
+      EXPECT_EQ(a->gaussians, baseline->gaussians);
+      EXPECT_EQ(a->pixel_begin, baseline->pixel_begin);
+      EXPECT_EQ(a->pixel_count, baseline->pixel_count);
+      EXPECT_EQ(a->local, baseline->local);
+      EXPECT_EQ(a->weights, baseline->weights);
+      EXPECT_EQ(a->alpha, baseline->alpha);
+      EXPECT_EQ(a->local_frames, baseline->local_frames);
+      EXPECT_EQ(a->omitted, baseline->omitted);
+    }
+    raster::UseTileKernelForTesting(nullptr);
+    if (kernels == 0) GTEST_SKIP() << "this CPU runs the baseline kernel only";
+  }
+}
+
 TEST(CompositingWeights, RejectsEmptyCameraAndBadScenes) {
   GaussianScene scene = RandomScene(7, 10);
   EXPECT_EQ(ComputeCompositingWeights(scene, SimpleCamera(0, 10, 10), 0).status().code(),

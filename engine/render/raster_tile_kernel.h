@@ -1,8 +1,9 @@
 // The tile compositing kernel, written once over W float lanes with GCC/Clang
 // vector extensions; raster_tile_baseline.cc, raster_tile_avx2.cc and
 // raster_tile_avx512.cc instantiate it with W = 4, 8 and 16 under their own
-// compiler flags; compositing_weights.cc records the colour fit's weights
-// with its W = 4 lanes at the baseline's flags. Include only from such files
+// compiler flags; compositing_weights_tile.h records the colour fit's weights
+// with its lanes, W = 4 at the baseline's flags and 8 at AVX2's
+// (compositing_weights.cc, compositing_weights_avx2.cc). Include only from such files
 // (no -ffp-contract other than off where FMA is enabled): everything here
 // has internal linkage so the builds never mix.
 //
