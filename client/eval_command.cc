@@ -38,8 +38,8 @@ namespace {
 constexpr char kEvalUsage[] =
     "usage: pf eval CLIP.json --out DIR [--model analytic|pixel-aligned] [--ns N --nd N] "
     "[--fusion softmax|average|no-depth] [--lifespan] [--refine N] [--splat-sigma S] "
-    "[--low-pass PX2] [--order-band B] [--hidden-band PX] [--colour-fit-memory GB] "
-    "[--no-ground-fill] [--no-facades] [--no-stereo] [--no-ego-layer] "
+    "[--low-pass PX2] [--order-band B] [--fade-frames F] [--hidden-band PX] "
+    "[--colour-fit-memory GB] [--no-ground-fill] [--no-facades] [--no-stereo] [--no-ego-layer] "
     "[--device cpu|cuda[:N]] [--optimize-steps N [--optimize-seconds S] [--optimize-poses] "
     "[--optimize-densify]] "
     "[--allow-outside-paths] [--views VIEWS.json --truth TRUTH_DIR] "
@@ -79,7 +79,7 @@ own ego mask (Camera.egoMask) are left out of every figure.
 
 reconstruction flags (as pf reconstruct):
   --model analytic|pixel-aligned  --ns N --nd N  --fusion softmax|average|no-depth
-  --lifespan  --refine N  --splat-sigma S  --low-pass PX2  --order-band B  --hidden-band PX
+  --lifespan  --refine N  --splat-sigma S  --low-pass PX2  --order-band B  --fade-frames F  --hidden-band PX
   --colour-fit-memory GB (the colour fit's memory bound, fixed; default 2 GB raised to half
                        of the memory free when the fit starts; report.json "colourFitBoundGB")
   --no-ground-fill  --no-facades  --no-stereo  --no-ego-layer  --colour gradients|flat  --working-space srgb|linear

@@ -1,6 +1,7 @@
 // pf reconstruct CLIP.json --out SCENE [--model analytic|pixel-aligned]
 //                [--ns N --nd N] [--fusion softmax|average|no-depth]
 //                [--lifespan] [--refine N] [--splat-sigma S] [--low-pass PX2] [--order-band B]
+//                [--fade-frames F]
 //                [--hidden-band PX] [--colour-fit-memory GB] [--no-ground-fill] [--no-facades]
 //                [--no-stereo] [--no-ego-layer]
 //                [--device cpu|cuda[:N]] [--colour gradients|flat]
@@ -34,7 +35,7 @@ namespace {
 constexpr char kReconstructUsage[] =
     "usage: pf reconstruct CLIP.json --out SCENE [--model analytic|pixel-aligned] "
     "[--ns N --nd N] [--fusion softmax|average|no-depth] [--lifespan] [--refine N] "
-    "[--splat-sigma S] [--low-pass PX2] [--order-band B] [--hidden-band PX] "
+    "[--splat-sigma S] [--low-pass PX2] [--order-band B] [--fade-frames F] [--hidden-band PX] "
     "[--colour-fit-memory GB] [--no-ground-fill] [--no-facades] [--no-stereo] [--no-ego-layer] "
     "[--device cpu|cuda[:N]] [--colour gradients|flat] [--working-space srgb|linear] "
     "[--completion nearest|ip-basic] "

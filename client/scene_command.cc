@@ -87,6 +87,10 @@ int Info(const std::string& path) {
                   : absl::StrCat("LiDAR, channel ", scene.lidar_intensity_channel).c_str());
   std::printf("colour:       %s\n", scene.has_colour_gradients() ? "gradients" : "flat");
   std::printf("time origin:  %lld us\n", static_cast<long long>(scene.time_origin_us));
+  if (scene.fade_span.bounded()) {
+    std::printf("fade span:    [%g, %g] s after it (renders outside fade as at its ends)\n",
+                scene.fade_span.begin, scene.fade_span.end);
+  }
   std::printf("lifespans:    %zu finite, %zu never fade\n", finite_lifespans,
               scene.size() - finite_lifespans);
   std::printf("bounds:       %s (all, world, at the time origin)\n", all.ToString().c_str());

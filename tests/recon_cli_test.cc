@@ -732,10 +732,11 @@ TEST_F(ReconCli, AblationFlagsAreRecordedInTheReport) {
   EXPECT_EQ(report["lifespan"], true);
 }
 
-// The flags reach the scene, not only the report: by default no Gaussian
-// fades, --lifespan gives a few finite lifespans (15 of 13,842 here: views
-// that disagree in time), --no-lifespan is the default, and plain averaging
-// gives other colours.
+// The flags reach the scene, not only the report: by default static
+// Gaussians fade over the CONTEXT frames around their own (--fade-frames,
+// within the CONTEXT times), with --fade-frames 0 none does, --lifespan then
+// gives a few finite lifespans (views that disagree in time), --no-lifespan is
+// the default, and plain averaging gives other colours.
 // --optimize-steps: the stage runs after the colour fit, says so on stderr,
 // and report.json has its loss and context PSNR per step beside the loss
 // curve's PNG; with --optimize-poses, each context view's pose correction.
@@ -831,12 +832,18 @@ TEST_F(ReconCli, AblationFlagsChangeTheScene) {
                          [](float l) { return std::isfinite(l); });
   };
   const GaussianScene base = ReconstructWith({});
-  const GaussianScene lifespan = ReconstructWith({"--lifespan"});
+  const GaussianScene unfaded = ReconstructWith({"--fade-frames", "0"});
+  const GaussianScene lifespan = ReconstructWith({"--fade-frames", "0", "--lifespan"});
   const GaussianScene no_lifespan = ReconstructWith({"--no-lifespan"});
   const GaussianScene average = ReconstructWith({"--fusion", "average"});
   ASSERT_GT(base.size(), 0u);
-  EXPECT_EQ(finite_lifespans(base), 0);
+  EXPECT_GT(finite_lifespans(base), static_cast<int64_t>(base.size()) / 2);
+  EXPECT_TRUE(base.fade_span.bounded());
+  EXPECT_EQ(finite_lifespans(unfaded), 0);
+  EXPECT_FALSE(unfaded.fade_span.bounded());
+  EXPECT_EQ(unfaded.means, base.means);
   EXPECT_GT(finite_lifespans(lifespan), 0);
+  EXPECT_LT(finite_lifespans(lifespan), static_cast<int64_t>(base.size()) / 10);
   EXPECT_EQ(lifespan.size(), base.size());
   EXPECT_EQ(no_lifespan.lifespans, base.lifespans);
   ASSERT_EQ(average.size(), base.size());  // Fusion weighs; it does not place.

@@ -39,7 +39,8 @@ namespace {
 constexpr char kRemoteSceneUsage[] =
     "usage: pf --server ADDR scene create CLIP.json|file:///abs/clip.json [--wait] [--model M] "
     "[--ns N] [--nd N] [--fusion F] [--lifespan] [--device D] [--request-id ID]\n"
-    "         [--refine N] [--splat-sigma S] [--low-pass PX2] [--order-band B] [--hidden-band PX] "
+    "         [--refine N] [--splat-sigma S] [--low-pass PX2] [--order-band B] [--fade-frames F] "
+    "[--hidden-band PX] "
     "[--colour-fit-memory GB] "
     "[--no-ground-fill] "
     "[--no-facades] [--no-stereo] [--no-ego-layer] [--colour gradients|flat] "

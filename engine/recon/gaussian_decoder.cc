@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 
 #include "common/thread_pool.h"
 
@@ -24,6 +25,34 @@ double AgreementOpacity(double agreement, int observations, const DecoderOptions
 }
 
 }  // namespace
+
+void FadeStaticGaussians(const std::vector<std::string>& view_cameras,
+                         const std::vector<int64_t>& view_times_us,
+                         const std::vector<uint32_t>& owners, const std::vector<uint8_t>& far,
+                         double fade_frames, GaussianScene* scene) {
+  if (!(fade_frames > 0) || view_times_us.empty()) return;
+  std::map<std::string, std::vector<int64_t>> times_of_camera;
+  for (size_t v = 0; v < view_times_us.size(); ++v)
+    times_of_camera[view_cameras[v]].push_back(view_times_us[v]);
+  double gaps = 0;
+  int64_t count = 0;
+  for (auto& [camera, times] : times_of_camera) {
+    std::sort(times.begin(), times.end());
+    times.erase(std::unique(times.begin(), times.end()), times.end());
+    if (times.size() < 2) continue;
+    gaps += double(times.back() - times.front()) * 1e-6;
+    count += static_cast<int64_t>(times.size()) - 1;
+  }
+  if (count == 0) return;
+  const float sigma = static_cast<float>(std::max(0.0, fade_frames * gaps / double(count) - 1.0));
+  for (size_t i = 0; i < scene->size(); ++i) {
+    if (owners[i] != 0 || far[i]) continue;
+    scene->lifespans[i] = std::min(scene->lifespans[i], sigma);
+  }
+  const auto [first, last] = std::minmax_element(view_times_us.begin(), view_times_us.end());
+  scene->fade_span.begin = static_cast<float>(double(*first - scene->time_origin_us) * 1e-6);
+  scene->fade_span.end = static_cast<float>(double(*last - scene->time_origin_us) * 1e-6);
+}
 
 Quat DiscFrame(const Vec3& normal_in, const Vec3& ray_in, double max_stretch, double* stretch) {
   const Vec3 n = Normalized(normal_in);

@@ -43,6 +43,7 @@
 
 #include <cstdint>
 #include <optional>
+#include <string>
 #include <vector>
 
 #include "engine/recon/context_views.h"
@@ -70,6 +71,10 @@ struct DecoderOptions {
   // The scene's screen-space low-pass, pixels^2; unset: DefaultLowPass().
   std::optional<float> low_pass;
   float order_band = 0.0005f;  // The scene's order band (GaussianScene::order_band).
+  // Static Gaussians off the far layer fade with time away from their source
+  // view's (the paper's lifespan, FadeStaticGaussians): over about this many
+  // CONTEXT frames of a camera. 0: no fade.
+  double fade_frames = 5;
 };
 
 // The screen-space low-pass of a reconstructed scene (pixels^2) when none is
@@ -90,6 +95,23 @@ GaussianScene DecodeGaussians(const QuerySet& queries, const FusedQueries& fused
                               const std::vector<int64_t>& view_times_us, int64_t time_origin_us,
                               const std::vector<InstanceTrack>& tracks,
                               const DecoderOptions& options = {});
+
+// The paper's lifespan for static Gaussians, without a learned model: a
+// static Gaussian off the far layer (owners[i] 0, far[i] 0) is drawn at
+// o exp(-((t - t_i) / (sigma + 1))^2 / 2) at time t (splat_projection.h),
+// t_i its source view's time, sigma = max(0, fade_frames x g - 1) seconds, g
+// the mean spacing of consecutive CONTEXT times of a camera (over every
+// camera with two or more), so a view's discs fade over the frames around
+// it: where many views cover a street, the discs of views far off in time
+// (their depth's floaters among them) give way to those of nearer views.
+// Lifespans already shorter are kept. The scene's fade span becomes the
+// CONTEXT times (`view_cameras[v]`, `view_times_us[v]` per view), so a
+// render before or after them fades as at the first or last. Nothing
+// changes where fade_frames is 0 or no camera has two CONTEXT times.
+void FadeStaticGaussians(const std::vector<std::string>& view_cameras,
+                         const std::vector<int64_t>& view_times_us,
+                         const std::vector<uint32_t>& owners, const std::vector<uint8_t>& far,
+                         double fade_frames, GaussianScene* scene);
 
 // Returns the rotation (as a quaternion) whose columns are the disc axes
 // (t1, t2, n) for a surface of normal `normal` seen along `ray`, and the

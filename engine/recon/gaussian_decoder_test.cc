@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <limits>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -150,6 +151,52 @@ TEST(GaussianDecoder, HiddenQueriesKeepTheirColourAndAreMarked) {
   EXPECT_FLOAT_EQ(hidden[1], 0.f);
   EXPECT_FLOAT_EQ(hidden[kAgreementChannel], 0.f);
   EXPECT_NEAR(1 / (1 + std::exp(-scene.opacity_logits[1])), 0.98, 1e-5);
+}
+
+TEST(GaussianDecoder, StaticGaussiansFadeOverTheFramesAroundTheirOwn) {
+  // Two cameras, CONTEXT every 0.2 s (one of them with a time twice), and a
+  // third seen once: g = 0.2 s, so fade_frames 10 gives sigma = 10 x 0.2 - 1 =
+  // 1 s to static Gaussians off the far layer, unless theirs is shorter; the
+  // far layer and instances keep theirs; the fade span is the CONTEXT times.
+  const std::vector<std::string> cameras = {"a", "a", "a", "b", "b", "b", "c"};
+  const std::vector<int64_t> times = {1'000'000, 1'200'000, 1'400'000, 1'100'000,
+                                      1'300'000, 1'300'000, 2'000'000};
+  GaussianScene scene;
+  scene.time_origin_us = 900'000;
+  scene.Resize(5);
+  scene.lifespans[1] = 0.25f;
+  const std::vector<uint32_t> owners = {0, 0, 0, 1, 0};
+  const std::vector<uint8_t> far = {0, 0, 1, 0, 0};
+  const float kInf = std::numeric_limits<float>::infinity();
+  {
+    GaussianScene faded = scene;
+    FadeStaticGaussians(cameras, times, owners, far, 10, &faded);
+    EXPECT_NEAR(faded.lifespans[0], 1.0f, 1e-5f);
+    EXPECT_EQ(faded.lifespans[1], 0.25f);  // Shorter already.
+    EXPECT_EQ(faded.lifespans[2], kInf);   // The far layer.
+    EXPECT_EQ(faded.lifespans[3], kInf);   // An instance's.
+    EXPECT_NEAR(faded.lifespans[4], 1.0f, 1e-5f);
+    EXPECT_NEAR(faded.fade_span.begin, 0.1f, 1e-6f);
+    EXPECT_NEAR(faded.fade_span.end, 1.1f, 1e-6f);
+  }
+  {
+    // Five frames: 5 x 0.2 - 1 = 0, the shortest (a 1 s fade).
+    GaussianScene faded = scene;
+    FadeStaticGaussians(cameras, times, owners, far, 5, &faded);
+    EXPECT_EQ(faded.lifespans[0], 0.f);
+    EXPECT_TRUE(faded.fade_span.bounded());
+  }
+  for (const double frames : {0.0, 10.0}) {
+    // fade_frames 0, or no camera with two CONTEXT times: nothing changes.
+    GaussianScene same = scene;
+    if (frames == 0) {
+      FadeStaticGaussians(cameras, times, owners, far, frames, &same);
+    } else {
+      FadeStaticGaussians({"a", "b"}, {1'000'000, 1'200'000}, owners, far, frames, &same);
+    }
+    EXPECT_EQ(same.lifespans, scene.lifespans) << frames;
+    EXPECT_FALSE(same.fade_span.bounded()) << frames;
+  }
 }
 
 }  // namespace

@@ -229,6 +229,10 @@ void Pipeline::Decode() {
   stats.low_pass = *decoder.low_pass;
   result_.scene =
       DecodeGaussians(queries_, fused_, times, inputs_.time_origin_us, inputs_.tracks, decoder);
+  std::vector<std::string> cameras(num_views);
+  for (size_t v = 0; v < num_views; ++v) cameras[v] = inputs_.views[v].camera_id;
+  FadeStaticGaussians(cameras, times, queries_.owners, queries_.far, decoder.fade_frames,
+                      &result_.scene);
   result_.scene.colour_encoding = inputs_.colour_encoding;
   CountGaussians(queries_.owners, queries_.far, {}, &stats);
   // The scene holds what the stages after this one need: the queries, their

@@ -91,6 +91,7 @@ std::vector<Spec> MakeTable() {
   table.push_back(optimize_densify);
   table.push_back(
       Number("order_band", Kind::kReal, 0, false, kMaxOrderBand, "", Key::kHexFloatWhenSet));
+  table.push_back(Number("fade_frames", Kind::kReal, 0, false, 100, " frames", Key::kHexWhenSet));
   table.push_back(Switch("no_ego_layer", Key::kOffWhenSet, "ego_layer"));
   Spec device{"device", Kind::kDevice};
   device.choices = {"cpu"};

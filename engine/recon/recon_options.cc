@@ -43,6 +43,7 @@ absl::StatusOr<ReconOptions> ReconOptionsFromProto(const v1::ReconstructionOptio
   if (p.has_splat_sigma()) options.decoder.tangent_sigma = p.splat_sigma();
   if (p.has_low_pass()) options.decoder.low_pass = static_cast<float>(p.low_pass());
   if (p.has_order_band()) options.decoder.order_band = static_cast<float>(p.order_band());
+  if (p.has_fade_frames()) options.decoder.fade_frames = p.fade_frames();
   if (p.has_hidden_band()) options.hidden_band_px = p.hidden_band();
   if (p.has_optimize_steps()) options.optimize.steps = p.optimize_steps();
   if (p.has_optimize_seconds()) options.optimize.max_seconds = p.optimize_seconds();

@@ -20,6 +20,9 @@
 //   --completion nearest|ip-basic    how LiDAR depth is completed (default nearest)
 //   --refine N                       colour-fit iterations (default 20; 0 off)
 //   --splat-sigma S                  Gaussian std-dev per query spacing (default 0.65)
+//   --fade-frames F                  static Gaussians fade with time away from their
+//                                    view's over about F CONTEXT frames (default 5;
+//                                    0: never; gaussian_decoder.h)
 //   --low-pass PX2                   the scene's screen-space low-pass, pixels^2
 //                                    (default 0.1 with dense depth maps, else 0.2;
 //                                    0.3 is the 3DGS one)

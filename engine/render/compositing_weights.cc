@@ -85,7 +85,9 @@ absl::StatusOr<CompositingWeights> ComputeCompositingWeights(const GaussianScene
   ViewFrame frame;
   raster::SetUpProjectionCamera(
       model, options.near_plane,
-      static_cast<float>(static_cast<double>(timestamp_us - scene.time_origin_us) * 1e-6), &frame);
+      scene.fade_span.Clamp(
+          static_cast<float>(static_cast<double>(timestamp_us - scene.time_origin_us) * 1e-6)),
+      &frame);
   const size_t num_owners = scene.instances.size() + 1;
   const Rigid camera_from_world = camera.world_from_camera.Inverse();
   frame.camera_from_owner.resize(12 * num_owners);
@@ -103,8 +105,8 @@ absl::StatusOr<CompositingWeights> ComputeCompositingWeights(const GaussianScene
   if (camera.rolling_shutter.has_value()) {
     frame.rolling.emplace();
     if (absl::Status status =
-            raster::SetUpRenderFrame(scene.instances, scene.time_origin_us, camera, timestamp_us,
-                                     {}, options.near_plane, &*frame.rolling);
+            raster::SetUpRenderFrame(scene.instances, scene.time_origin_us, scene.fade_span, camera,
+                                     timestamp_us, {}, options.near_plane, &*frame.rolling);
         !status.ok()) {
       return status;
     }

@@ -273,6 +273,7 @@ struct CudaScene::Impl {
   int num_channels = 3;
   int sh_degree = -1;
   int64_t time_origin_us = 0;
+  FadeSpan fade_span;
   std::vector<InstanceTrack> instances;
   float low_pass = 0;
   float order_band = 0;
@@ -366,6 +367,7 @@ absl::StatusOr<std::unique_ptr<CudaScene>> CudaScene::Upload(const GaussianScene
   impl->num_channels = scene.num_channels;
   impl->sh_degree = scene.sh_degree;
   impl->time_origin_us = scene.time_origin_us;
+  impl->fade_span = scene.fade_span;
   impl->instances = scene.instances;
   impl->low_pass = scene.low_pass;
   impl->order_band = scene.order_band;
@@ -402,8 +404,8 @@ absl::StatusOr<RenderBuffers> CudaScene::Impl::Render(const RenderCamera& camera
         "camera: a rolling shutter renders on the CPU only (DeviceRenderer falls back to it)");
   }
   raster::RenderFrame frame;
-  if (absl::Status s = raster::SetUpRenderFrame(instances, time_origin_us, camera, timestamp_us,
-                                                edits, options.near_plane, &frame);
+  if (absl::Status s = raster::SetUpRenderFrame(instances, time_origin_us, fade_span, camera,
+                                                timestamp_us, edits, options.near_plane, &frame);
       !s.ok()) {
     return s;
   }

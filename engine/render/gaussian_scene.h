@@ -34,6 +34,7 @@
 #ifndef POINTFORWARD_ENGINE_RENDER_GAUSSIAN_SCENE_H_
 #define POINTFORWARD_ENGINE_RENDER_GAUSSIAN_SCENE_H_
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -89,6 +90,18 @@ struct EgoLayer {
   }
 };
 
+// The scene times (seconds since the time origin) a render's time is held
+// within where finite lifespans fade a Gaussian's opacity: a render before
+// `begin` fades as at `begin`, one after `end` as at `end`, so a scene whose
+// Gaussians fade away from the times they were seen from still shows them at
+// times past those. Actors are posed at the render's own time either way.
+struct FadeSpan {
+  float begin = -std::numeric_limits<float>::infinity();
+  float end = std::numeric_limits<float>::infinity();
+  bool bounded() const { return !std::isinf(begin) || !std::isinf(end); }
+  float Clamp(float time_s) const { return std::min(std::max(time_s, begin), end); }
+};
+
 struct GaussianScene {
   int num_channels = 3;               // N_c, 3..256.
   int sh_degree = -1;                 // -1: no SH; 0..3 otherwise.
@@ -99,6 +112,9 @@ struct GaussianScene {
   float order_band = 0;
   // Scene time of t = 0 for `times`; lifespans are in seconds.
   int64_t time_origin_us = 0;
+  // Reconstructed scenes: their CONTEXT times; unbounded by default (older
+  // scene files, PLYs).
+  FadeSpan fade_span;
   // What the colours (SH or the first three feature channels, and their
   // gradients) encode, so a render's colour is too: sRGB-encoded values (3DGS
   // scenes; reconstructions in the sRGB working space) or linear light.

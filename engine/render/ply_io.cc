@@ -373,10 +373,12 @@ class BodyReader {
 // colour_encoding=E order_band=B lidar_intensity_channel=C" (low_pass since
 // scene file version 2; files without it keep the 3DGS one; colour_encoding
 // since version 4, else srgb; order_band since version 5, else 0;
-// lidar_intensity_channel since version 6, else -1).
+// lidar_intensity_channel since version 6, else -1), then "fade_begin=B
+// fade_end=E" where the scene's fade span is bounded (else unbounded).
 void ParseOurComment(const std::vector<std::string>& comments, int64_t* time_origin_us,
                      std::optional<int>* sh_degree, float* low_pass,
-                     ColourEncoding* colour_encoding, float* order_band, int* intensity_channel) {
+                     ColourEncoding* colour_encoding, float* order_band, int* intensity_channel,
+                     FadeSpan* fade_span) {
   for (const std::string& comment : comments) {
     std::vector<std::string> words = absl::StrSplit(comment, ' ', absl::SkipWhitespace());
     if (words.empty() || words[0] != kCommentTag) continue;
@@ -390,6 +392,13 @@ void ParseOurComment(const std::vector<std::string>& comments, int64_t* time_ori
       if (kv.first == "order_band") {
         float b = 0;
         if (absl::SimpleAtof(kv.second, &b)) *order_band = b;
+        continue;
+      }
+      if (kv.first == "fade_begin" || kv.first == "fade_end") {
+        float t = 0;
+        if (absl::SimpleAtof(kv.second, &t)) {
+          (kv.first == "fade_begin" ? fade_span->begin : fade_span->end) = t;
+        }
         continue;
       }
       if (kv.first == "colour_encoding") {
@@ -421,6 +430,9 @@ absl::StatusOr<std::string> EncodePly(const GaussianScene& scene, const PlyExpor
       " time_origin_us=", scene.time_origin_us, " sh_degree=", scene.sh_degree,
       " low_pass=", scene.low_pass, " colour_encoding=", ColourEncodingName(scene.colour_encoding),
       " order_band=", scene.order_band, " lidar_intensity_channel=", scene.lidar_intensity_channel,
+      scene.fade_span.bounded()
+          ? absl::StrCat(" fade_begin=", scene.fade_span.begin, " fade_end=", scene.fade_span.end)
+          : std::string(),
       "\nelement vertex ", n, "\n");
   for (const std::string& name : names) absl::StrAppend(&header, "property float ", name, "\n");
   absl::StrAppend(&header, "end_header\n");
@@ -581,7 +593,8 @@ absl::StatusOr<GaussianScene> DecodePly(const std::string& bytes, const std::str
   GaussianScene scene;
   std::optional<int> stored_degree;
   ParseOurComment(header.comments, &scene.time_origin_us, &stored_degree, &scene.low_pass,
-                  &scene.colour_encoding, &scene.order_band, &scene.lidar_intensity_channel);
+                  &scene.colour_encoding, &scene.order_band, &scene.lidar_intensity_channel,
+                  &scene.fade_span);
   // Our export of a scene without SH writes degree-0 f_dc; restore "no SH".
   if (degree == 0 && stored_degree == -1) degree = -1;
   scene.sh_degree = degree;

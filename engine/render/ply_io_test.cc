@@ -205,11 +205,27 @@ TEST(PlyRoundTrip, FeatureSceneArraysMatchWithinFloatTolerance) {
   EXPECT_EQ(back->sh_degree, -1);  // Restored from our header comment.
   EXPECT_EQ(back->num_channels, 3);
   EXPECT_EQ(back->lidar_intensity_channel, 2);
+  EXPECT_FALSE(back->fade_span.bounded());  // None given, none made up.
   ExpectNear(back->features, scene.features, 1e-6f, "features");
   EXPECT_EQ(back->means, scene.means);
   EXPECT_EQ(back->log_scales, scene.log_scales);
   EXPECT_EQ(back->opacity_logits, scene.opacity_logits);
   EXPECT_EQ(back->rotations, scene.rotations);
+}
+
+TEST(PlyRoundTrip, KeepsTheFadeSpan) {
+  GaussianScene scene = MakeScene(-1, 3);
+  scene.fade_span = {-0.125f, 2.75f};
+  absl::StatusOr<GaussianScene> back = DecodePly(*EncodePly(scene), "mem.ply");
+  ASSERT_TRUE(back.ok()) << back.status();
+  EXPECT_EQ(back->fade_span.begin, -0.125f);
+  EXPECT_EQ(back->fade_span.end, 2.75f);
+  // One end only: the other stays unbounded.
+  scene.fade_span = {-std::numeric_limits<float>::infinity(), 2.75f};
+  back = DecodePly(*EncodePly(scene), "mem.ply");
+  ASSERT_TRUE(back.ok()) << back.status();
+  EXPECT_TRUE(std::isinf(back->fade_span.begin) && back->fade_span.begin < 0);
+  EXPECT_EQ(back->fade_span.end, 2.75f);
 }
 
 TEST(PlyRoundTrip, ExportImportRenderGivesIdenticalImages) {

@@ -561,8 +561,8 @@ absl::StatusOr<GaussianParams<T>> Backward(const GaussianScene& scene, const Par
   }
   RenderFrame frame;
   if (absl::Status status =
-          raster::SetUpRenderFrame(scene.instances, scene.time_origin_us, camera, timestamp_us,
-                                   edits, options.near_plane, &frame);
+          raster::SetUpRenderFrame(scene.instances, scene.time_origin_us, scene.fade_span, camera,
+                                   timestamp_us, edits, options.near_plane, &frame);
       !status.ok()) {
     return status;
   }
@@ -807,8 +807,9 @@ absl::StatusOr<CameraMotion> MotionGradientOf(const GaussianScene& scene,
         " rotations for ", scene.size(), " Gaussians; pass RenderBackward()'s gradients"));
   }
   RenderFrame frame;
-  if (absl::Status status = raster::SetUpRenderFrame(scene.instances, scene.time_origin_us, camera,
-                                                     timestamp_us, edits, near_plane, &frame);
+  if (absl::Status status =
+          raster::SetUpRenderFrame(scene.instances, scene.time_origin_us, scene.fade_span, camera,
+                                   timestamp_us, edits, near_plane, &frame);
       !status.ok()) {
     return status;
   }

@@ -316,8 +316,8 @@ GaussianParams<double> MovedAgainst(const GaussianScene& scene,
                                     const GaussianParams<double>& params,
                                     const RenderCamera& camera, const CameraMotion& motion) {
   raster::RenderFrame frame;
-  EXPECT_TRUE(raster::SetUpRenderFrame(scene.instances, scene.time_origin_us, camera, kTime, {},
-                                       RenderOptions{}.near_plane, &frame)
+  EXPECT_TRUE(raster::SetUpRenderFrame(scene.instances, scene.time_origin_us, scene.fade_span,
+                                       camera, kTime, {}, RenderOptions{}.near_plane, &frame)
                   .ok());
   const Rigid step{RotationFromVector({motion[0], motion[1], motion[2]}),
                    {motion[3], motion[4], motion[5]}};

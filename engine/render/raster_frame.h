@@ -80,14 +80,15 @@ inline bool ProjectSplatAtItsLine(const GaussianScene& scene, size_t i, const Re
 
 // Fills `frame` for rendering a scene with `instances` (and time origin
 // `time_origin_us`) through `camera` at `timestamp_us` with `edits` (with a
-// rolling shutter, the readout's poses too: the actors at each line's time).
+// rolling shutter, the readout's poses too: the actors at each line's time);
+// lifespans fade at that time held within `fade_span`.
 // INVALID_ARGUMENT if the camera has no pixels or more than
 // kMaxRenderPixels, or an edit names an unknown instance or gives a
 // trajectory without boxes.
 absl::Status SetUpRenderFrame(const std::vector<InstanceTrack>& instances, int64_t time_origin_us,
-                              const RenderCamera& camera, int64_t timestamp_us,
-                              const std::vector<ActorEdit>& edits, float near_plane,
-                              RenderFrame* frame);
+                              const FadeSpan& fade_span, const RenderCamera& camera,
+                              int64_t timestamp_us, const std::vector<ActorEdit>& edits,
+                              float near_plane, RenderFrame* frame);
 
 }  // namespace pf::raster
 

@@ -209,9 +209,9 @@ absl::Status CheckRenderable(const GaussianScene& scene) {
 namespace raster {
 
 absl::Status SetUpRenderFrame(const std::vector<InstanceTrack>& instances, int64_t time_origin_us,
-                              const RenderCamera& camera, int64_t timestamp_us,
-                              const std::vector<ActorEdit>& edits, float near_plane,
-                              RenderFrame* frame) {
+                              const FadeSpan& fade_span, const RenderCamera& camera,
+                              int64_t timestamp_us, const std::vector<ActorEdit>& edits,
+                              float near_plane, RenderFrame* frame) {
   const CameraModel& model = camera.model;
   if (model.width() <= 0 || model.height() <= 0) {
     return absl::InvalidArgumentError(
@@ -261,9 +261,10 @@ absl::Status SetUpRenderFrame(const std::vector<InstanceTrack>& instances, int64
   };
   const std::vector<Rigid> world_from_owner = owner_poses(timestamp_us);
 
-  SetUpProjectionCamera(
-      model, near_plane,
-      static_cast<float>(static_cast<double>(timestamp_us - time_origin_us) * 1e-6), frame);
+  SetUpProjectionCamera(model, near_plane,
+                        fade_span.Clamp(static_cast<float>(
+                            static_cast<double>(timestamp_us - time_origin_us) * 1e-6)),
+                        frame);
   frame->tiles_x = (frame->width + kTile - 1) / kTile;
   frame->tiles_y = (frame->height + kTile - 1) / kTile;
   const Rigid camera_from_world = camera.world_from_camera.Inverse();
@@ -319,8 +320,8 @@ absl::StatusOr<RenderBuffers> Render(const GaussianScene& scene, const RenderCam
                                      const RenderOptions& options) {
   RenderFrame frame;
   if (absl::Status status =
-          raster::SetUpRenderFrame(scene.instances, scene.time_origin_us, camera, timestamp_us,
-                                   edits, options.near_plane, &frame);
+          raster::SetUpRenderFrame(scene.instances, scene.time_origin_us, scene.fade_span, camera,
+                                   timestamp_us, edits, options.near_plane, &frame);
       !status.ok()) {
     return status;
   }

@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "engine/render/bench_scene.h"
+#include "engine/render/compositing_weights.h"
 #include "engine/render/instance_pose.h"
 #include "engine/render/random_scene_testing.h"
 #include "engine/render/raster_tile.h"
@@ -446,6 +447,37 @@ TEST(Rasterizer, LifespanFadesOpacityAwayFromItsTime) {
   scene.lifespans[0] = kInf;
   absl::StatusOr<RenderBuffers> out = Render(scene, camera, scene.time_origin_us + 90'000'000, {});
   EXPECT_NEAR(out->alpha[p], 0.8, 1e-5);
+}
+
+TEST(Rasterizer, TheFadeSpanHoldsTheFadesTime) {
+  // With a fade span [0.6, 1.8] s a render at t' fades as at t' held within
+  // it: before 0.6 as at 0.6, after 1.8 as at 1.8, between as at t'; the
+  // compositing weights and the reference renderer hold it alike.
+  const RenderCamera camera = SimpleCamera();
+  GaussianScene scene;
+  scene.time_origin_us = 5'000'000;
+  AddGaussian(&scene, PointAtPixel(10, 10, 2.0, camera), 0.05, 0.8, {1, 1, 1});
+  scene.times[0] = 1.0f;
+  scene.lifespans[0] = 0.5f;
+  scene.fade_span = {0.6f, 1.8f};
+  const size_t p = 10 * 64 + 10;
+  for (double t : {-3.0, 0.2, 0.6, 1.4, 1.8, 2.5, 40.0}) {
+    const int64_t at = scene.time_origin_us + static_cast<int64_t>(std::llround(t * 1e6));
+    absl::StatusOr<RenderBuffers> out = Render(scene, camera, at, {});
+    ASSERT_TRUE(out.ok());
+    const double u = (std::clamp(t, 0.6, 1.8) - 1.0) / 1.5;
+    EXPECT_NEAR(out->alpha[p], 0.8 * std::exp(-0.5 * u * u), 1e-5) << "t' = " << t;
+    absl::StatusOr<CompositingWeights> a = ComputeCompositingWeights(scene, camera, at);
+    ASSERT_TRUE(a.ok());
+    EXPECT_EQ(a->alpha[p], out->alpha[p]) << "t' = " << t;
+    const RenderBuffers reference = testing::ReferenceRender(scene, camera, at, {});
+    EXPECT_NEAR(reference.alpha[p], out->alpha[p], 1e-5) << "t' = " << t;
+  }
+  // Unbounded (the default): 40 s away it has faded out.
+  scene.fade_span = FadeSpan{};
+  absl::StatusOr<RenderBuffers> out = Render(scene, camera, scene.time_origin_us + 40'000'000, {});
+  ASSERT_TRUE(out.ok());
+  EXPECT_EQ(out->alpha[p], 0.f);
 }
 
 // A scene with one moving car (instance 1) in front of a background wall.

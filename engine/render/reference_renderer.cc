@@ -40,7 +40,11 @@ RenderBuffers ReferenceRender(const GaussianScene& scene, const RenderCamera& ca
   const int width = model.width(), height = model.height();
   const size_t n = scene.size();
   const int nc = scene.num_channels;
-  const double t_render = static_cast<double>(timestamp_us - scene.time_origin_us) * 1e-6;
+  // The fade's time, held within the scene's fade span.
+  const double t_fade =
+      std::min(std::max(static_cast<double>(timestamp_us - scene.time_origin_us) * 1e-6,
+                        double{scene.fade_span.begin}),
+               double{scene.fade_span.end});
 
   // World-from-owner poses and which owners are drawn.
   std::vector<Rigid> world_from_owner(scene.instances.size() + 1);
@@ -73,7 +77,7 @@ RenderBuffers ReferenceRender(const GaussianScene& scene, const RenderCamera& ca
     s.depth = p.z;
     s.opacity = OpacityOfLogit(scene.opacity_logits[i]);
     if (!std::isinf(scene.lifespans[i])) {
-      const double x = (t_render - scene.times[i]) / (scene.lifespans[i] + 1.0);
+      const double x = (t_fade - scene.times[i]) / (scene.lifespans[i] + 1.0);
       s.opacity *= std::exp(-0.5 * x * x);
     }
     // Covariance in the camera frame: M M^T with M = R_co * R_q * S.

@@ -159,6 +159,10 @@ absl::Status ValidateScene(const GaussianScene& scene) {
     return absl::InvalidArgumentError(
         absl::StrCat("order_band: ", scene.order_band, " is outside [0, ", kMaxOrderBand, "]"));
   }
+  if (!(scene.fade_span.begin <= scene.fade_span.end)) {
+    return absl::InvalidArgumentError(absl::StrCat("fade_span: [", scene.fade_span.begin, ", ",
+                                                   scene.fade_span.end, "] is not an interval"));
+  }
   if (scene.lidar_intensity_channel < -1 || scene.lidar_intensity_channel >= scene.num_channels) {
     return absl::InvalidArgumentError(
         absl::StrCat("lidar_intensity_channel: ", scene.lidar_intensity_channel,
@@ -244,6 +248,8 @@ absl::Status SaveScene(const GaussianScene& scene, const std::string& path,
   header.Put<uint32_t>(scene.colour_encoding == ColourEncoding::kLinear ? 1 : 0);
   header.Put<float>(scene.order_band);
   header.Put<int32_t>(scene.lidar_intensity_channel);
+  header.Put<float>(scene.fade_span.begin);
+  header.Put<float>(scene.fade_span.end);
   header.Put<uint32_t>(static_cast<uint32_t>(scene.instances.size()));
   for (const InstanceTrack& track : scene.instances) {
     header.PutString(track.id);
@@ -398,6 +404,15 @@ absl::StatusOr<SceneFile> ReadSceneFile(const std::string& path) {
                    " is neither -1 nor one of the ", num_channels, " channels");
   }
   scene.lidar_intensity_channel = intensity_channel;
+  // Version 8 added the fade span (unbounded before).
+  if (version >= 8) {
+    RETURN_IF_ERROR(header.Get("fade_begin", &scene.fade_span.begin));
+    RETURN_IF_ERROR(header.Get("fade_end", &scene.fade_span.end));
+    if (!(scene.fade_span.begin <= scene.fade_span.end)) {
+      return invalid("header fade span [", scene.fade_span.begin, ", ", scene.fade_span.end,
+                     "] is not an interval");
+    }
+  }
   if (num_channels < 1 || num_channels > kMaxChannels) {
     return invalid("header num_channels ", num_channels, " is outside [1, ", kMaxChannels, "]");
   }

@@ -33,8 +33,9 @@ inline constexpr char kSceneFileMagic[8] = {'P', 'F', 'S', 'C', 'E', 'N', 'E', '
 // order band (int32, -1 none; older files: -1). Version 7 added the ego
 // layers (GaussianScene::ego_layers): their ids, sizes and body pixel counts
 // after the metadata, their masks and colours after the arrays (older files:
-// none).
-inline constexpr uint32_t kSceneFileVersion = 7;
+// none). Version 8 added the fade span (GaussianScene::fade_span, two
+// float32 after the LiDAR intensity channel; older files: unbounded).
+inline constexpr uint32_t kSceneFileVersion = 8;
 inline constexpr uint32_t kOldestSceneFileVersion = 1;
 
 // A scene as stored: the Gaussians, free-form metadata (e.g. "model",

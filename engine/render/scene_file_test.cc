@@ -55,6 +55,8 @@ void ExpectScenesEqual(const GaussianScene& a, const GaussianScene& b) {
   EXPECT_EQ(a.time_origin_us, b.time_origin_us);
   EXPECT_EQ(a.low_pass, b.low_pass);
   EXPECT_EQ(a.order_band, b.order_band);
+  EXPECT_EQ(a.fade_span.begin, b.fade_span.begin);
+  EXPECT_EQ(a.fade_span.end, b.fade_span.end);
   EXPECT_EQ(a.colour_encoding, b.colour_encoding);
   EXPECT_EQ(a.lidar_intensity_channel, b.lidar_intensity_channel);
   EXPECT_EQ(a.means, b.means);
@@ -167,12 +169,12 @@ TEST_F(SceneFileTest, RejectsWrongMagic) {
 }
 
 TEST_F(SceneFileTest, RejectsWrongVersion) {
-  for (int version : {0, 8}) {
+  for (int version : {0, 9}) {
     const absl::Status status =
         LoadEdited([version](std::string& b) { b[8] = static_cast<char>(version); });
     EXPECT_EQ(status.code(), absl::StatusCode::kInvalidArgument);
     EXPECT_NE(status.message().find(absl::StrCat("unsupported scene file version ", version,
-                                                 " (this build reads versions 1 to 7)")),
+                                                 " (this build reads versions 1 to 8)")),
               absl::string_view::npos)
         << status;
   }
@@ -182,9 +184,13 @@ TEST_F(SceneFileTest, RejectsWrongVersion) {
 // bytes at `offset`, sets the version and header size, fixes the checksum.
 void RewriteAsVersion(const std::string& path, uint32_t version, size_t offset, size_t drop) {
   std::string bytes = *ReadFileToString(path);
-  bytes.erase(offset, drop);
   uint32_t header_bytes = 0;
   std::memcpy(&header_bytes, bytes.data() + 12, 4);
+  if (version < 8) {  // Nor the fade span (two float32 at byte 60).
+    bytes.erase(60, 8);
+    header_bytes -= 8;
+  }
+  bytes.erase(offset, drop);
   header_bytes -= static_cast<uint32_t>(drop);
   if (version < 7) {  // Nor the ego layer count (0) at the header's end.
     bytes.erase(16 + header_bytes - 4, 4);
@@ -210,7 +216,7 @@ TEST_F(SceneFileTest, RoundTripWithColourGradients) {
   ASSERT_TRUE(SaveScene(scene, path_).ok());
   absl::StatusOr<SceneFile> loaded = ReadSceneFile(path_);
   ASSERT_TRUE(loaded.ok()) << loaded.status();
-  EXPECT_EQ(loaded->version, 7u);
+  EXPECT_EQ(loaded->version, 8u);
   ExpectScenesEqual(scene, loaded->scene);
   // 6 more floats per Gaussian than the same scene with flat colours.
   const std::string flat_path = path_ + ".flat";
@@ -244,6 +250,32 @@ TEST_F(SceneFileTest, RoundTripKeepsLinearColours) {
   ASSERT_TRUE(loaded.ok()) << loaded.status();
   EXPECT_EQ(loaded->scene.colour_encoding, ColourEncoding::kLinear);
   ExpectScenesEqual(scene, loaded->scene);
+}
+
+TEST_F(SceneFileTest, RoundTripKeepsTheFadeSpanAndVersionSevenFilesHaveNone) {
+  GaussianScene scene = MakeScene();
+  scene.fade_span = {-0.25f, 1.5f};
+  ASSERT_TRUE(SaveScene(scene, path_).ok());
+  float stored[2] = {0, 0};
+  std::memcpy(stored, ReadFileToString(path_)->data() + 60, 8);
+  EXPECT_EQ(stored[0], -0.25f);
+  EXPECT_EQ(stored[1], 1.5f);
+  absl::StatusOr<SceneFile> loaded = ReadSceneFile(path_);
+  ASSERT_TRUE(loaded.ok()) << loaded.status();
+  ExpectScenesEqual(scene, loaded->scene);
+  // A version-7 file is a version-8 file without the fade span: unbounded.
+  RewriteAsVersion(path_, 7, 0, 0);
+  loaded = ReadSceneFile(path_);
+  ASSERT_TRUE(loaded.ok()) << loaded.status();
+  EXPECT_EQ(loaded->version, 7u);
+  EXPECT_FALSE(loaded->scene.fade_span.bounded());
+  scene.fade_span = FadeSpan{};
+  ExpectScenesEqual(scene, loaded->scene);
+  // Not an interval: refused, naming it.
+  scene.fade_span = {2.f, 1.f};
+  const absl::Status status = SaveScene(scene, path_);
+  EXPECT_NE(status.message().find("fade_span: [2, 1] is not an interval"), absl::string_view::npos)
+      << status;
 }
 
 TEST_F(SceneFileTest, RoundTripKeepsTheOrderBandAndVersionFourFilesHaveNone) {
@@ -325,7 +357,7 @@ TEST_F(SceneFileTest, RoundTripKeepsTheEgoLayersAndVersionSixFilesHaveNone) {
   ASSERT_TRUE(SaveScene(scene, path_).ok());
   absl::StatusOr<SceneFile> loaded = ReadSceneFile(path_);
   ASSERT_TRUE(loaded.ok()) << loaded.status();
-  EXPECT_EQ(loaded->version, 7u);
+  EXPECT_EQ(loaded->version, 8u);
   ExpectScenesEqual(scene, loaded->scene);
   ASSERT_EQ(loaded->scene.ego_layers.size(), 2u);
   for (size_t k = 0; k < 2; ++k) {
@@ -482,7 +514,7 @@ TEST_F(SceneFileTest, RejectsHostileCountsWithoutAllocating) {
 
   // colour_encoding follows num_gaussians, num_channels, sh_degree, time
   // origin, low-pass, colour-gradient flag; the order band follows it, then
-  // the intensity channel and num_instances.
+  // the intensity channel, the fade span and num_instances.
   status = LoadEdited([](std::string& b) {
     const uint32_t huge = 0x7FFFFFFFu;
     std::memcpy(b.data() + 16 + 8 + 4 + 4 + 8 + 4 + 4, &huge, 4);
@@ -498,6 +530,14 @@ TEST_F(SceneFileTest, RejectsHostileCountsWithoutAllocating) {
   status = LoadEdited([](std::string& b) {
     const uint32_t huge = 0x7FFFFFFFu;
     std::memcpy(b.data() + 16 + 8 + 4 + 4 + 8 + 4 + 4 + 4 + 4 + 4, &huge, 4);
+  });
+  EXPECT_EQ(status.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(status.message().find("header fade span [nan, inf] is not an interval"),
+            absl::string_view::npos)
+      << status;
+  status = LoadEdited([](std::string& b) {
+    const uint32_t huge = 0x7FFFFFFFu;
+    std::memcpy(b.data() + 16 + 8 + 4 + 4 + 8 + 4 + 4 + 4 + 4 + 4 + 8, &huge, 4);
   });
   EXPECT_EQ(status.code(), absl::StatusCode::kInvalidArgument);
   EXPECT_NE(status.message().find("num_instances"), absl::string_view::npos) << status;
