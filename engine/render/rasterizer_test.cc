@@ -426,13 +426,20 @@ TEST(Rasterizer, ShColourOfDegreesTwoAndThree) {
   }
 }
 
-TEST(Rasterizer, LifespanFadesOpacityAwayFromItsTime) {
-  const RenderCamera camera = SimpleCamera();
+// One Gaussian of opacity 0.8 at pixel (10, 10) of `camera`, of time 1 s
+// after the scene's origin and lifespan 0.5 s.
+GaussianScene OneFadingGaussian(const RenderCamera& camera) {
   GaussianScene scene;
   scene.time_origin_us = 5'000'000;
   AddGaussian(&scene, PointAtPixel(10, 10, 2.0, camera), 0.05, 0.8, {1, 1, 1});
   scene.times[0] = 1.0f;
   scene.lifespans[0] = 0.5f;
+  return scene;
+}
+
+TEST(Rasterizer, LifespanFadesOpacityAwayFromItsTime) {
+  const RenderCamera camera = SimpleCamera();
+  GaussianScene scene = OneFadingGaussian(camera);
   const size_t p = 10 * 64 + 10;
   for (double t : {1.0, 1.4, 2.0, 0.2, 3.5}) {
     absl::StatusOr<RenderBuffers> out =
@@ -454,11 +461,7 @@ TEST(Rasterizer, TheFadeSpanHoldsTheFadesTime) {
   // it: before 0.6 as at 0.6, after 1.8 as at 1.8, between as at t'; the
   // compositing weights and the reference renderer hold it alike.
   const RenderCamera camera = SimpleCamera();
-  GaussianScene scene;
-  scene.time_origin_us = 5'000'000;
-  AddGaussian(&scene, PointAtPixel(10, 10, 2.0, camera), 0.05, 0.8, {1, 1, 1});
-  scene.times[0] = 1.0f;
-  scene.lifespans[0] = 0.5f;
+  GaussianScene scene = OneFadingGaussian(camera);
   scene.fade_span = {0.6f, 1.8f};
   const size_t p = 10 * 64 + 10;
   for (double t : {-3.0, 0.2, 0.6, 1.4, 1.8, 2.5, 40.0}) {

@@ -41,10 +41,8 @@ RenderBuffers ReferenceRender(const GaussianScene& scene, const RenderCamera& ca
   const size_t n = scene.size();
   const int nc = scene.num_channels;
   // The fade's time, held within the scene's fade span.
-  const double t_fade =
-      std::min(std::max(static_cast<double>(timestamp_us - scene.time_origin_us) * 1e-6,
-                        double{scene.fade_span.begin}),
-               double{scene.fade_span.end});
+  const double t_fade = std::clamp(static_cast<double>(timestamp_us - scene.time_origin_us) * 1e-6,
+                                   double{scene.fade_span.begin}, double{scene.fade_span.end});
 
   // World-from-owner poses and which owners are drawn.
   std::vector<Rigid> world_from_owner(scene.instances.size() + 1);
