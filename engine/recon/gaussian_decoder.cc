@@ -4,6 +4,9 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <optional>
+#include <string>
+#include <vector>
 
 #include "common/thread_pool.h"
 
@@ -26,11 +29,9 @@ double AgreementOpacity(double agreement, int observations, const DecoderOptions
 
 }  // namespace
 
-void FadeStaticGaussians(const std::vector<std::string>& view_cameras,
-                         const std::vector<int64_t>& view_times_us,
-                         const std::vector<uint32_t>& owners, const std::vector<uint8_t>& far,
-                         double fade_frames, GaussianScene* scene) {
-  if (!(fade_frames > 0) || view_times_us.empty()) return;
+std::optional<double> FadeSigma(const std::vector<std::string>& view_cameras,
+                                const std::vector<int64_t>& view_times_us, double fade_frames) {
+  if (!(fade_frames > 0) || view_times_us.empty()) return std::nullopt;
   std::map<std::string, std::vector<int64_t>> times_of_camera;
   for (size_t v = 0; v < view_times_us.size(); ++v)
     times_of_camera[view_cameras[v]].push_back(view_times_us[v]);
@@ -43,8 +44,17 @@ void FadeStaticGaussians(const std::vector<std::string>& view_cameras,
     gaps += double(times.back() - times.front()) * 1e-6;
     count += static_cast<int64_t>(times.size()) - 1;
   }
-  if (count == 0) return;
-  const float sigma = static_cast<float>(std::max(0.0, fade_frames * gaps / double(count) - 1.0));
+  if (count == 0) return std::nullopt;
+  return std::max(0.0, fade_frames * gaps / double(count) - 1.0);
+}
+
+void FadeStaticGaussians(const std::vector<std::string>& view_cameras,
+                         const std::vector<int64_t>& view_times_us,
+                         const std::vector<uint32_t>& owners, const std::vector<uint8_t>& far,
+                         double fade_frames, GaussianScene* scene) {
+  const std::optional<double> fade_sigma = FadeSigma(view_cameras, view_times_us, fade_frames);
+  if (!fade_sigma.has_value()) return;
+  const float sigma = static_cast<float>(*fade_sigma);
   for (size_t i = 0; i < scene->size(); ++i) {
     if (owners[i] != 0 || far[i]) continue;
     scene->lifespans[i] = std::min(scene->lifespans[i], sigma);

@@ -96,6 +96,14 @@ GaussianScene DecodeGaussians(const QuerySet& queries, const FusedQueries& fused
                               const std::vector<InstanceTrack>& tracks,
                               const DecoderOptions& options = {});
 
+// The lifespan FadeStaticGaussians gives static Gaussians (below):
+// max(0, fade_frames x g - 1) seconds, g the mean spacing of consecutive
+// CONTEXT times of a camera (`view_cameras[v]`, `view_times_us[v]` per
+// view; over every camera with two or more). nullopt where nothing fades:
+// fade_frames 0, or no camera with two CONTEXT times.
+std::optional<double> FadeSigma(const std::vector<std::string>& view_cameras,
+                                const std::vector<int64_t>& view_times_us, double fade_frames);
+
 // The paper's lifespan for static Gaussians, without a learned model: a
 // static Gaussian off the far layer (owners[i] 0, far[i] 0) is drawn at
 // o exp(-((t - t_i) / (sigma + 1))^2 / 2) at time t (splat_projection.h),

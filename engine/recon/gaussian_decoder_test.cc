@@ -168,6 +168,10 @@ TEST(GaussianDecoder, StaticGaussiansFadeOverTheFramesAroundTheirOwn) {
   const std::vector<uint32_t> owners = {0, 0, 0, 1, 0};
   const std::vector<uint8_t> far = {0, 0, 1, 0, 0};
   const float kInf = std::numeric_limits<float>::infinity();
+  EXPECT_NEAR(FadeSigma(cameras, times, 10).value_or(-1), 1.0, 1e-9);
+  EXPECT_EQ(FadeSigma(cameras, times, 2).value_or(-1), 0.0);
+  EXPECT_FALSE(FadeSigma(cameras, times, 0).has_value());
+  EXPECT_FALSE(FadeSigma({"a", "b"}, {1'000'000, 1'200'000}, 10).has_value());
   {
     GaussianScene faded = scene;
     FadeStaticGaussians(cameras, times, owners, far, 10, &faded);

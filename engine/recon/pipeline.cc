@@ -5,8 +5,10 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <optional>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include "absl/strings/str_cat.h"
 #include "common/geometry.h"
@@ -185,6 +187,17 @@ void Pipeline::Sample(bool dense) {
   sampling.fill_static_budget = options_.fill_static_budget;
   sampling.behind_band_px = options_.hidden_band_px;
   sampling.dense = dense;
+  // A point is left to a finer view only while that view's discs are not
+  // faded at its time: within the fade's width, sigma + 1 seconds.
+  std::vector<std::string> cameras(num_views);
+  std::vector<int64_t> times(num_views);
+  for (size_t v = 0; v < num_views; ++v) {
+    cameras[v] = inputs_.views[v].camera_id;
+    times[v] = inputs_.views[v].timestamp_us;
+  }
+  if (const std::optional<double> sigma = FadeSigma(cameras, times, options_.decoder.fade_frames)) {
+    sampling.finer_view_seconds = *sigma + 1.0;
+  }
   std::vector<SamplingView> sampling_views(num_views);
   for (size_t v = 0; v < num_views; ++v) {
     sampling_views[v] = {&inputs_.views[v], &depths_[v], &lifted_[v], &owners_[v]};

@@ -415,14 +415,18 @@ bool PixelOf(const SamplingView& sv, const Vec3& pc, size_t* pixel) {
   return true;
 }
 
-// Returns true if a view other than `self` sees world point `p`
-// (depth-consistent, in the image) with a footprint smaller than
-// `footprint` / `ratio`.
-bool FinerViewSees(const Vec3& p, double footprint, size_t self, double ratio,
+// Returns true if a view other than `self`, at most `max_seconds` from its
+// time, sees world point `p` (depth-consistent, in the image) with a
+// footprint smaller than `footprint` / `ratio`.
+bool FinerViewSees(const Vec3& p, double footprint, size_t self, double ratio, double max_seconds,
                    const std::vector<SamplingView>& views,
                    const std::vector<ViewResolution>& resolution) {
+  const int64_t own_time_us = views[self].view->timestamp_us;
   for (size_t u = 0; u < views.size(); ++u) {
     if (u == self) continue;
+    if (double(std::abs(views[u].view->timestamp_us - own_time_us)) * 1e-6 > max_seconds) {
+      continue;
+    }
     const Vec3 pc = InCamera(resolution[u], p);
     if (pc.z <= 0) continue;
     // A pinhole camera's footprint is the same at every pixel: tested
@@ -1066,7 +1070,8 @@ size_t SampleStatic(const std::vector<SamplingView>& views,
             const Vec3 p{sv.lifted->points[3 * i], sv.lifted->points[3 * i + 1],
                          sv.lifted->points[3 * i + 2]};
             if (prefer_finer && !sv.depth->is_far(i) &&
-                FinerViewSees(p, footprint, v, options.finer_view_ratio, views, resolution)) {
+                FinerViewSees(p, footprint, v, options.finer_view_ratio, options.finer_view_seconds,
+                              views, resolution)) {
               return false;
             }
             if (options.skip_covered && !options.dense) {

@@ -9,15 +9,18 @@
 // in far_stride x far_stride. A point that another view sees (depth
 // consistent within 3 %) with a footprint smaller by more than
 // `finer_view_ratio` is left to that view, so every surface is sampled by
-// the view that sees it in most detail. A point whose voxel (side: its footprint
-// rounded up to a power of two) was already filled by an earlier view is
-// skipped, so surfaces seen by several views are not sampled again. Dynamic
-// pixels are left to the instances. Those two rules remove redundant
-// queries, not budget: the paper's query count is N = V N_s + O N_d, so when
-// they leave fewer than V N_s static queries, all views are sampled again on
-// grids refined by sqrt(kept / (V N_s)) (fill_static_budget), which spends
-// the freed budget on detail instead of dropping it, on cells at most
-// sqrt(max_refill) = sqrt(2) finer (about twice what was kept).
+// the view that sees it in most detail, if that view's time is within
+// `finer_view_seconds` of the point's own view's (a scene whose discs fade
+// with time would draw the finer view's discs faded there). A point whose
+// voxel (side: its footprint rounded up to a power of two) was already
+// filled by an earlier view is skipped, so surfaces seen by several views
+// are not sampled again. Dynamic pixels are left to the instances. Those
+// two rules remove redundant queries, not budget: the paper's query count
+// is N = V N_s + O N_d, so when they leave fewer than V N_s static queries,
+// all views are sampled again on grids refined by sqrt(kept / (V N_s))
+// (fill_static_budget), which spends the freed budget on detail instead of
+// dropping it, on cells at most sqrt(max_refill) = sqrt(2) finer (about
+// twice what was kept).
 //
 // A visible query on the near side of an occluding edge gets a smaller
 // footprint (edge_footprint_scale), so its disc does not spread over the
@@ -57,6 +60,7 @@
 #define POINTFORWARD_ENGINE_RECON_SPARSE_SAMPLING_H_
 
 #include <cstdint>
+#include <limits>
 #include <optional>
 #include <vector>
 
@@ -78,6 +82,8 @@ struct SamplingOptions {
   int far_stride = 3;             // Far-layer cells taken: one in far_stride^2.
   bool skip_covered = true;       // Skip static points whose voxel an earlier view filled.
   double finer_view_ratio = 1.2;  // Leave points to views this much finer; <= 0: off.
+  // ... but only to views within this many seconds of the point's view.
+  double finer_view_seconds = std::numeric_limits<double>::infinity();
   // Keep the paper's count of static queries, V x N_s, up to about
   // max_refill times what the two rules above kept: when they leave fewer
   // than 95 % of it, every view's cell side is multiplied by

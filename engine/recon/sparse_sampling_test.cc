@@ -6,6 +6,7 @@
 
 #include <array>
 #include <cmath>
+#include <limits>
 #include <set>
 #include <utility>
 #include <vector>
@@ -622,16 +623,32 @@ TEST(SparseSampling, InstanceQueriesAreCanonicalAndWithinBudget) {
 namespace pf {
 namespace {
 
-TEST(SparseSampling, SurfacesAreLeftToTheViewThatSeesThemClosest) {
-  // Both look along +z at the plane z = 10; `far_view` stands 10 m further
-  // back, so it sees the near view's whole area (x in [-5, 5], y in
-  // [-3.75, 3.75]) at half the resolution, and more around it.
-  const PlaneView near_view(192, 144, Rigid{});
+// A view of the plane z = 10 from 10 m behind the origin's (PlaneView's)
+// camera: it sees that view's whole area (x in [-5, 5], y in [-3.75, 3.75])
+// at half the resolution, and more around it.
+PlaneView FarPlaneView() {
   Rigid back;
   back.translation = {0, 0, -10};
   PlaneView far_view(192, 144, back);
   for (float& d : far_view.depth.depth) d = 20.f;
   far_view.lifted = LiftView(far_view.view, far_view.depth);
+  return far_view;
+}
+
+// The queries of view 0 (the far view) inside the near view's area.
+int FarViewQueriesInside(const QuerySet& q) {
+  int inside = 0;
+  for (size_t i = 0; i < q.size(); ++i)
+    if (q.views[i] == 0 && std::abs(q.positions[3 * i]) < 4.8f &&
+        std::abs(q.positions[3 * i + 1]) < 3.6f)
+      ++inside;
+  return inside;
+}
+
+TEST(SparseSampling, SurfacesAreLeftToTheViewThatSeesThemClosest) {
+  // Both look along +z at the plane z = 10.
+  const PlaneView near_view(192, 144, Rigid{});
+  const PlaneView far_view = FarPlaneView();
   SamplingOptions options;
   options.static_per_view = 1728;
   options.fill_static_budget = false;  // The rule alone.
@@ -653,12 +670,27 @@ TEST(SparseSampling, SurfacesAreLeftToTheViewThatSeesThemClosest) {
   EXPECT_GT(far_outside, 1728 / 2);  // 3/4 of the far view is outside the near one.
   options.finer_view_ratio = 0;      // Off: the far view keeps its samples there.
   const QuerySet plain = SampleQueries({far_view.sampling(), near_view.sampling()}, {}, options);
-  int plain_inside = 0;
-  for (size_t i = 0; i < plain.size(); ++i)
-    if (plain.views[i] == 0 && std::abs(plain.positions[3 * i]) < 4.8f &&
-        std::abs(plain.positions[3 * i + 1]) < 3.6f)
-      ++plain_inside;
-  EXPECT_GT(plain_inside, 300);
+  EXPECT_GT(FarViewQueriesInside(plain), 300);
+}
+
+// The same two views with the near one 2 s later: within finer_view_seconds
+// the far view leaves the shared area to it; beyond, it keeps its own
+// samples there (a scene fading with time would draw the near view's discs
+// faded at the far view's time).
+TEST(SparseSampling, SurfacesAreLeftToAFinerViewOnlyWithinItsTime) {
+  const PlaneView near_view(192, 144, Rigid{}, /*t=*/2000000);
+  const PlaneView far_view = FarPlaneView();
+  auto far_inside = [&](double seconds) {
+    SamplingOptions options;
+    options.static_per_view = 1728;
+    options.fill_static_budget = false;
+    options.finer_view_seconds = seconds;
+    return FarViewQueriesInside(
+        SampleQueries({far_view.sampling(), near_view.sampling()}, {}, options));
+  };
+  EXPECT_EQ(far_inside(std::numeric_limits<double>::infinity()), 0);  // The default.
+  EXPECT_EQ(far_inside(2.5), 0);
+  EXPECT_GT(far_inside(1.5), 300);  // As with the rule off.
 }
 
 // A rolling-shutter view read top to bottom over 100 ms while the car
