@@ -72,6 +72,20 @@ std::string DensifySummary(const OptimizeOptions& options, const OptimizeStats& 
                       " Gaussians");
 }
 
+// Each context view's camera id and time, as the time fade takes them.
+struct ViewCamerasAndTimes {
+  std::vector<std::string> cameras;
+  std::vector<int64_t> times_us;
+};
+ViewCamerasAndTimes CamerasAndTimes(const std::vector<ContextView>& views) {
+  ViewCamerasAndTimes out;
+  for (const ContextView& view : views) {
+    out.cameras.push_back(view.camera_id);
+    out.times_us.push_back(view.timestamp_us);
+  }
+  return out;
+}
+
 }  // namespace
 
 Pipeline::Pipeline(ReconInputs inputs, const ReconOptions& options)
@@ -189,13 +203,9 @@ void Pipeline::Sample(bool dense) {
   sampling.dense = dense;
   // A point is left to a finer view only while that view's discs are not
   // faded at its time: within the fade's width, sigma + 1 seconds.
-  std::vector<std::string> cameras(num_views);
-  std::vector<int64_t> times(num_views);
-  for (size_t v = 0; v < num_views; ++v) {
-    cameras[v] = inputs_.views[v].camera_id;
-    times[v] = inputs_.views[v].timestamp_us;
-  }
-  if (const std::optional<double> sigma = FadeSigma(cameras, times, options_.decoder.fade_frames)) {
+  const ViewCamerasAndTimes views = CamerasAndTimes(inputs_.views);
+  if (const std::optional<double> sigma =
+          FadeSigma(views.cameras, views.times_us, options_.decoder.fade_frames)) {
     sampling.finer_view_seconds = *sigma + 1.0;
   }
   std::vector<SamplingView> sampling_views(num_views);
@@ -230,9 +240,7 @@ void Pipeline::KeepQueriesUnfused() {
 }
 
 void Pipeline::Decode() {
-  const size_t num_views = inputs_.views.size();
-  std::vector<int64_t> times(num_views);
-  for (size_t v = 0; v < num_views; ++v) times[v] = inputs_.views[v].timestamp_us;
+  const ViewCamerasAndTimes views = CamerasAndTimes(inputs_.views);
   ReconStats& stats = result_.stats;
   DecoderOptions decoder = options_.decoder;
   if (!decoder.low_pass) {
@@ -240,12 +248,10 @@ void Pipeline::Decode() {
                                       stats.views_without_depth == 0);
   }
   stats.low_pass = *decoder.low_pass;
-  result_.scene =
-      DecodeGaussians(queries_, fused_, times, inputs_.time_origin_us, inputs_.tracks, decoder);
-  std::vector<std::string> cameras(num_views);
-  for (size_t v = 0; v < num_views; ++v) cameras[v] = inputs_.views[v].camera_id;
-  FadeStaticGaussians(cameras, times, queries_.owners, queries_.far, decoder.fade_frames,
-                      &result_.scene);
+  result_.scene = DecodeGaussians(queries_, fused_, views.times_us, inputs_.time_origin_us,
+                                  inputs_.tracks, decoder);
+  FadeStaticGaussians(views.cameras, views.times_us, queries_.owners, queries_.far,
+                      decoder.fade_frames, &result_.scene);
   result_.scene.colour_encoding = inputs_.colour_encoding;
   CountGaussians(queries_.owners, queries_.far, {}, &stats);
   // The scene holds what the stages after this one need: the queries, their
