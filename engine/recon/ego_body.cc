@@ -562,6 +562,50 @@ std::vector<uint8_t> BodyBlocks(const std::vector<ContextView>& views,
   return body;
 }
 
+// The body's blocks of one camera's views, searched in runs of
+// `options.run_frames` consecutive frames (by time; a short last run joins
+// the one before it): a block is body where at least half of the runs that
+// had a pair find it. Fewer than two runs' frames: one search over them all.
+std::vector<uint8_t> BodyBlocksByRuns(const std::vector<ContextView>& views,
+                                      const std::vector<ViewDepth>& depths,
+                                      const std::vector<InstanceTrack>& tracks,
+                                      std::vector<size_t> members, const EgoBodyOptions& options,
+                                      int* w_out, int* h_out, int* step_out) {
+  const size_t run = size_t(std::max(0, options.run_frames));
+  if (run == 0 || members.size() < 2 * run) {
+    return BodyBlocks(views, depths, tracks, members, options, w_out, h_out, step_out);
+  }
+  std::stable_sort(members.begin(), members.end(), [&](size_t a, size_t b) {
+    return views[a].middle_time_us() < views[b].middle_time_us();
+  });
+  std::vector<int> votes;
+  int voters = 0;
+  for (size_t begin = 0; begin < members.size();) {
+    size_t end = begin + run;
+    if (members.size() - end < run) end = members.size();
+    const std::vector<size_t> part(members.begin() + long(begin), members.begin() + long(end));
+    int w = 0, h = 0, step = 1;
+    const std::vector<uint8_t> blocks =
+        BodyBlocks(views, depths, tracks, part, options, &w, &h, &step);
+    if (w > 0) {  // The run had a pair: it votes.
+      ++voters;
+      *w_out = w, *h_out = h, *step_out = step;
+      votes.resize(size_t(w) * h, 0);
+      for (size_t i = 0; i < blocks.size(); ++i) votes[i] += blocks[i];
+    }
+    begin = end;
+  }
+  if (voters == 0) return {};
+  std::vector<uint8_t> body(votes.size(), 0);
+  size_t area = 0;
+  for (size_t i = 0; i < votes.size(); ++i) {
+    body[i] = 2 * votes[i] >= voters;
+    area += body[i];
+  }
+  if (double(area) < options.min_area * double(body.size())) return {};
+  return body;
+}
+
 }  // namespace
 
 std::vector<EgoLayer> DetectEgoBodies(const std::vector<ContextView>& views,
@@ -588,7 +632,7 @@ std::vector<EgoLayer> DetectEgoBodies(const std::vector<ContextView>& views,
     } else {
       int w = 0, h = 0, step = 1;
       const std::vector<uint8_t> blocks =
-          BodyBlocks(views, depths, tracks, members, options, &w, &h, &step);
+          BodyBlocksByRuns(views, depths, tracks, members, options, &w, &h, &step);
       if (blocks.empty()) continue;
       layer.mask.assign(pixels, 0);
       for (int y = 0; y < layer.height; ++y) {

@@ -8,8 +8,10 @@
 //   std::vector<EgoLayer> layers = DetectEgoBodies(views, depths, tracks);
 //
 // Per camera, over the pairs of its CONTEXT frames at least
-// `min_travel_m` apart (each frame with the one farthest from it), on images
-// reduced to about `work_width` pixels across (block means):
+// `min_travel_m` apart (each frame with the one farthest from it; a camera
+// with many frames in runs of `run_frames`, the body where at least half of
+// the runs find it), on images reduced to about `work_width` pixels across
+// (block means):
 // - still: the 5x5 mean of |frame a - frame b| at the same pixel is under
 //   `still_threshold` (sRGB-like units; every pair);
 // - moved: in either direction, the pixel lifted with its frame's depth and
@@ -71,6 +73,12 @@ struct EgoBodyOptions {
   float moved_threshold = 0.15f;
   float moved_ratio = 2.f;
   double min_area = 0.002;
+  // A camera with at least twice this many CONTEXT frames is searched in
+  // runs of this many consecutive frames, and a block is body where at least
+  // half of the runs that had a pair find it: a body that mirrors the street
+  // changes over a long drive, but stays within a short one. 0: one search
+  // over all its frames.
+  int run_frames = 4;
 };
 
 // One layer per camera whose body was found (or that has its own mask), in

@@ -257,6 +257,37 @@ TEST(EgoBodyTest, ABodyThatStopsJustShortOfTheSideReachesIt) {
   EXPECT_LE(BodyAndWall(layers[0]).second, size_t(0.02 * kRigW * kBodyTop));
 }
 
+// Eight frames 0.9 m apart whose body's right half mirrors the street: it
+// brightens by 0.008 a frame, still within a run of four frames (0.024 at
+// most between a run's frames) but not over the whole drive (0.056). Searched
+// in runs, the whole body is found; searched over every frame at once, only
+// its left half.
+TEST(EgoBodyTest, ABodyThatChangesOverALongDriveIsFoundInRunsOfFrames) {
+  Rig rig;
+  for (int k = 0; k < 8; ++k) {
+    RigView v = MakeView("back", 0.9 * k, true);
+    for (int y = kBodyTop; y < kRigH; ++y) {
+      for (int x = kRigW / 2; x < kRigW; ++x) {
+        for (int c = 0; c < 3; ++c) v.view.rgb.at(x, y, c) += 0.008f * float(k);
+      }
+    }
+    rig.Add(std::move(v));
+  }
+  const int half = kRigW / 2, rows = kRigH - kBodyTop;
+  const std::vector<EgoLayer> layers = DetectEgoBodies(rig.views, rig.depths, {});
+  ASSERT_EQ(layers.size(), 1u);
+  EXPECT_GE(BodyAndWall(layers[0], 0, half).first, size_t(0.95 * half * rows));
+  EXPECT_GE(BodyAndWall(layers[0], half, kRigW).first, size_t(0.95 * half * rows));
+  EXPECT_LE(BodyAndWall(layers[0]).second, size_t(0.02 * kRigW * kBodyTop));
+
+  EgoBodyOptions at_once;
+  at_once.run_frames = 0;
+  const std::vector<EgoLayer> once = DetectEgoBodies(rig.views, rig.depths, {}, at_once);
+  ASSERT_EQ(once.size(), 1u);
+  EXPECT_GE(BodyAndWall(once[0], 0, half).first, size_t(0.95 * half * rows));
+  EXPECT_LE(BodyAndWall(once[0], half + 8, kRigW).first, size_t(0.05 * half * rows));
+}
+
 TEST(EgoBodyTest, NoEvidenceWhenTheCameraHardlyMoves) {
   Rig rig;
   rig.Add(MakeView("front", 0.0, true));
