@@ -468,6 +468,13 @@ std::vector<uint8_t> BodyShape(const std::vector<uint8_t>& reached,
   return Flood(body, BottomRow(w, h), w, h);
 }
 
+// Whether `body` (one value per block) covers at least `min_area` of them.
+bool CoversMinArea(const std::vector<uint8_t>& body, double min_area) {
+  size_t area = 0;
+  for (uint8_t b : body) area += b;
+  return double(area) >= min_area * double(body.size());
+}
+
 // The body's blocks of one camera's views (indices into `views`).
 std::vector<uint8_t> BodyBlocks(const std::vector<ContextView>& views,
                                 const std::vector<ViewDepth>& depths,
@@ -556,9 +563,7 @@ std::vector<uint8_t> BodyBlocks(const std::vector<ContextView>& views,
     }
   }
   const std::vector<uint8_t> body = BodyShape(reached, moved, still_here, boxed, w, h);
-  size_t area = 0;
-  for (uint8_t b : body) area += b;
-  if (double(area) < options.min_area * double(body.size())) return {};
+  if (!CoversMinArea(body, options.min_area)) return {};
   return body;
 }
 
@@ -597,12 +602,8 @@ std::vector<uint8_t> BodyBlocksByRuns(const std::vector<ContextView>& views,
   }
   if (voters == 0) return {};
   std::vector<uint8_t> body(votes.size(), 0);
-  size_t area = 0;
-  for (size_t i = 0; i < votes.size(); ++i) {
-    body[i] = 2 * votes[i] >= voters;
-    area += body[i];
-  }
-  if (double(area) < options.min_area * double(body.size())) return {};
+  for (size_t i = 0; i < votes.size(); ++i) body[i] = 2 * votes[i] >= voters;
+  if (!CoversMinArea(body, options.min_area)) return {};
   return body;
 }
 
