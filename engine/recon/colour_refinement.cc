@@ -20,6 +20,7 @@
 #include "engine/recon/cuda_colour_fit.h"
 #include "engine/recon/gaussian_decoder.h"
 #include "engine/render/compositing_weights.h"
+#include "engine/render/raster_tile.h"
 
 namespace pf {
 namespace {
@@ -124,14 +125,16 @@ void AccumulateSums(const CompositingWeights& a, const std::vector<uint8_t>& fit
     float px, py;
     a.PixelCentre(p, &px, &py);
     float in_front = 0.f;
+    const uint32_t* table = a.PixelTable(p);
     for (uint64_t k = a.pixel_begin[p]; k < a.pixel_begin[p] + a.pixel_count[p]; ++k) {
-      const float w = a.weights[k];
+      const float w = a.Weight(k);
+      const uint32_t local = table[a.pairs[k].slot];
       float u = 0.f, v = 0.f;
-      if (textured) a.LocalCoords(k, px, py, &u, &v);
+      if (textured) a.LocalCoords(local, px, py, &u, &v);
       const float alpha = w / std::max(kMinTransmittance, 1.f - in_front);
       in_front += w;
       const float ww = w * w;
-      float* d = out + kSums * size_t(a.local[k]);
+      float* d = out + kSums * size_t(local);
       d[0] += ww;
       d[1] += ww * u * u;
       d[2] += ww * v * v;
@@ -198,15 +201,17 @@ void Scatter(const std::vector<FitView>& views, size_t first, int per,
 // or all) put the whole clip on course for this many times the bound.
 constexpr double kProjectedOverBudget = 1.25;
 constexpr int64_t kProjectionViews = 6;
-// Units of a Gaussian's screen frame in a view's weights, with gradients.
-constexpr int64_t kFrameUnits = 3;
+// Units (kWeightUnitBytes) of a Gaussian's screen frame in a view's
+// weights, with gradients: 6 floats.
+constexpr int64_t kFrameUnits = 6;
 // RefinementOptions::max_pixel_stride at most (CountLattices' bits).
 constexpr int kMaxPixelStride = 7;
 
 // Every view's weights (one view per task) and fitted pixels, recorded at
 // 1 pixel in `pixel_stride`; recording stops once the views together pass
-// options.max_pairs units (kWeightUnitBytes: a unit per pair, and with
-// colour gradients 3 more per Gaussian in view, its screen frame).
+// options.max_pairs units (kWeightUnitBytes: a unit per pair and per table
+// slot, and with colour gradients kFrameUnits more per Gaussian in view,
+// its screen frame).
 struct RecordedViews {
   std::vector<FitView> fit;
   bool over_budget = false;
@@ -214,32 +219,59 @@ struct RecordedViews {
   int64_t frame_units = 0;    // Of which screen frames.
   int64_t counted_views = 0;  // Views whose units are counted.
   // Recorded on every pixel (stride 1): of the views counted, the entries
-  // and the contributing Gaussians (screen frames) on the lattice of each
-  // stride k in [1, max_pixel_stride], at [k]; empty otherwise.
+  // and table slots, and the contributing Gaussians (screen frames), on the
+  // lattice of each stride k in [1, max_pixel_stride], at [k]; empty
+  // otherwise.
   std::vector<int64_t> entries_at;
   std::vector<int64_t> frames_at;
 };
 
 // Adds what `a` (recorded on every pixel) would hold on the lattice of each
-// stride k in [1, entries_at->size()) to (*entries_at)[k] and (*frames_at)[k]
-// (entries, and contributing Gaussians).
+// stride k in [1, entries_at->size()) to (*entries_at)[k] (entries and table
+// slots: the tables of a tile's pixels on the lattice) and (*frames_at)[k]
+// (contributing Gaussians).
 void CountLattices(const CompositingWeights& a, std::vector<int64_t>* entries_at,
                    std::vector<int64_t>* frames_at) {
   const int max_stride = static_cast<int>(entries_at->size()) - 1;
-  std::vector<uint8_t> seen(a.gaussians.size(), 0);  // Bit k: on stride k's lattice.
-  for (size_t p = 0; p < a.pixel_count.size(); ++p) {
-    const int x = static_cast<int>(p % static_cast<size_t>(a.width));
-    const int y = static_cast<int>(p / static_cast<size_t>(a.width));
-    uint8_t strides = 0;
-    for (int k = 1; k <= max_stride; ++k) {
-      if (!OnPixelLattice(x, y, k)) continue;
-      strides |= uint8_t(1u << k);
-      (*entries_at)[k] += a.pixel_count[p];
+  // Bit k: on stride k's lattice, in the view and in the table at work.
+  std::vector<uint8_t> seen(a.gaussians.size(), 0), in_table(a.gaussians.size(), 0);
+  std::vector<uint32_t> table_members;
+  auto close_table = [&] {
+    for (uint32_t l : table_members) {
+      for (int k = 1; k <= max_stride; ++k) (*entries_at)[k] += (in_table[l] >> k) & 1;
+      in_table[l] = 0;
     }
-    for (uint64_t e = a.pixel_begin[p]; e < a.pixel_begin[p] + a.pixel_count[p]; ++e) {
-      seen[a.local[e]] |= strides;
+    table_members.clear();
+  };
+  constexpr int kTile = raster::kTile;  // The tiles CompositingWeights stores its pixels by.
+  uint32_t table_at = UINT32_MAX;
+  for (int tile_y = 0; tile_y < a.height; tile_y += kTile) {
+    for (int tile_x = 0; tile_x < a.width; tile_x += kTile) {
+      for (int y = tile_y; y < std::min(a.height, tile_y + kTile); ++y) {
+        for (int x = tile_x; x < std::min(a.width, tile_x + kTile); ++x) {
+          const size_t p = static_cast<size_t>(y) * a.width + x;
+          if (a.pixel_table[p] != table_at) {
+            close_table();
+            table_at = a.pixel_table[p];
+          }
+          uint8_t strides = 0;
+          for (int k = 1; k <= max_stride; ++k) {
+            if (!OnPixelLattice(x, y, k)) continue;
+            strides |= uint8_t(1u << k);
+            (*entries_at)[k] += a.pixel_count[p];
+          }
+          const uint32_t* table = a.PixelTable(p);
+          for (uint64_t e = a.pixel_begin[p]; e < a.pixel_begin[p] + a.pixel_count[p]; ++e) {
+            const uint32_t l = table[a.pairs[e].slot];
+            seen[l] |= strides;
+            if (in_table[l] == 0) table_members.push_back(l);
+            in_table[l] |= strides;
+          }
+        }
+      }
     }
   }
+  close_table();
   for (uint8_t strides : seen)
     for (int k = 1; k <= max_stride; ++k) (*frames_at)[k] += (strides >> k) & 1;
 }
@@ -293,7 +325,7 @@ absl::StatusOr<RecordedViews> RecordViews(const std::vector<ContextView>& views,
       }
       const int64_t frames =
           gradients ? kFrameUnits * static_cast<int64_t>(a->gaussians.size()) : 0;
-      const int64_t cost = static_cast<int64_t>(a->entries()) + frames;
+      const int64_t cost = static_cast<int64_t>(a->entries() + a->table.size()) + frames;
       if (count_lattices) {
         std::vector<int64_t> entries_at(out.entries_at.size(), 0);
         std::vector<int64_t> frames_at(out.frames_at.size(), 0);

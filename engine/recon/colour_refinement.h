@@ -46,13 +46,14 @@
 namespace pf {
 
 // The unit of RefinementOptions::max_pairs: the bytes of one recorded
-// pixel-Gaussian pair (a weight and a Gaussian index).
-constexpr int64_t kWeightUnitBytes = 8;
+// pixel-Gaussian pair (a 16-bit weight and a 16-bit slot in its tile's
+// table, CompositingWeights::Pair), and of one table slot.
+constexpr int64_t kWeightUnitBytes = 4;
 // What the fit holds besides the weights: per Gaussian, its vectors with
 // colour gradients (four of 9 floats, the preconditioner's 9 and the sums'
-// 7), and per pixel of every view, its entry range, mask and target.
+// 7), and per pixel of every view, its entry range, table, mask and target.
 constexpr int64_t kFitBytesPerGaussian = 4 * (4 * 9 + 9 + 7);
-constexpr int64_t kFitBytesPerPixel = 8 + 4 + 1 + 12;
+constexpr int64_t kFitBytesPerPixel = 8 + 4 + 4 + 1 + 12;
 
 struct RefinementOptions {
   int iterations = 20;         // Conjugate-gradient iterations; 0: no refinement.
@@ -82,19 +83,20 @@ struct RefinementOptions {
   bool colour_gradients = true;
   double gradient_prior_weight = 0.1;
   float max_gradient = 1.f;
-  // Memory bound, in units of 8 bytes: the fit holds every view's weights
-  // at once, 8 bytes per (pixel, Gaussian) pair, and with colour gradients
-  // 24 more per Gaussian in each view (its screen frame, 3 units); 2 GB.
-  // The default synth clip needs 71 M pairs for analytic, 157 M for
-  // pixel-aligned; six 1936x1216 DGP cameras at two times 177 M pairs and
-  // 201 M units with gradients, twelve views 386 M pairs. A clip whose context views need more is
+  // Memory bound, in units of kWeightUnitBytes (4 bytes): the fit holds
+  // every view's weights at once, a unit per (pixel, Gaussian) pair and per
+  // slot of its tiles' tables (about one per Gaussian and tile it reaches),
+  // and with colour gradients 24 bytes more per Gaussian in each view (its
+  // screen frame, 6 units); 2 GB. The default synth clip has 71 M pairs for
+  // analytic, 157 M for pixel-aligned; six 1936x1216 DGP cameras at two
+  // times 177 M pairs, twelve views 386 M pairs. A clip whose context views need more is
   // fitted on 1 pixel in k of each view (RefinementStats::pixel_stride; k the smallest that fits,
   // at most max_pixel_stride), with gradients if they fit so, else flat
   // (RefinementStats::flat_fallback); if even flat colours do not fit, the decoded colours are
   // kept: the fit is skipped, never half-done, and RefinementStats says so. So a worker inside its
   // memory limit (8 GiB, half of it scene cache, in deploy/k8s) does not run out on large real
   // clips.
-  int64_t max_pairs = 256'000'000;
+  int64_t max_pairs = 512'000'000;
   int max_pixel_stride = 4;  // In [1, 7].
   // Where > 0, max_pairs is raised (never lowered) to this share of the
   // memory the process may still take when the fit starts
@@ -116,7 +118,8 @@ struct RefinementOptions {
 struct RefinementStats {
   int64_t pixels = 0;  // Context pixels in the fit (alpha >= min_alpha).
   int64_t pairs = 0;   // Contributing (pixel, Gaussian) pairs over all views.
-  // Memory of the recorded weights (kWeightUnitBytes per unit of max_pairs).
+  // Memory of the recorded weights and tables (kWeightUnitBytes per unit
+  // of max_pairs).
   int64_t weight_bytes = 0;
   // The fit's pixels: 1 in pixel_stride of each view (1: every pixel).
   int pixel_stride = 1;

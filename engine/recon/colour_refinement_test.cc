@@ -396,6 +396,31 @@ struct TwoViewWall {
   }();
 };
 
+// What the fit of one view records at a pixel stride, in units of
+// kWeightUnitBytes: its pairs, its tables' slots and, with gradients,
+// 6 units per Gaussian they reach (its screen frame).
+struct StrideUnits {
+  int64_t pairs = 0;
+  int64_t table = 0;
+  int64_t frames = 0;
+  int64_t flat() const { return pairs + table; }
+  int64_t textured() const { return pairs + table + frames; }
+};
+StrideUnits UnitsAtStride(const GaussianScene& scene, const ContextView& view,
+                          const RefinementOptions& options, int stride) {
+  WeightOptions recorded;
+  recorded.min_weight = options.min_weight;
+  recorded.pixel_stride = stride;
+  absl::StatusOr<CompositingWeights> a = ComputeCompositingWeights(
+      scene, {view.camera, view.world_from_camera}, view.timestamp_us, recorded);
+  EXPECT_TRUE(a.ok()) << a.status();
+  if (!a.ok()) return {};
+  return {int64_t(a->entries()), int64_t(a->table.size()), 6 * int64_t(a->gaussians.size())};
+}
+
+// The units a fit's weights took (RefinementStats::weight_bytes).
+int64_t Units(const RefinementStats& stats) { return stats.weight_bytes / kWeightUnitBytes; }
+
 TEST(ColourRefinement, OverThePairBudgetTheColoursStayAsDecoded) {
   // The wall, seen by two views: the fit needs every pair of both. With
   // every pixel required (max_pixel_stride 1), one pair short of that
@@ -411,17 +436,19 @@ TEST(ColourRefinement, OverThePairBudgetTheColoursStayAsDecoded) {
   ASSERT_FALSE(full->skipped_over_budget);
   ASSERT_GT(full->pairs, 0);
   EXPECT_EQ(full->pixel_stride, 1);
-  EXPECT_EQ(full->weight_bytes, kWeightUnitBytes * full->pairs);
+  // A unit per pair and per table slot (at most one per pair).
+  EXPECT_GT(Units(*full), full->pairs);
+  EXPECT_LE(Units(*full), 2 * full->pairs);
 
   GaussianScene over = scene;
-  options.max_pairs = full->pairs - 1;
+  options.max_pairs = Units(*full) - 1;
   absl::StatusOr<RefinementStats> skipped = RefineColours(views, options, &over);
   ASSERT_TRUE(skipped.ok()) << skipped.status();
   EXPECT_TRUE(skipped->skipped_over_budget);
   EXPECT_EQ(over.features, scene.features);
 
   GaussianScene at_budget = scene;
-  options.max_pairs = full->pairs;
+  options.max_pairs = Units(*full);
   absl::StatusOr<RefinementStats> fitted = RefineColours(views, options, &at_budget);
   ASSERT_TRUE(fitted.ok()) << fitted.status();
   EXPECT_FALSE(fitted->skipped_over_budget);
@@ -444,13 +471,13 @@ TEST(ColourRefinement, OverThePairBudgetEveryOtherPixelIsFitted) {
   absl::StatusOr<RefinementStats> full = RefineColours(views, options, &unbounded);
   ASSERT_TRUE(full.ok()) << full.status();
 
-  options.max_pairs = full->pairs - 1;
+  options.max_pairs = Units(*full) - 1;
   GaussianScene strided = scene;
   absl::StatusOr<RefinementStats> half = RefineColours(views, options, &strided);
   ASSERT_TRUE(half.ok()) << half.status();
   EXPECT_FALSE(half->skipped_over_budget);
   EXPECT_EQ(half->pixel_stride, 2);
-  EXPECT_LE(half->pairs, options.max_pairs);
+  EXPECT_LE(Units(*half), options.max_pairs);
   EXPECT_NEAR(double(half->pairs) / double(full->pairs), 0.5, 0.02);
   EXPECT_EQ(half->pixels, full->pixels / 2);
   // The wall's discs start away from 0.8; both fits bring the visible ones
@@ -474,13 +501,13 @@ TEST(ColourRefinement, OverThePairBudgetEveryOtherPixelIsFitted) {
   const std::vector<ContextView> eight(8, view);
   GaussianScene eight_scene = scene;
   RefinementOptions eight_options = options;
-  eight_options.max_pairs = 4 * full->pairs * 6 / 10;
+  eight_options.max_pairs = 4 * Units(*full) * 6 / 10;
   absl::StatusOr<RefinementStats> eight_stats = RefineColours(eight, eight_options, &eight_scene);
   ASSERT_TRUE(eight_stats.ok()) << eight_stats.status();
   EXPECT_EQ(eight_stats->pixel_stride, 2);
   EXPECT_EQ(eight_stats->pixels, 4 * half->pixels);
 
-  options.max_pairs = full->pairs / 4 - 1;
+  options.max_pairs = Units(*full) / 4 - 1;
   GaussianScene none = scene;
   absl::StatusOr<RefinementStats> skipped = RefineColours(views, options, &none);
   ASSERT_TRUE(skipped.ok()) << skipped.status();
@@ -489,8 +516,8 @@ TEST(ColourRefinement, OverThePairBudgetEveryOtherPixelIsFitted) {
 }
 
 TEST(ColourRefinement, GradientsOverThePairBudgetFallBackToAFlatFit) {
-  // The wall again: with gradients each Gaussian in view costs 3 units more
-  // (its screen frame), so at a budget of exactly the flat fit's pairs the
+  // The wall again: with gradients each Gaussian in view costs 6 units more
+  // (its screen frame), so at a budget of exactly the flat fit's units the
   // gradients do not fit and the colours are fitted flat, as a flat fit does
   // them.
   const ContextView view = UniformView(40, 30, 40, 0.8f);
@@ -503,7 +530,9 @@ TEST(ColourRefinement, GradientsOverThePairBudgetFallBackToAFlatFit) {
   absl::StatusOr<RefinementStats> flat_stats = RefineColours({view}, options, &flat);
   ASSERT_TRUE(flat_stats.ok()) << flat_stats.status();
   options.colour_gradients = true;
-  options.max_pairs = flat_stats->pairs;
+  const StrideUnits every = UnitsAtStride(scene, view, options, 1);
+  ASSERT_EQ(Units(*flat_stats), every.flat());
+  options.max_pairs = every.flat();
   GaussianScene fallback = scene;
   absl::StatusOr<RefinementStats> stats = RefineColours({view}, options, &fallback);
   ASSERT_TRUE(stats.ok()) << stats.status();
@@ -513,15 +542,10 @@ TEST(ColourRefinement, GradientsOverThePairBudgetFallBackToAFlatFit) {
   EXPECT_FALSE(fallback.has_colour_gradients());
   EXPECT_EQ(fallback.features, flat.features);
   EXPECT_NE(fallback.features, scene.features);
-  // The pairs and 3 units per Gaussian in view: the gradients fit; one unit
+  // The flat units and 6 per Gaussian in view: the gradients fit; one unit
   // less and they do not.
-  WeightOptions recorded;
-  recorded.min_weight = options.min_weight;
-  absl::StatusOr<CompositingWeights> a = ComputeCompositingWeights(
-      scene, {view.camera, view.world_from_camera}, view.timestamp_us, recorded);
-  ASSERT_TRUE(a.ok()) << a.status();
-  ASSERT_GT(a->gaussians.size(), 0u);
-  const int64_t with_frames = flat_stats->pairs + 3 * int64_t(a->gaussians.size());
+  ASSERT_GT(every.frames, 0);
+  const int64_t with_frames = every.textured();
   options.max_pairs = with_frames - 1;
   GaussianScene short_one = scene;
   stats = RefineColours({view}, options, &short_one);
@@ -533,18 +557,19 @@ TEST(ColourRefinement, GradientsOverThePairBudgetFallBackToAFlatFit) {
   ASSERT_TRUE(stats.ok()) << stats.status();
   EXPECT_FALSE(stats->flat_fallback);
   EXPECT_TRUE(textured.has_colour_gradients());
-  // One pair less than the flat fit needs and even that is skipped.
-  options.max_pairs = flat_stats->pairs - 1;
+  // One unit less than the flat fit needs and even that is skipped.
+  options.max_pairs = every.flat() - 1;
   GaussianScene none = scene;
   stats = RefineColours({view}, options, &none);
   ASSERT_TRUE(stats.ok()) << stats.status();
   EXPECT_TRUE(stats->flat_fallback);
   EXPECT_TRUE(stats->skipped_over_budget);
   EXPECT_EQ(none.features, scene.features);
-  // With strides allowed, a budget of the flat fit's pairs keeps the
-  // gradients, fitted on 1 pixel in 2: half the pairs and the frames fit.
+  // With strides allowed, a budget of the flat fit's units keeps the
+  // gradients, fitted on 1 pixel in 2: half the pairs, their tables and the
+  // frames fit.
   options.max_pixel_stride = 4;
-  options.max_pairs = flat_stats->pairs;
+  options.max_pairs = every.flat();
   GaussianScene strided = scene;
   stats = RefineColours({view}, options, &strided);
   ASSERT_TRUE(stats.ok()) << stats.status();
@@ -552,32 +577,13 @@ TEST(ColourRefinement, GradientsOverThePairBudgetFallBackToAFlatFit) {
   EXPECT_FALSE(stats->skipped_over_budget);
   EXPECT_EQ(stats->pixel_stride, 2);
   EXPECT_TRUE(strided.has_colour_gradients());
-  EXPECT_LE(stats->weight_bytes, kWeightUnitBytes * options.max_pairs);
-  EXPECT_EQ(stats->weight_bytes,
-            kWeightUnitBytes * (stats->pairs + 3 * int64_t(a->gaussians.size())));
-}
-
-// What the fit of one view records at a pixel stride: its pairs and,
-// with gradients, 3 units per Gaussian they reach (its screen frame).
-struct StrideUnits {
-  int64_t pairs = 0;
-  int64_t frames = 0;
-};
-StrideUnits UnitsAtStride(const GaussianScene& scene, const ContextView& view,
-                          const RefinementOptions& options, int stride) {
-  WeightOptions recorded;
-  recorded.min_weight = options.min_weight;
-  recorded.pixel_stride = stride;
-  absl::StatusOr<CompositingWeights> a = ComputeCompositingWeights(
-      scene, {view.camera, view.world_from_camera}, view.timestamp_us, recorded);
-  EXPECT_TRUE(a.ok()) << a.status();
-  if (!a.ok()) return {};
-  return {int64_t(a->entries()), 3 * int64_t(a->gaussians.size())};
+  EXPECT_LE(Units(*stats), options.max_pairs);
+  EXPECT_EQ(Units(*stats), UnitsAtStride(scene, view, options, 2).textured());
 }
 
 TEST(ColourRefinement, OneRecordingOnEveryPixelTellsTheStrideThatFits) {
   // One view of the wall with gradients: what each stride k needs (its
-  // lattice's pairs and 3 units per Gaussian they reach) is counted from the
+  // lattice's pairs, table slots and 6 units per Gaussian they reach) is counted from the
   // recording on every pixel, so a bound of exactly stride k's units is
   // fitted at k, and one unit less at the next stride.
   const ContextView view = UniformView(40, 30, 40, 0.8f);
@@ -587,7 +593,7 @@ TEST(ColourRefinement, OneRecordingOnEveryPixelTellsTheStrideThatFits) {
   std::vector<int64_t> units(5, 0);
   for (int k = 1; k <= 4; ++k) {
     const StrideUnits at = UnitsAtStride(scene, view, options, k);
-    units[k] = at.pairs + at.frames;
+    units[k] = at.textured();
   }
   ASSERT_GT(units[1], units[2]);
   ASSERT_GT(units[2], units[3]);
@@ -617,8 +623,8 @@ TEST(ColourRefinement, OneRecordingOnEveryPixelTellsTheStrideThatFits) {
 
 TEST(ColourRefinement, FlatColoursOnEveryPixelWhereGradientsFitAtNoStride) {
   // Discs a pixel or so across, one every 2 pixels: their screen frames
-  // (3 units each) outweigh the pairs, so with strides up to 2 the gradients
-  // fit nowhere within the pairs of every pixel, and the flat fit takes
+  // (6 units each) outweigh the pairs, so with strides up to 2 the gradients
+  // fit nowhere within the flat units of every pixel, and the flat fit takes
   // every pixel rather than 1 in 2.
   const ContextView view = UniformView(40, 30, 40, 0.8f);
   GaussianScene scene = EmptyScene();
@@ -633,8 +639,8 @@ TEST(ColourRefinement, FlatColoursOnEveryPixelWhereGradientsFitAtNoStride) {
   options.max_pixel_stride = 2;
   const StrideUnits every = UnitsAtStride(scene, view, options, 1);
   const StrideUnits half = UnitsAtStride(scene, view, options, 2);
-  ASSERT_GT(half.pairs + half.frames, every.pairs);
-  options.max_pairs = every.pairs;
+  ASSERT_GT(half.textured(), every.flat());
+  options.max_pairs = every.flat();
   GaussianScene fitted = scene;
   absl::StatusOr<RefinementStats> stats = RefineColours({view}, options, &fitted);
   ASSERT_TRUE(stats.ok()) << stats.status();

@@ -313,7 +313,7 @@ absl::StatusOr<std::unique_ptr<CudaColourFit>> CudaColourFit::Upload(
     const CompositingWeights& a = *views[v].weights;
     const size_t size = static_cast<size_t>(a.width) * a.height;
     if (a.pixel_begin.size() != size || a.pixel_count.size() != size ||
-        a.local.size() != a.weights.size() ||
+        a.pixel_table.size() != size ||
         (textured && a.local_frames.size() != 6 * a.gaussians.size()) ||
         views[v].fitted == nullptr || views[v].image == nullptr) {
       return absl::InvalidArgumentError(
@@ -369,13 +369,16 @@ absl::StatusOr<std::unique_ptr<CudaColourFit>> CudaColourFit::Upload(
   std::vector<uint32_t> count;
   std::vector<float2> centre;
   std::vector<float> rgb;
+  std::vector<uint32_t> local;  // A view's entries unpacked (CompositingWeights::Unpack).
+  std::vector<float> weight;
   for (const ColourFitView& view : views) {
     const CompositingWeights& a = *view.weights;
     const size_t size = static_cast<size_t>(a.width) * a.height;
     const size_t m = a.gaussians.size(), e = a.entries();
+    a.Unpack(&local, &weight);
     for (absl::Status s :
-         {copy(impl->weight.data + entry_base, a.weights.data(), e),
-          copy(impl->frame.data + entry_base, a.local.data(), e),
+         {copy(impl->weight.data + entry_base, weight.data(), e),
+          copy(impl->frame.data + entry_base, local.data(), e),
           copy(impl->ids.data + frame_base, a.gaussians.data(), m),
           textured ? copy(impl->frames.data + 6 * frame_base, a.local_frames.data(), 6 * m)
                    : absl::OkStatus()}) {

@@ -167,7 +167,9 @@ absl::StatusOr<CompositingWeights> ComputeCompositingWeights(const GaussianScene
   }
   keys = std::vector<uint64_t>();
 
-  // Composite tile by tile; each tile's entries are regrouped by pixel.
+  // Composite tile by tile; each tile's entries are regrouped by pixel and
+  // stored with their slots in the tile's table. Local indices go to the
+  // Gaussians in the order of their first entry (CompositingWeights::gaussians).
   CompositingWeights out;
   out.width = frame.width;
   out.height = frame.height;
@@ -175,16 +177,29 @@ absl::StatusOr<CompositingWeights> ComputeCompositingWeights(const GaussianScene
   const size_t pixels = static_cast<size_t>(frame.width) * frame.height;
   out.pixel_begin.assign(pixels, 0);
   out.pixel_count.assign(pixels, 0);
+  out.pixel_table.assign(pixels, 0);
+  out.table_begin.reserve(static_cast<size_t>(tiles_x) * tiles_y + 1);
   out.alpha.assign(pixels, 0.f);
-  std::vector<uint32_t> entry_visible;  // Visible index per entry, made local below.
-  std::vector<weights_tile::Entry> tile_entries;
+  std::vector<weights_tile::Entry> tile_entries, by_pixel;
   if (options.omitted_colours) out.omitted.assign(3 * pixels, 0.f);
+  // Per visible Gaussian: its local index, and the table it last got a
+  // slot in, and that slot.
+  std::vector<uint32_t> to_local(visible.size(), UINT32_MAX);
+  std::vector<uint32_t> table_of(visible.size(), UINT32_MAX);
+  std::vector<uint16_t> slot_of(visible.size(), 0);
+  auto start_table = [&out] {
+    out.table_begin.push_back(static_cast<uint32_t>(out.table.size()));
+    return static_cast<uint32_t>(out.table_begin.size() - 1);
+  };
+  constexpr size_t kTableSlots = size_t{1} << 16;
+  constexpr float kWeightSteps = 65535.f;  // 1 / CompositingWeights::kWeightStep.
   // The tile's transmittance, omitted colours (CompositingWeights::omitted)
   // per channel, and -1 for its pixels on the lattice (pixel_stride), else 0.
   alignas(32) float trans[weights_tile::kPadded];
   alignas(32) float omitted[3][weights_tile::kPadded];
   alignas(32) int32_t recorded[weights_tile::kPadded] = {};
   uint32_t counts[kTilePixels];
+  uint32_t cursor[kTilePixels];
   const bool wide = UseAvx2();
   weights_tile::Tile tile;
   tile.visible = visible.data();
@@ -227,49 +242,62 @@ absl::StatusOr<CompositingWeights> ComputeCompositingWeights(const GaussianScene
       // Regroup by pixel (stable: front to back within a pixel).
       std::fill(counts, counts + kTilePixels, 0u);
       for (const weights_tile::Entry& e : tile_entries) ++counts[e.pixel];
-      uint64_t start = entry_visible.size();
-      uint64_t cursor[kTilePixels];
+      uint32_t start = 0;
       for (int p = 0; p < kTilePixels; ++p) {
         cursor[p] = start;
         start += counts[p];
+      }
+      by_pixel.resize(tile_entries.size());
+      for (const weights_tile::Entry& e : tile_entries) by_pixel[cursor[e.pixel]++] = e;
+      // Pixel by pixel: a table per tile, another where the tile's
+      // Gaussians would pass kTableSlots.
+      uint32_t table_id = start_table();
+      size_t table_begin = out.table.size();
+      size_t next = 0;  // Into by_pixel.
+      for (int p = 0; p < kTilePixels; ++p) {
         const int x = x_begin + p % kTile, y = y_begin + p / kTile;
-        if (x < x_end && y < y_end) {
-          const size_t pixel = static_cast<size_t>(y) * frame.width + x;
-          out.pixel_begin[pixel] = cursor[p];
-          out.pixel_count[pixel] = counts[p];
-          out.alpha[pixel] = 1.f - trans[p];
-          if (options.omitted_colours) {
-            for (int c = 0; c < 3; ++c) out.omitted[3 * pixel + c] = omitted[c][p];
+        if (x >= x_end || y >= y_end) continue;
+        const size_t pixel = static_cast<size_t>(y) * frame.width + x;
+        if (out.table.size() - table_begin + counts[p] > kTableSlots) {
+          table_id = start_table();
+          table_begin = out.table.size();
+        }
+        out.pixel_begin[pixel] = out.pairs.size();
+        out.pixel_count[pixel] = counts[p];
+        out.pixel_table[pixel] = table_id;
+        out.alpha[pixel] = 1.f - trans[p];
+        if (options.omitted_colours) {
+          for (int c = 0; c < 3; ++c) out.omitted[3 * pixel + c] = omitted[c][p];
+        }
+        for (const size_t end = next + counts[p]; next < end; ++next) {
+          const weights_tile::Entry& e = by_pixel[next];
+          if (table_of[e.gaussian] != table_id) {
+            table_of[e.gaussian] = table_id;
+            slot_of[e.gaussian] = static_cast<uint16_t>(out.table.size() - table_begin);
+            uint32_t& local = to_local[e.gaussian];
+            if (local == UINT32_MAX) {
+              local = static_cast<uint32_t>(out.gaussians.size());
+              out.gaussians.push_back(visible_index[e.gaussian]);
+            }
+            out.table.push_back(local);
           }
+          // Rounded to the nearest step (weights are in [0, 0.99]).
+          out.pairs.push_back(
+              {slot_of[e.gaussian], static_cast<uint16_t>(e.weight * kWeightSteps + 0.5f)});
         }
       }
-      entry_visible.resize(start);
-      out.weights.resize(start);
-      for (const weights_tile::Entry& e : tile_entries) {
-        const uint64_t slot = cursor[e.pixel]++;
-        entry_visible[slot] = e.gaussian;
-        out.weights[slot] = e.weight;
-      }
     }
   }
+  if (out.table.size() > UINT32_MAX) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("camera: ", out.table.size(), " table slots pass 2^32; render fewer pixels"));
+  }
+  start_table();  // The end of the last.
 
-  // Local indices: the contributing Gaussians in the order of their first
-  // entry (CompositingWeights::gaussians).
-  std::vector<uint32_t> to_local(n, UINT32_MAX);
-  for (uint32_t k : entry_visible) {
-    uint32_t& l = to_local[visible_index[k]];
-    if (l == UINT32_MAX) {
-      l = static_cast<uint32_t>(out.gaussians.size());
-      out.gaussians.push_back(visible_index[k]);
-    }
-  }
-  out.local.resize(entry_visible.size());
-  for (size_t e = 0; e < entry_visible.size(); ++e)
-    out.local[e] = to_local[visible_index[entry_visible[e]]];
   if (options.local_coords) {
     out.local_frames.resize(6 * out.gaussians.size());
     for (size_t k = 0; k < visible.size(); ++k) {
-      const uint32_t l = to_local[visible_index[k]];
+      const uint32_t l = to_local[k];
       if (l == UINT32_MAX) continue;
       const Splat& g = visible[k];
       float* f = &out.local_frames[6 * static_cast<size_t>(l)];
@@ -295,9 +323,10 @@ inline void CompositePixel(const CompositingWeights& a, size_t p, const float* c
   if constexpr (kChannels > 0) channels = kChannels;
   for (int c = 0; c < channels; ++c) dst[c] = 0.f;
   const uint64_t begin = a.pixel_begin[p], end = begin + a.pixel_count[p];
+  const uint32_t* table = a.PixelTable(p);
   for (uint64_t e = begin; e < end; ++e) {
-    const float w = a.weights[e];
-    const float* src = colours + static_cast<size_t>(a.local[e]) * channels;
+    const float w = a.Weight(e);
+    const float* src = colours + static_cast<size_t>(table[a.pairs[e].slot]) * channels;
     for (int c = 0; c < channels; ++c) dst[c] += w * src[c];
   }
 }
@@ -307,9 +336,10 @@ inline void AccumulatePixel(const CompositingWeights& a, size_t p, const float* 
                             float* out) {
   if constexpr (kChannels > 0) channels = kChannels;
   const uint64_t begin = a.pixel_begin[p], end = begin + a.pixel_count[p];
+  const uint32_t* table = a.PixelTable(p);
   for (uint64_t e = begin; e < end; ++e) {
-    const float w = a.weights[e];
-    float* dst = out + static_cast<size_t>(a.local[e]) * channels;
+    const float w = a.Weight(e);
+    float* dst = out + static_cast<size_t>(table[a.pairs[e].slot]) * channels;
     for (int c = 0; c < channels; ++c) dst[c] += w * r[c];
   }
 }
@@ -321,11 +351,13 @@ inline void CompositePixelTextured(const CompositingWeights& a, size_t p, const 
   float px, py;
   a.PixelCentre(p, &px, &py);
   const uint64_t begin = a.pixel_begin[p], end = begin + a.pixel_count[p];
+  const uint32_t* table = a.PixelTable(p);
   for (uint64_t e = begin; e < end; ++e) {
+    const uint32_t local = table[a.pairs[e].slot];
     float u, v;
-    a.LocalCoords(e, px, py, &u, &v);
-    const float w = a.weights[e], wu = w * u, wv = w * v;
-    const float* src = params + static_cast<size_t>(a.local[e]) * 9;
+    a.LocalCoords(local, px, py, &u, &v);
+    const float w = a.Weight(e), wu = w * u, wv = w * v;
+    const float* src = params + static_cast<size_t>(local) * 9;
     for (int c = 0; c < 3; ++c)
       dst[c] += w * src[3 * c] + wu * src[3 * c + 1] + wv * src[3 * c + 2];
   }
@@ -336,11 +368,13 @@ inline void AccumulatePixelTextured(const CompositingWeights& a, size_t p, const
   float px, py;
   a.PixelCentre(p, &px, &py);
   const uint64_t begin = a.pixel_begin[p], end = begin + a.pixel_count[p];
+  const uint32_t* table = a.PixelTable(p);
   for (uint64_t e = begin; e < end; ++e) {
+    const uint32_t local = table[a.pairs[e].slot];
     float u, v;
-    a.LocalCoords(e, px, py, &u, &v);
-    const float w = a.weights[e], wu = w * u, wv = w * v;
-    float* dst = out + static_cast<size_t>(a.local[e]) * 9;
+    a.LocalCoords(local, px, py, &u, &v);
+    const float w = a.Weight(e), wu = w * u, wv = w * v;
+    float* dst = out + static_cast<size_t>(local) * 9;
     for (int c = 0; c < 3; ++c) {
       dst[3 * c] += w * r[c];
       dst[3 * c + 1] += wu * r[c];
@@ -387,9 +421,16 @@ void AccumulateNormal(const CompositingWeights& a, const std::vector<uint8_t>& m
     }
     return;
   }
+  // Room for the largest table's Gaussians (ForEachMaskedPixelByTable).
+  uint32_t largest = 0;
+  for (size_t t = 0; t + 1 < a.table_begin.size(); ++t)
+    largest = std::max(largest, a.TableSize(static_cast<uint32_t>(t)));
+  std::vector<float> gathered(24 * size_t(largest));
+  const TableScratch scratch{gathered.data(), gathered.data() + 9 * size_t(largest),
+                             gathered.data() + 15 * size_t(largest)};
 #if defined(PF_RENDER_HAVE_AVX2_KERNEL)
   if (UseAvx2()) {
-    AccumulateNormalTexturedAvx2(a, mask, x, out);
+    AccumulateNormalTexturedAvx2(a, mask, x, out, scratch);
     return;
   }
 #endif
@@ -410,32 +451,45 @@ void AccumulateNormal(const CompositingWeights& a, const std::vector<uint8_t>& m
     float w, wu, wv;
   };
   std::vector<Entry> row;
-  ForEachMaskedPixelByTile(a, mask, [&](uint64_t begin, uint64_t count, float px, float py) {
-    if (row.size() < count) row.resize(count);
-    // Channels 0 and 1 from params[0..3] and [3..6] under (w, wu, wv,
-    // 0); channel 2 from params[5..8] under (0, w, wu, wv), so no load
-    // passes the Gaussian's 9 floats.
-    V4 c0 = {0, 0, 0, 0}, c1 = c0, c2 = c0;
-    for (uint64_t k = 0; k < count; ++k) {
-      const auto [w, wu, wv, offset] = TexturedEntryAt(a, begin + k, px, py);
-      const float* src = x + offset;
-      const V4 lead = {w, wu, wv, 0.f}, tail = {0.f, w, wu, wv};
-      c0 += lead * load(src);
-      c1 += lead * load(src + 3);
-      c2 += tail * load(src + 5);
-      row[k] = {out + offset, w, wu, wv};
+  ForEachMaskedPixelByTable(
+      a, mask, x, out, scratch, [&](uint64_t begin, uint64_t count, float px, float py) {
+        if (row.size() < count) row.resize(count);
+        // Channels 0 and 1 from params[0..3] and [3..6] under (w, wu, wv,
+        // 0); channel 2 from params[5..8] under (0, w, wu, wv), so no load
+        // passes the Gaussian's 9 floats.
+        V4 c0 = {0, 0, 0, 0}, c1 = c0, c2 = c0;
+        for (uint64_t k = 0; k < count; ++k) {
+          const auto [w, wu, wv, offset] = TexturedEntryAt(a, scratch, begin + k, px, py);
+          const float* src = scratch.x + offset;
+          const V4 lead = {w, wu, wv, 0.f}, tail = {0.f, w, wu, wv};
+          c0 += lead * load(src);
+          c1 += lead * load(src + 3);
+          c2 += tail * load(src + 5);
+          row[k] = {scratch.out + offset, w, wu, wv};
+        }
+        const float v0 = sum(c0), v1 = sum(c1), v2 = sum(c2);
+        for (uint64_t k = 0; k < count; ++k) {
+          const Entry& entry = row[k];
+          float* dst = entry.out;
+          const V4 first = {entry.w * v0, entry.wu * v0, entry.wv * v0, entry.w * v1};
+          const V4 second = {entry.wu * v1, entry.wv * v1, entry.w * v2, entry.wu * v2};
+          store(dst, load(dst) + first);
+          store(dst + 4, load(dst + 4) + second);
+          dst[8] += entry.wv * v2;
+        }
+      });
+}
+
+void CompositingWeights::Unpack(std::vector<uint32_t>* local, std::vector<float>* weights) const {
+  local->resize(pairs.size());
+  weights->resize(pairs.size());
+  for (size_t p = 0; p < pixel_begin.size(); ++p) {
+    const uint32_t* t = PixelTable(p);
+    for (uint64_t e = pixel_begin[p]; e < pixel_begin[p] + pixel_count[p]; ++e) {
+      (*local)[e] = t[pairs[e].slot];
+      (*weights)[e] = Weight(e);
     }
-    const float v0 = sum(c0), v1 = sum(c1), v2 = sum(c2);
-    for (uint64_t k = 0; k < count; ++k) {
-      const Entry& entry = row[k];
-      float* dst = entry.out;
-      const V4 first = {entry.w * v0, entry.wu * v0, entry.wv * v0, entry.w * v1};
-      const V4 second = {entry.wu * v1, entry.wv * v1, entry.w * v2, entry.wu * v2};
-      store(dst, load(dst) + first);
-      store(dst + 4, load(dst + 4) + second);
-      dst[8] += entry.wv * v2;
-    }
-  });
+  }
 }
 
 void Composite(const CompositingWeights& a, const float* colours, int channels, float* image) {

@@ -19,9 +19,12 @@
 // apply both without re-rendering. The forward rasterizer is not touched.
 //
 // Single-threaded per view (callers parallelise over views); memory is
-// 8 bytes per contributing (pixel, Gaussian) pair plus 16 per pixel (and,
-// with local coordinates, 24 per contributing Gaussian; with omitted colours,
-// 12 more per pixel).
+// 4 bytes per contributing (pixel, Gaussian) pair (a 16-bit weight and a
+// 16-bit slot in its tile's table of Gaussians), 4 per table slot (one per
+// Gaussian and tile it contributes to), 20 per pixel, 4 per tile (and, with local
+// coordinates, 24 per contributing Gaussian; with omitted colours, 12 more
+// per pixel). The weights are stored to 1/65535: Composite(A, c) is the
+// render's rgb within half of that per entry and unit colour.
 #ifndef POINTFORWARD_ENGINE_RENDER_COMPOSITING_WEIGHTS_H_
 #define POINTFORWARD_ENGINE_RENDER_COMPOSITING_WEIGHTS_H_
 
@@ -57,12 +60,28 @@ struct CompositingWeights {
   // in the order of their first entry (tile by tile, front to back): a
   // tile's Gaussians are neighbours in arrays kept in this (local) order.
   std::vector<uint32_t> gaussians;
-  // Entries of pixel p = y * width + x are [pixel_begin[p], pixel_end[p]),
-  // front to back (pixels are stored tile by tile, so rows interleave).
+  // One recorded pair: its weight in steps of kWeightStep and its slot in
+  // the pixel's table (below).
+  struct Pair {
+    uint16_t slot;
+    uint16_t weight;
+  };
+  // The weight of one step of Pair::weight: w_ip is stored rounded to the
+  // nearest step (w_ip <= 0.99, the rasterizer's largest alpha).
+  static constexpr float kWeightStep = 1.f / 65535.f;
+  // Entries of pixel p = y * width + x are [pixel_begin[p], pixel_begin[p]
+  // + pixel_count[p]), front to back (pixels are stored tile by tile, so
+  // rows interleave). Entry e of pixel p is Gaussian (local index)
+  // table[table_begin[pixel_table[p]] + pairs[e].slot]: the pixels of a tile
+  // share one table of the Gaussians they see (a tile whose Gaussians pass
+  // 65536 starts another at a pixel), so an entry takes 4 bytes, and the
+  // pixels of a table are consecutive in the tile order.
   std::vector<uint64_t> pixel_begin;  // [H * W]
   std::vector<uint32_t> pixel_count;  // [H * W]
-  std::vector<uint32_t> local;        // [E] index into `gaussians`
-  std::vector<float> weights;         // [E] w_ip
+  std::vector<uint32_t> pixel_table;  // [H * W] the pixel's table
+  std::vector<uint32_t> table_begin;  // [tables + 1] each table's first slot in `table`
+  std::vector<uint32_t> table;        // Local indices (into `gaussians`).
+  std::vector<Pair> pairs;            // [E]
   std::vector<float> alpha;           // [H * W] 1 - transmittance, as Render()'s alpha
   // [gaussians.size(), 6] each contributing Gaussian's screen frame in this
   // view: centre (mx, my) and the rows (ux, uy), (vx, vy) that map a pixel
@@ -77,7 +96,21 @@ struct CompositingWeights {
   // colours. Empty unless WeightOptions::omitted_colours.
   std::vector<float> omitted;
 
-  size_t entries() const { return weights.size(); }
+  size_t entries() const { return pairs.size(); }
+  // Entry e's weight w_ip (to kWeightStep).
+  [[gnu::always_inline]] float Weight(uint64_t e) const {
+    return static_cast<float>(pairs[e].weight) * kWeightStep;
+  }
+  // The table of pixel p's entries: entry e's local index is
+  // PixelTable(p)[pairs[e].slot].
+  [[gnu::always_inline]] const uint32_t* PixelTable(size_t pixel) const {
+    return table.data() + table_begin[pixel_table[pixel]];
+  }
+  // The slots of table t.
+  uint32_t TableSize(uint32_t t) const { return table_begin[t + 1] - table_begin[t]; }
+  // Every entry's local index and weight, in entry order (for consumers
+  // that take them as plain arrays, such as the GPU fit's upload).
+  void Unpack(std::vector<uint32_t>* local, std::vector<float>* weights) const;
   bool has_local_coords() const { return !local_frames.empty(); }
   // PixelCentre and LocalCoords are always inlined: the AVX2 build of the
   // normal product (compositing_weights_avx2.cc) calls them too, and an
@@ -91,11 +124,16 @@ struct CompositingWeights {
     return OnPixelLattice(static_cast<int>(pixel % static_cast<size_t>(width)),
                           static_cast<int>(pixel / static_cast<size_t>(width)), pixel_stride);
   }
-  // (u, v) of entry `e` at the pixel whose centre is (px, py) (x + 0.5,
-  // y + 0.5): the values Render() gives the Gaussian's colour gradients.
-  [[gnu::always_inline]] void LocalCoords(uint64_t e, float px, float py, float* u,
+  // (u, v) of the Gaussian of local index `local` at the pixel whose centre
+  // is (px, py) (x + 0.5, y + 0.5): the values Render() gives its colour
+  // gradients there.
+  [[gnu::always_inline]] void LocalCoords(uint32_t local, float px, float py, float* u,
                                           float* v) const {
-    const float* f = &local_frames[6 * static_cast<size_t>(local[e])];
+    FrameCoords(&local_frames[6 * static_cast<size_t>(local)], px, py, u, v);
+  }
+  // The same from the Gaussian's 6 floats of local_frames, `f`.
+  [[gnu::always_inline]] static void FrameCoords(const float* f, float px, float py, float* u,
+                                                 float* v) {
     const float dx = px - f[0], dy = py - f[1];
     *u = f[2] * dx + f[3] * dy;
     *v = f[4] * dx + f[5] * dy;
@@ -151,7 +189,9 @@ void AccumulateTransposedTextured(const CompositingWeights& a, const float* resi
 // pixel's entries are read from memory once and, still in cache, again for
 // the transposed product, where Composite then AccumulateTransposed read
 // them all twice (the colour fit's iterations are mostly this). Pixels are
-// taken tile by tile, so the sums into `out` run in that order. The textured
+// taken tile by tile; the textured product gathers each table's Gaussians
+// into arrays of the tile's size, sums its pixels there and adds them to
+// `out` when the table's pixels end, so the sums run in that order. The textured
 // product has an AVX2 build (compositing_weights_avx2.h), used where the
 // render's tile kernel is not the baseline; both give the same bits.
 void AccumulateNormal(const CompositingWeights& a, const std::vector<uint8_t>& mask, const float* x,
