@@ -97,24 +97,30 @@ struct CompositingWeights {
   std::vector<float> omitted;
 
   size_t entries() const { return pairs.size(); }
+  // Weight, Table, TableSize, PixelTable, PixelCentre, LocalCoords and
+  // FrameCoords are always inlined: the AVX2 build of the normal product
+  // (compositing_weights_avx2.cc) calls them too, and an out-of-line copy
+  // of its own could stand in for the baseline's.
   // Entry e's weight w_ip (to kWeightStep).
   [[gnu::always_inline]] float Weight(uint64_t e) const {
     return static_cast<float>(pairs[e].weight) * kWeightStep;
   }
+  // Table t's slots: local indices, TableSize(t) of them.
+  [[gnu::always_inline]] const uint32_t* Table(uint32_t t) const {
+    return table.data() + table_begin[t];
+  }
+  [[gnu::always_inline]] uint32_t TableSize(uint32_t t) const {
+    return table_begin[t + 1] - table_begin[t];
+  }
   // The table of pixel p's entries: entry e's local index is
   // PixelTable(p)[pairs[e].slot].
   [[gnu::always_inline]] const uint32_t* PixelTable(size_t pixel) const {
-    return table.data() + table_begin[pixel_table[pixel]];
+    return Table(pixel_table[pixel]);
   }
-  // The slots of table t.
-  uint32_t TableSize(uint32_t t) const { return table_begin[t + 1] - table_begin[t]; }
   // Every entry's local index and weight, in entry order (for consumers
   // that take them as plain arrays, such as the GPU fit's upload).
   void Unpack(std::vector<uint32_t>* local, std::vector<float>* weights) const;
   bool has_local_coords() const { return !local_frames.empty(); }
-  // PixelCentre and LocalCoords are always inlined: the AVX2 build of the
-  // normal product (compositing_weights_avx2.cc) calls them too, and an
-  // out-of-line copy of its own could stand in for the baseline's.
   // The centre (x + 0.5, y + 0.5) of pixel p = y * width + x.
   [[gnu::always_inline]] void PixelCentre(size_t pixel, float* px, float* py) const {
     *px = static_cast<float>(pixel % static_cast<size_t>(width)) + 0.5f;

@@ -53,7 +53,7 @@ inline void ForEachMaskedPixelByTable(const CompositingWeights& a, const std::ve
   uint32_t current = UINT32_MAX;
   auto flush = [&] {
     if (current == UINT32_MAX) return;
-    const uint32_t* table = a.table.data() + a.table_begin[current];
+    const uint32_t* table = a.Table(current);
     const float* sums = scratch.out;
     for (uint32_t s = 0, m = a.TableSize(current); s < m; ++s) {
       float* dst = out + 9 * static_cast<size_t>(table[s]);
@@ -61,7 +61,7 @@ inline void ForEachMaskedPixelByTable(const CompositingWeights& a, const std::ve
     }
   };
   auto gather = [&](uint32_t t) {
-    const uint32_t* table = a.table.data() + a.table_begin[t];
+    const uint32_t* table = a.Table(t);
     const uint32_t m = a.TableSize(t);
     for (uint32_t s = 0; s < m; ++s) {
       const size_t l = table[s];
