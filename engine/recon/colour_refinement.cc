@@ -71,6 +71,46 @@ struct ViewScratch {
   std::vector<float> local_out;
 };
 
+// ViewScratch::local_in and ::pixels for the tasks running at once: a task
+// leases one pair and lends it to the scratch of each view it works on.
+class WorkingBuffers {
+ public:
+  struct Pair {
+    std::vector<float> local_in, pixels;
+  };
+  class Lease {
+   public:
+    explicit Lease(WorkingBuffers* owner) : owner_(owner), pair_(owner->Acquire()) {}
+    ~Lease() { owner_->Release(std::move(pair_)); }
+    Lease(const Lease&) = delete;
+    Lease& operator=(const Lease&) = delete;
+    void LendTo(ViewScratch* s) {
+      s->local_in.swap(pair_->local_in);
+      s->pixels.swap(pair_->pixels);
+    }
+    void TakeBack(ViewScratch* s) { LendTo(s); }
+
+   private:
+    WorkingBuffers* owner_;
+    std::unique_ptr<Pair> pair_;
+  };
+
+ private:
+  std::unique_ptr<Pair> Acquire() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (free_.empty()) return std::make_unique<Pair>();
+    std::unique_ptr<Pair> pair = std::move(free_.back());
+    free_.pop_back();
+    return pair;
+  }
+  void Release(std::unique_ptr<Pair> pair) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    free_.push_back(std::move(pair));
+  }
+  std::mutex mutex_;
+  std::vector<std::unique_ptr<Pair>> free_;
+};
+
 // The fit's unknowns per Gaussian: per RGB channel the colour, and with
 // colour gradients also (g_u, g_v): [N, 3, K], K = 1 or 3.
 struct Layout {
@@ -491,6 +531,10 @@ void SolveOnCpu(std::vector<FitView>& fit, const Layout& layout, const Refinemen
   const int64_t batch =
       std::min<int64_t>(num_views, kViewsPerThread * (DefaultThreadPool().num_threads() + 1));
   std::vector<ViewScratch> scratch(batch);
+  // Only local_out lives until the batch's Scatter(); local_in and pixels
+  // are lent to each running task for its views (as many as run at once,
+  // not one per view of the batch).
+  WorkingBuffers working;
   auto for_views = [&](const auto& body, std::vector<float>* out, int width = 0) {
     if (width == 0) width = per;
     if (out != nullptr) out->assign(width * n, 0.f);
@@ -498,10 +542,13 @@ void SolveOnCpu(std::vector<FitView>& fit, const Layout& layout, const Refinemen
       // local_out is zero as made, and Scatter() zeroes what a body adds.
       DefaultThreadPool().ParallelFor(
           first, std::min(num_views, first + batch), 1, [&](int64_t b, int64_t e) {
+            WorkingBuffers::Lease lease(&working);
             for (int64_t v = b; v < e; ++v) {
               ViewScratch& slot = scratch[v - first];
               slot.local_out.resize(size_t(width) * fit[v].a.gaussians.size());
+              lease.LendTo(&slot);
               body(fit[v], &slot);
+              lease.TakeBack(&slot);
             }
           });
       if (out != nullptr) Scatter(fit, static_cast<size_t>(first), width, &scratch, out);

@@ -53,7 +53,7 @@ constexpr int64_t kWeightUnitBytes = 4;
 // colour gradients (four of 9 floats, the preconditioner's 9 and the sums'
 // 7), and per pixel of every view, its entry range, table, mask and target.
 constexpr int64_t kFitBytesPerGaussian = 4 * (4 * 9 + 9 + 7);
-constexpr int64_t kFitBytesPerPixel = 8 + 4 + 4 + 1 + 12;
+constexpr int64_t kFitBytesPerPixel = 4 + 2 + 4 + 1 + 12;
 
 struct RefinementOptions {
   int iterations = 20;         // Conjugate-gradient iterations; 0: no refinement.

@@ -262,8 +262,14 @@ absl::StatusOr<CompositingWeights> ComputeCompositingWeights(const GaussianScene
           table_id = start_table();
           table_begin = out.table.size();
         }
-        out.pixel_begin[pixel] = out.pairs.size();
-        out.pixel_count[pixel] = counts[p];
+        if (out.pairs.size() + counts[p] > UINT32_MAX || counts[p] > UINT16_MAX) {
+          return absl::InvalidArgumentError(
+              absl::StrCat("camera: pixel (", x, ", ", y, ") would pass a view's ", UINT32_MAX,
+                           " pairs or a pixel's ", UINT16_MAX, " (it has ", counts[p],
+                           "); render fewer pixels"));
+        }
+        out.pixel_begin[pixel] = static_cast<uint32_t>(out.pairs.size());
+        out.pixel_count[pixel] = static_cast<uint16_t>(counts[p]);
         out.pixel_table[pixel] = table_id;
         out.alpha[pixel] = 1.f - trans[p];
         if (options.omitted_colours) {

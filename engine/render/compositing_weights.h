@@ -21,7 +21,7 @@
 // Single-threaded per view (callers parallelise over views); memory is
 // 4 bytes per contributing (pixel, Gaussian) pair (a 16-bit weight and a
 // 16-bit slot in its tile's table of Gaussians), 4 per table slot (one per
-// Gaussian and tile it contributes to), 20 per pixel, 4 per tile (and, with local
+// Gaussian and tile it contributes to), 14 per pixel, 4 per tile (and, with local
 // coordinates, 24 per contributing Gaussian; with omitted colours, 12 more
 // per pixel). The weights are stored to 1/65535: Composite(A, c) is the
 // render's rgb within half of that per entry and unit colour.
@@ -76,8 +76,11 @@ struct CompositingWeights {
   // share one table of the Gaussians they see (a tile whose Gaussians pass
   // 65536 starts another at a pixel), so an entry takes 4 bytes, and the
   // pixels of a table are consecutive in the tile order.
-  std::vector<uint64_t> pixel_begin;  // [H * W]
-  std::vector<uint32_t> pixel_count;  // [H * W]
+  std::vector<uint32_t> pixel_begin;  // [H * W] (a view holds under 2^32 pairs)
+  // [H * W]: each entry blends an alpha of at least 1/255 and a pixel is
+  // done once its transmittance is under 1e-4, so a pixel has about 2,350
+  // entries at most ((254/255)^2345 < 1e-4).
+  std::vector<uint16_t> pixel_count;
   std::vector<uint32_t> pixel_table;  // [H * W] the pixel's table
   std::vector<uint32_t> table_begin;  // [tables + 1] each table's first slot in `table`
   std::vector<uint32_t> table;        // Local indices (into `gaussians`).

@@ -36,6 +36,13 @@ inline constexpr float kExtentMargin = 1.001f;
 // size outside the image (as 3DGS clamps at 1.3 tan(fov)), so Gaussians far
 // off screen do not blow up into huge splats.
 inline constexpr float kJacobianGuard = 0.15f;
+// ProjectSplat's early rejections: a fade exponent past ln 255 (with room
+// for rounding), the extent's d^2 at opacity 1 (2 ln 255 kExtentMargin +
+// 1e-4, rounded up), and the factor that keeps the bound on the extents
+// above the extents float rounding gives.
+inline constexpr float kFadeReject = 5.5413f;  // ln 255 = 5.54126.
+inline constexpr float kMaxSpanD2 = 11.094f;   // 11.0936.
+inline constexpr float kExtentBound = 1.01f;
 
 PF_HD inline float ClampTo(float x, float lo, float hi) { return x < lo ? lo : (hi < x ? hi : x); }
 
@@ -177,16 +184,20 @@ inline SplatArrays ArraysOf(const GaussianScene& scene) {
 // Projects Gaussian `i`, whose owner frame maps to the camera by `r`
 // (row-major 3x3) and `t`; false when it cannot be seen (faded out, behind
 // the near plane, outside the distortion model or the image).
+// kEarlyRejects: test first, before the costly parts, what rules a Gaussian
+// out whatever its opacity and rotation (most of a large scene is out of
+// any one view); each early test is conservative, so the result is the
+// same either way (false only skips them, for the tests that show it).
+template <bool kEarlyRejects = true>
 PF_HD inline bool ProjectSplat(const SplatArrays& scene, size_t i, const ProjectionCamera& camera,
                                const float* r, const float* t, SplatGeometry* out) {
-  // Opacity, faded by time.
-  float opacity = 1.f / (1.f + std::exp(-scene.opacity_logits[i]));
+  // A fade alone under 1/255 (the sigmoid is at most 1).
   const float sigma = scene.lifespans[i];
+  float fade_u = 0.f;
   if (!std::isinf(sigma)) {
-    const float u = (camera.render_time_s - scene.times[i]) / (sigma + 1.f);
-    opacity *= std::exp(-0.5f * u * u);
+    fade_u = (camera.render_time_s - scene.times[i]) / (sigma + 1.f);
+    if (kEarlyRejects && 0.5f * fade_u * fade_u > kFadeReject) return false;
   }
-  if (!(opacity >= kMinAlpha)) return false;
 
   // Camera-frame mean.
   const float* m = &scene.means[3 * i];
@@ -222,6 +233,27 @@ PF_HD inline bool ProjectSplat(const SplatArrays& scene, size_t i, const Project
   // J = D * [1/z 0 -tx/z; 0 1/z -ty/z], 2x3.
   const float j00 = d00 * inv_z, j01 = d01 * inv_z, j02 = -(d00 * tx + d01 * ty) * inv_z;
   const float j10 = d10 * inv_z, j11 = d11 * inv_z, j12 = -(d10 * tx + d11 * ty) * inv_z;
+  // Off the image whatever the Gaussian's rotation and opacity: row k of
+  // B below has a norm of at most the largest scale times that of row k of
+  // J (R and the Gaussian's rotation are orthonormal), and the extent's
+  // d^2 at most its value at opacity 1.
+  if (kEarlyRejects) {
+    const float* ls = &scene.log_scales[3 * i];
+    const float s_max = std::exp(std::max(ls[0], std::max(ls[1], ls[2])));
+    const float s2 = s_max * s_max;
+    const float row0 = j00 * j00 + j01 * j01 + j02 * j02;
+    const float row1 = j10 * j10 + j11 * j11 + j12 * j12;
+    const float bound_x = kExtentBound * std::sqrt(kMaxSpanD2 * (s2 * row0 + scene.low_pass));
+    const float bound_y = kExtentBound * std::sqrt(kMaxSpanD2 * (s2 * row1 + scene.low_pass));
+    if (mx + bound_x < 0 || mx - bound_x > camera.width || my + bound_y < 0 ||
+        my - bound_y > camera.height) {
+      return false;
+    }
+  }
+  // Opacity, faded by time.
+  float opacity = 1.f / (1.f + std::exp(-scene.opacity_logits[i]));
+  if (!std::isinf(sigma)) opacity *= std::exp(-0.5f * fade_u * fade_u);
+  if (!(opacity >= kMinAlpha)) return false;
   // A = J * R_cam (2x3).
   const float a00 = j00 * r[0] + j01 * r[3] + j02 * r[6];
   const float a01 = j00 * r[1] + j01 * r[4] + j02 * r[7];
@@ -282,7 +314,7 @@ PF_HD inline bool ProjectSplat(const SplatArrays& scene, size_t i, const Project
 inline bool ProjectSplatGeometry(const GaussianScene& scene, size_t i,
                                  const ProjectionCamera& camera, const float* r, const float* t,
                                  SplatGeometry* out) {
-  return ProjectSplat(ArraysOf(scene), i, camera, r, t, out);
+  return ProjectSplat<true>(ArraysOf(scene), i, camera, r, t, out);
 }
 
 // Returns the smallest d^2 of the conic over the rectangle of pixel centres
