@@ -107,8 +107,15 @@ int Info(const std::string& path) {
   }
   std::printf("ego layers:   %zu\n", scene.ego_layers.size());
   for (const EgoLayer& layer : scene.ego_layers) {
-    std::printf("  %-12s %dx%d, %.1f %% of the pixels on the body\n", layer.camera_id.c_str(),
+    std::printf("  %-12s %dx%d, %.1f %% of the pixels on the body", layer.camera_id.c_str(),
                 layer.width, layer.height, 100.0 * layer.body_share());
+    if (layer.frames.empty()) {
+      std::printf(", one colour at every time\n");
+    } else {
+      std::printf(", %zu frames in t [%lld, %lld] us\n", layer.frames.size(),
+                  static_cast<long long>(layer.frames.front().timestamp_us),
+                  static_cast<long long>(layer.frames.back().timestamp_us));
+    }
   }
   for (const auto& [key, value] : opened->metadata) {
     std::printf("metadata:     %s = %s\n", key.c_str(), value.c_str());

@@ -332,16 +332,20 @@ TEST(PfHelp, EveryCommandAnswersHelp) {
   EXPECT_EQ(render.out.find("reconstruct CLIP.json"), std::string::npos) << render.out;
 }
 
-// A scene with an ego layer for "cam" (the body in the bottom 8 rows):
-// every view of the camera shows it on top, whatever the pose; pf scene
-// info lists it and a PLY export says it is left out.
+// A scene with an ego layer for "cam" (the body in the bottom 8 rows, at
+// 0 s and 2 s): every view of the camera shows it on top, whatever the
+// pose, as its time falls between the frames; pf scene info lists it and a
+// PLY export says it is left out.
 TEST_F(RenderCliTest, TheEgoLayerIsDrawnOverEveryViewOfItsCamera) {
   GaussianScene scene = MakeScene();
   EgoLayer body{"cam", 64, 48, std::vector<uint8_t>(64 * 48, 0),
                 std::vector<float>(64 * 48 * 3, 0.f)};
+  body.frames = {{0, {}}, {2'000'000, {}}};
   for (size_t i = 40 * 64; i < body.mask.size(); ++i) {
     body.mask[i] = 1;
-    body.rgb[i * 3] = 0.25f, body.rgb[i * 3 + 1] = 0.5f, body.rgb[i * 3 + 2] = 0.75f;
+    body.rgb[i * 3] = body.rgb[i * 3 + 1] = body.rgb[i * 3 + 2] = 0.1f;  // The mean: not drawn.
+    body.frames[0].rgb.insert(body.frames[0].rgb.end(), {0.25f, 0.5f, 0.75f});
+    body.frames[1].rgb.insert(body.frames[1].rgb.end(), {0.75f, 0.5f, 0.25f});
   }
   scene.ego_layers = {body};
   const std::string with_body = dir_ + "/body.pfscene";
@@ -352,11 +356,13 @@ TEST_F(RenderCliTest, TheEgoLayerIsDrawnOverEveryViewOfItsCamera) {
   for (const char* view : {"t0", "cam_1000000"}) {
     const Exr e = ReadExr(absl::StrCat(dir_, "/body/", view, ".exr"));
     const Exr plain = ReadExr(absl::StrCat(dir_, "/plain/", view, ".exr"));
+    // At 0 s the first frame; at 1 s halfway to the second.
+    const bool first = std::string(view) == "t0";
     for (int x : {0, 31, 63}) {
       // Row 44 is on the body: its colour (scene-linear in the EXR), opaque,
       // no depth, no instance, the colour in the first feature channels.
-      EXPECT_NEAR(e.at(x, 44, "R"), SrgbToLinear(0.25f), 2e-3) << view << " " << x;
-      EXPECT_NEAR(e.at(x, 44, "B"), SrgbToLinear(0.75f), 2e-3) << view << " " << x;
+      EXPECT_NEAR(e.at(x, 44, "R"), SrgbToLinear(first ? 0.25f : 0.5f), 2e-3) << view << " " << x;
+      EXPECT_NEAR(e.at(x, 44, "B"), SrgbToLinear(first ? 0.75f : 0.5f), 2e-3) << view << " " << x;
       EXPECT_EQ(e.at(x, 44, "A"), 1.f);
       EXPECT_EQ(e.at(x, 44, "Z"), 0.f);
       EXPECT_EQ(e.instance[44 * 64 + x], 0u);
@@ -371,7 +377,8 @@ TEST_F(RenderCliTest, TheEgoLayerIsDrawnOverEveryViewOfItsCamera) {
   const testing::CommandResult info = RunCommand({BinPath("pf"), "scene", "info", with_body});
   ASSERT_EQ(info.exit_code, 0) << info.err;
   EXPECT_NE(
-      info.out.find("ego layers:   1\n  cam          64x48, 16.7 % of the pixels on the body"),
+      info.out.find("ego layers:   1\n  cam          64x48, 16.7 % of the pixels on the body, "
+                    "2 frames in t [0, 2000000] us"),
       std::string::npos)
       << info.out;
   const testing::CommandResult exported =

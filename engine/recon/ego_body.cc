@@ -607,6 +607,34 @@ std::vector<uint8_t> BodyBlocksByRuns(const std::vector<ContextView>& views,
   return body;
 }
 
+// The body pixels' colours in each of the camera's CONTEXT times (views of
+// the layer's size; views at one time averaged), by time.
+std::vector<EgoLayer::Frame> BodyFrames(const std::vector<ContextView>& views,
+                                        const std::vector<size_t>& members, const EgoLayer& layer) {
+  std::map<int64_t, std::vector<size_t>> by_time;
+  for (size_t v : members) {
+    if (views[v].width() == layer.width && views[v].height() == layer.height) {
+      by_time[views[v].timestamp_us].push_back(v);
+    }
+  }
+  std::vector<EgoLayer::Frame> frames;
+  for (const auto& [time, at] : by_time) {
+    EgoLayer::Frame frame;
+    frame.timestamp_us = time;
+    frame.rgb.reserve(layer.body_pixels() * 3);
+    for (size_t i = 0; i < layer.mask.size(); ++i) {
+      if (!layer.on_body(i)) continue;
+      for (int c = 0; c < 3; ++c) {
+        float sum = 0.f;
+        for (size_t v : at) sum += views[v].rgb.pixels[i * 3 + c];
+        frame.rgb.push_back(sum / float(at.size()));
+      }
+    }
+    frames.push_back(std::move(frame));
+  }
+  return frames;
+}
+
 }  // namespace
 
 std::vector<EgoLayer> DetectEgoBodies(const std::vector<ContextView>& views,
@@ -654,6 +682,7 @@ std::vector<EgoLayer> DetectEgoBodies(const std::vector<ContextView>& views,
         for (int c = 0; c < 3; ++c) layer.rgb[i * 3 + c] += rgb[i * 3 + c] * norm;
       }
     }
+    layer.frames = BodyFrames(views, members, layer);
     layers.push_back(std::move(layer));
   }
   return layers;

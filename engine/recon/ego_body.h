@@ -54,7 +54,9 @@
 //   (a lone edge given a wrong depth is short). Kept when it holds at least
 //   `min_area` of the image.
 // A camera with a mask of its own (Camera.ego_mask) keeps it; its layer is
-// that mask. The layer's colour is the mean of the camera's CONTEXT images.
+// that mask. The layer's colour is the mean of the camera's CONTEXT images,
+// and its frames the body in each of them (EgoLayer::frames), which renders
+// draw by their time.
 #ifndef POINTFORWARD_ENGINE_RECON_EGO_BODY_H_
 #define POINTFORWARD_ENGINE_RECON_EGO_BODY_H_
 

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <utility>
 
+#include "engine/render/ego_layer.h"
 #include "gtest/gtest.h"
 
 namespace pf {
@@ -154,6 +155,47 @@ TEST(EgoBodyTest, FindsTheBodyThatStaysWhileTheWallMoves) {
   std::vector<ContextView> views = rig.views;
   SetEgoMasks(layers, &views);
   for (const ContextView& view : views) EXPECT_EQ(view.ego, layer.mask);
+}
+
+TEST(EgoBodyTest, KeepsTheBodyAsEachContextTimeShowsIt) {
+  // The camera's own mask (rows >= kBodyTop); the body 0.1 brighter at
+  // 0.2 s, where two views (0.1 and 0.3 brighter) are averaged.
+  Rig rig;
+  const float brighter[3] = {0.f, 0.1f, 0.3f};
+  const int64_t times[3] = {200'000, 0, 200'000};
+  for (int k = 0; k < 3; ++k) {
+    RigView v = MakeView("front", 0.5 * k, true);
+    v.view.timestamp_us = times[k];
+    v.view.ego.assign(size_t(kRigW) * kRigH, 0);
+    for (int y = kBodyTop; y < kRigH; ++y) {
+      for (int x = 0; x < kRigW; ++x) {
+        v.view.ego[size_t(y) * kRigW + x] = 1;
+        for (int c = 0; c < 3; ++c) v.view.rgb.at(x, y, c) += brighter[k];
+      }
+    }
+    rig.Add(std::move(v));
+  }
+  const std::vector<EgoLayer> layers = DetectEgoBodies(rig.views, rig.depths, {});
+  ASSERT_EQ(layers.size(), 1u);
+  const EgoLayer& layer = layers[0];
+  ASSERT_EQ(layer.frames.size(), 2u);
+  EXPECT_EQ(layer.frames[0].timestamp_us, 0);
+  EXPECT_EQ(layer.frames[1].timestamp_us, 200'000);
+  const size_t body = size_t(kRigW) * (kRigH - kBodyTop);
+  ASSERT_EQ(layer.frames[0].rgb.size(), body * 3);
+  ASSERT_EQ(layer.frames[1].rgb.size(), body * 3);
+  EXPECT_TRUE(CheckEgoLayer(layer, "ego").ok());
+  size_t next = 0;
+  for (int y = kBodyTop; y < kRigH; ++y) {
+    for (int x = 0; x < kRigW; ++x, ++next) {
+      const size_t i = size_t(y) * kRigW + x;
+      for (int c = 0; c < 3; ++c) {
+        EXPECT_NEAR(layer.frames[0].rgb[next * 3 + c], BodyColour(x, y, c) + 0.1f, 1e-6);
+        EXPECT_NEAR(layer.frames[1].rgb[next * 3 + c], BodyColour(x, y, c) + 0.15f, 1e-6);
+        EXPECT_NEAR(layer.rgb[i * 3 + c], BodyColour(x, y, c) + 0.4f / 3, 1e-6);
+      }
+    }
+  }
 }
 
 TEST(EgoBodyTest, NoBodyInViewsThatChangeEverywhere) {

@@ -260,7 +260,8 @@ absl::Status EvaluateExtraViews(const GaussianScene& scene, const DeviceRenderer
     absl::StatusOr<RenderBuffers> buffers =
         renderer.Render(view.camera, view.timestamp_us, checked.edits, render_options);
     if (!buffers.ok()) return StatusWithContext(buffers.status(), what);
-    if (const EgoLayer* ego = FindEgoLayer(scene, view.camera_id)) ApplyEgoLayer(*ego, &*buffers);
+    if (const EgoLayer* ego = FindEgoLayer(scene, view.camera_id))
+      ApplyEgoLayer(*ego, view.timestamp_us, &*buffers);
     const double render_seconds = SecondsSince(start);
     // With actor edits the tracked boxes are not where the movers are.
     std::vector<uint8_t> mask;
@@ -726,7 +727,9 @@ absl::StatusOr<EvalReport> EvaluateClip(const LoadedClip& loaded, const ReconOpt
     ASSIGN_OR_RETURN(
         RenderBuffers buffers,
         renderer->Render(target.render_camera(), target.timestamp_us, {}, render_options));
-    if (const EgoLayer* ego = FindEgoLayer(scene, target.camera_id)) ApplyEgoLayer(*ego, &buffers);
+    if (const EgoLayer* ego = FindEgoLayer(scene, target.camera_id)) {
+      ApplyEgoLayer(*ego, target.timestamp_us, &buffers);
+    }
     const double render_seconds = SecondsSince(start);
     const auto metrics_start = std::chrono::steady_clock::now();
     const std::vector<uint8_t> mask =

@@ -2,12 +2,14 @@
 // is drawn over every render of its camera, as the recorded frames show it.
 //
 //   if (const EgoLayer* ego = FindEgoLayer(scene, view.camera_id)) {
-//     ApplyEgoLayer(*ego, &buffers);
+//     ApplyEgoLayer(*ego, view.timestamp_us, &buffers);
 //   }
 #ifndef POINTFORWARD_ENGINE_RENDER_EGO_LAYER_H_
 #define POINTFORWARD_ENGINE_RENDER_EGO_LAYER_H_
 
+#include <cstdint>
 #include <string>
+#include <vector>
 
 #include "engine/render/gaussian_scene.h"
 #include "engine/render/rasterizer.h"
@@ -19,13 +21,20 @@ const EgoLayer* FindEgoLayer(const GaussianScene& scene, const std::string& came
 
 // Draws the body over `buffers` where the layer's size is the render's (a
 // render of another size, e.g. a resized camera, is left as it is; returns
-// false then): on its pixels rgb is the body's colour, alpha 1, depth 0 (the
-// body's depth is unknown), instance 0, and the feature channels the colour
-// in the first three, 0 in the rest.
-bool ApplyEgoLayer(const EgoLayer& layer, RenderBuffers* buffers);
+// false then): on its pixels rgb is the body's colour at the render's time
+// `timestamp_us` (EgoLayer::frames), alpha 1, depth 0 (the body's depth is
+// unknown), instance 0, and the feature channels the colour in the first
+// three, 0 in the rest.
+bool ApplyEgoLayer(const EgoLayer& layer, int64_t timestamp_us, RenderBuffers* buffers);
 
-// Checks a layer: a camera id, a positive size, a mask of W x H and a colour
-// of W x H x 3 (finite). INVALID_ARGUMENT naming `field`.
+// The body's colours at `timestamp_us`, [B, 3] in pixel order: the layer's
+// frames either side of it mixed linearly in time (the first frame before
+// it, the last after it), or the mean colour where it has no frames.
+std::vector<float> EgoColoursAt(const EgoLayer& layer, int64_t timestamp_us);
+
+// Checks a layer: a camera id, a positive size, a mask of W x H, a colour
+// of W x H x 3 and frames in strictly ascending time, each of B x 3 colours
+// (all finite). INVALID_ARGUMENT naming `field`.
 absl::Status CheckEgoLayer(const EgoLayer& layer, const std::string& field);
 
 }  // namespace pf

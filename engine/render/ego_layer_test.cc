@@ -26,7 +26,7 @@ EgoLayer TwoPixelBody() {
 
 TEST(EgoLayerTest, DrawsTheBodyOverEveryBufferOfItsPixels) {
   RenderBuffers b = FourByTwo();
-  ASSERT_TRUE(ApplyEgoLayer(TwoPixelBody(), &b));
+  ASSERT_TRUE(ApplyEgoLayer(TwoPixelBody(), 0, &b));
   for (size_t i = 0; i < 8; ++i) {
     const bool body = i == 1 || i == 6;
     EXPECT_EQ(b.alpha[i], body ? 1.f : 0.4f) << i;
@@ -43,11 +43,45 @@ TEST(EgoLayerTest, DrawsTheBodyOverEveryBufferOfItsPixels) {
   }
 }
 
+TEST(EgoLayerTest, DrawsTheFramesEitherSideOfTheRenderTimeMixedLinearly) {
+  EgoLayer layer = TwoPixelBody();
+  // Body pixels 1 and 6 at 1.0 s, 1.2 s and 1.6 s.
+  layer.frames = {{1'000'000, {0.1f, 0.2f, 0.3f, 0.5f, 0.5f, 0.5f}},
+                  {1'200'000, {0.3f, 0.4f, 0.5f, 0.9f, 0.7f, 0.5f}},
+                  {1'600'000, {0.7f, 0.4f, 0.1f, 0.1f, 0.1f, 0.1f}}};
+  ASSERT_TRUE(CheckEgoLayer(layer, "ego").ok());
+  struct Case {
+    int64_t time_us;
+    float pixel1[3], pixel6[3];
+  };
+  for (const Case& want : {Case{0, {0.1f, 0.2f, 0.3f}, {0.5f, 0.5f, 0.5f}},  // before: the first
+                           Case{1'000'000, {0.1f, 0.2f, 0.3f}, {0.5f, 0.5f, 0.5f}},
+                           Case{1'100'000, {0.2f, 0.3f, 0.4f}, {0.7f, 0.6f, 0.5f}},   // halfway
+                           Case{1'300'000, {0.4f, 0.4f, 0.4f}, {0.7f, 0.55f, 0.4f}},  // a quarter
+                           Case{1'600'000, {0.7f, 0.4f, 0.1f}, {0.1f, 0.1f, 0.1f}},
+                           Case{9'000'000, {0.7f, 0.4f, 0.1f}, {0.1f, 0.1f, 0.1f}}}) {  // after
+    RenderBuffers b = FourByTwo();
+    ASSERT_TRUE(ApplyEgoLayer(layer, want.time_us, &b));
+    for (int c = 0; c < 3; ++c) {
+      EXPECT_NEAR(b.rgb[1 * 3 + c], want.pixel1[c], 1e-6) << want.time_us << " " << c;
+      EXPECT_NEAR(b.rgb[6 * 3 + c], want.pixel6[c], 1e-6) << want.time_us << " " << c;
+      EXPECT_NEAR(b.features[6 * 5 + c], want.pixel6[c], 1e-6) << want.time_us << " " << c;
+      EXPECT_EQ(b.rgb[0 * 3 + c], 0.2f);  // Off the body: the render.
+    }
+    EXPECT_EQ(b.alpha[6], 1.f);
+  }
+  // Without frames, the mean colour at every time.
+  layer.frames.clear();
+  RenderBuffers b = FourByTwo();
+  ASSERT_TRUE(ApplyEgoLayer(layer, 1'100'000, &b));
+  EXPECT_FLOAT_EQ(b.rgb[6 * 3], 0.9f);
+}
+
 TEST(EgoLayerTest, ARenderOfAnotherSizeIsLeftAlone) {
   RenderBuffers b = FourByTwo();
   EgoLayer layer = TwoPixelBody();
   layer.width = 2, layer.height = 4;
-  EXPECT_FALSE(ApplyEgoLayer(layer, &b));
+  EXPECT_FALSE(ApplyEgoLayer(layer, 0, &b));
   EXPECT_EQ(b.alpha, std::vector<float>(8, 0.4f));
 }
 

@@ -75,8 +75,18 @@ struct EgoLayer {
   std::string camera_id;  // The clip's Camera.id.
   int width = 0, height = 0;
   std::vector<uint8_t> mask;  // [H, W] 1 on the body.
-  // [H, W, 3] the body's colour, in the scene's colour_encoding; 0 off it.
+  // [H, W, 3] the body's colour, in the scene's colour_encoding; 0 off it:
+  // the mean of the frames below, drawn at every time where there are none.
   std::vector<float> rgb;
+  // The body as each CONTEXT time of the camera showed it, by time (strictly
+  // ascending): a render at time t draws the two frames either side of t
+  // mixed linearly in t, the first before it and the last after it
+  // (ApplyEgoLayer). The body changes with what it mirrors as the car moves.
+  struct Frame {
+    int64_t timestamp_us = 0;
+    std::vector<float> rgb;  // [B, 3] the body pixels' colours, in pixel order.
+  };
+  std::vector<Frame> frames;
 
   bool on_body(size_t pixel) const { return mask[pixel] != 0; }
   // How many pixels, and what share of the image, are on the body.

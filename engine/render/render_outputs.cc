@@ -427,7 +427,7 @@ absl::StatusOr<ManifestEntry> RenderViewToFiles(
   ASSIGN_OR_RETURN(RenderBuffers buffers,
                    renderer.Render(view.camera, view.timestamp_us, edits, options));
   if (const EgoLayer* ego = FindEgoLayer(renderer.scene(), view.camera_id)) {
-    ApplyEgoLayer(*ego, &buffers);
+    ApplyEgoLayer(*ego, view.timestamp_us, &buffers);
   }
   ManifestEntry entry;
   entry.render_ms =

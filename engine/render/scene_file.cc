@@ -275,6 +275,8 @@ absl::Status SaveScene(const GaussianScene& scene, const std::string& path,
     header.Put<int32_t>(layer.width);
     header.Put<int32_t>(layer.height);
     header.Put<uint64_t>(layer.body_pixels());
+    header.Put<uint32_t>(static_cast<uint32_t>(layer.frames.size()));
+    for (const EgoLayer::Frame& frame : layer.frames) header.Put<int64_t>(frame.timestamp_us);
   }
   if (header.bytes().size() > kMaxHeaderBytes) {
     return absl::InvalidArgumentError(absl::StrCat(
@@ -308,6 +310,9 @@ absl::Status SaveScene(const GaussianScene& scene, const std::string& path,
       write(layer.mask.data(), layer.mask.size());
       const std::vector<float> colours = BodyColours(layer);
       write(colours.data(), colours.size() * 4);
+      for (const EgoLayer::Frame& frame : layer.frames) {
+        write(frame.rgb.data(), frame.rgb.size() * 4);
+      }
     }
     const std::array<uint8_t, 32> digest = hasher.Finish();
     out.write(reinterpret_cast<const char*>(digest.data()), digest.size());
@@ -483,6 +488,20 @@ absl::StatusOr<SceneFile> ReadSceneFile(const std::string& path) {
       }
       body_pixels.push_back(body);
       ego_bytes += static_cast<uint64_t>(pixels) + 12 * body;
+      // Version 9 added each layer's frames: their count and times.
+      if (version >= 9) {
+        uint32_t num_frames = 0;
+        RETURN_IF_ERROR(header.Get("ego_layer.num_frames", &num_frames));
+        if (num_frames > header.remaining() / 8) {
+          return invalid("header ego layer '", layer.camera_id, "': ", num_frames,
+                         " frames do not fit in the header");
+        }
+        layer.frames.resize(num_frames);
+        for (EgoLayer::Frame& frame : layer.frames) {
+          RETURN_IF_ERROR(header.Get("ego_layer.frame_timestamp_us", &frame.timestamp_us));
+        }
+        ego_bytes += uint64_t{num_frames} * 12 * body;
+      }
     }
   }
   if (header.remaining() != 0) {
@@ -541,6 +560,13 @@ absl::StatusOr<SceneFile> ReadSceneFile(const std::string& path) {
       if (!layer.mask[i]) continue;
       for (int c = 0; c < 3; ++c) layer.rgb[i * 3 + c] = colours[next * 3 + c];
       ++next;
+    }
+    for (EgoLayer::Frame& frame : layer.frames) {
+      frame.rgb.resize(body_pixels[k] * 3);
+      in.read(reinterpret_cast<char*>(frame.rgb.data()),
+              static_cast<std::streamsize>(frame.rgb.size() * 4));
+      if (!in) return invalid("read error in ego layer '", layer.camera_id, "'");
+      hasher.Update(frame.rgb.data(), frame.rgb.size() * 4);
     }
   }
   std::array<uint8_t, kChecksumBytes> stored{};

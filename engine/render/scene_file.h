@@ -35,7 +35,10 @@ inline constexpr char kSceneFileMagic[8] = {'P', 'F', 'S', 'C', 'E', 'N', 'E', '
 // after the metadata, their masks and colours after the arrays (older files:
 // none). Version 8 added the fade span (GaussianScene::fade_span, two
 // float32 after the LiDAR intensity channel; older files: unbounded).
-inline constexpr uint32_t kSceneFileVersion = 8;
+// Version 9 added the ego layers' frames (EgoLayer::frames): per layer their
+// count and times after its body pixel count, their colours after its own
+// (older files: none, the mean colour at every time).
+inline constexpr uint32_t kSceneFileVersion = 9;
 inline constexpr uint32_t kOldestSceneFileVersion = 1;
 
 // A scene as stored: the Gaussians, free-form metadata (e.g. "model",

@@ -169,12 +169,12 @@ TEST_F(SceneFileTest, RejectsWrongMagic) {
 }
 
 TEST_F(SceneFileTest, RejectsWrongVersion) {
-  for (int version : {0, 9}) {
+  for (int version : {0, 10}) {
     const absl::Status status =
         LoadEdited([version](std::string& b) { b[8] = static_cast<char>(version); });
     EXPECT_EQ(status.code(), absl::StatusCode::kInvalidArgument);
     EXPECT_NE(status.message().find(absl::StrCat("unsupported scene file version ", version,
-                                                 " (this build reads versions 1 to 8)")),
+                                                 " (this build reads versions 1 to 9)")),
               absl::string_view::npos)
         << status;
   }
@@ -216,7 +216,7 @@ TEST_F(SceneFileTest, RoundTripWithColourGradients) {
   ASSERT_TRUE(SaveScene(scene, path_).ok());
   absl::StatusOr<SceneFile> loaded = ReadSceneFile(path_);
   ASSERT_TRUE(loaded.ok()) << loaded.status();
-  EXPECT_EQ(loaded->version, 8u);
+  EXPECT_EQ(loaded->version, 9u);
   ExpectScenesEqual(scene, loaded->scene);
   // 6 more floats per Gaussian than the same scene with flat colours.
   const std::string flat_path = path_ + ".flat";
@@ -357,7 +357,7 @@ TEST_F(SceneFileTest, RoundTripKeepsTheEgoLayersAndVersionSixFilesHaveNone) {
   ASSERT_TRUE(SaveScene(scene, path_).ok());
   absl::StatusOr<SceneFile> loaded = ReadSceneFile(path_);
   ASSERT_TRUE(loaded.ok()) << loaded.status();
-  EXPECT_EQ(loaded->version, 8u);
+  EXPECT_EQ(loaded->version, 9u);
   ExpectScenesEqual(scene, loaded->scene);
   ASSERT_EQ(loaded->scene.ego_layers.size(), 2u);
   for (size_t k = 0; k < 2; ++k) {
@@ -366,6 +366,7 @@ TEST_F(SceneFileTest, RoundTripKeepsTheEgoLayersAndVersionSixFilesHaveNone) {
     EXPECT_EQ(loaded->scene.ego_layers[k].height, scene.ego_layers[k].height);
     EXPECT_EQ(loaded->scene.ego_layers[k].mask, scene.ego_layers[k].mask);
     EXPECT_EQ(loaded->scene.ego_layers[k].rgb, scene.ego_layers[k].rgb);
+    EXPECT_TRUE(loaded->scene.ego_layers[k].frames.empty());
   }
   // The size: header, arrays, then per layer the mask and 3 floats per body pixel.
   std::string bytes = *ReadFileToString(path_);
@@ -398,6 +399,73 @@ TEST_F(SceneFileTest, RoundTripKeepsTheEgoLayersAndVersionSixFilesHaveNone) {
   ASSERT_TRUE(loaded.ok()) << loaded.status();
   EXPECT_EQ(loaded->version, 6u);
   EXPECT_TRUE(loaded->scene.ego_layers.empty());
+}
+
+TEST_F(SceneFileTest, RoundTripKeepsTheEgoFramesAndVersionEightFilesHaveNone) {
+  GaussianScene scene = MakeScene();
+  scene.ego_layers = TwoEgoLayers();
+  // The front body (12 pixels) at two times, the back one (1 pixel) at one.
+  for (int64_t time : {1'000'000, 1'100'000}) {
+    EgoLayer::Frame frame{time, std::vector<float>(36)};
+    for (size_t k = 0; k < 36; ++k) frame.rgb[k] = 1e-6f * float(time) + 0.01f * float(k);
+    scene.ego_layers[0].frames.push_back(frame);
+  }
+  scene.ego_layers[1].frames = {{-5, {0.25f, 0.5f, 0.75f}}};
+  ASSERT_TRUE(SaveScene(scene, path_).ok());
+  absl::StatusOr<SceneFile> loaded = ReadSceneFile(path_);
+  ASSERT_TRUE(loaded.ok()) << loaded.status();
+  ASSERT_EQ(loaded->scene.ego_layers.size(), 2u);
+  for (size_t k = 0; k < 2; ++k) {
+    const std::vector<EgoLayer::Frame>& want = scene.ego_layers[k].frames;
+    const std::vector<EgoLayer::Frame>& got = loaded->scene.ego_layers[k].frames;
+    ASSERT_EQ(got.size(), want.size()) << k;
+    for (size_t f = 0; f < want.size(); ++f) {
+      EXPECT_EQ(got[f].timestamp_us, want[f].timestamp_us) << k << " " << f;
+      EXPECT_EQ(got[f].rgb, want[f].rgb) << k << " " << f;
+    }
+  }
+  // The size: each frame 3 floats per body pixel after its layer's colours.
+  std::string bytes = *ReadFileToString(path_);
+  uint32_t header_bytes = 0;
+  std::memcpy(&header_bytes, bytes.data() + 12, 4);
+  EXPECT_EQ(bytes.size(), 16 + header_bytes + 7 * 30 * 4 + (24 + 3 * 12 * 12) + (6 + 2 * 12) + 32);
+
+  // Frames out of time order, or of the wrong size: refused on save, by name.
+  GaussianScene bad = scene;
+  bad.ego_layers[0].frames[1].timestamp_us = 1'000'000;
+  EXPECT_NE(SaveScene(bad, path_)
+                .message()
+                .find("ego_layers[0].frames[1]: time 1000000 us is not after 1000000 us"),
+            absl::string_view::npos);
+  bad = scene;
+  bad.ego_layers[1].frames[0].rgb.push_back(0.f);
+  EXPECT_NE(SaveScene(bad, path_)
+                .message()
+                .find("ego_layers[1].frames[0]: 4 colours for 1 body pixels (3 each)"),
+            absl::string_view::npos);
+
+  // A version-8 file is a version-9 file without each layer's frame count
+  // (a uint32 after its body pixel count, the last 4 bytes of the layer's
+  // header) and frames: the mean colour at every time.
+  for (EgoLayer& layer : scene.ego_layers) layer.frames.clear();
+  ASSERT_TRUE(SaveScene(scene, path_).ok());
+  bytes = *ReadFileToString(path_);
+  std::memcpy(&header_bytes, bytes.data() + 12, 4);
+  const size_t end = 16 + header_bytes;
+  const size_t back_layer = 4 + 4 + 4 + 4 + 8 + 4;  // "back": its id, size, count, frames
+  bytes.erase(end - 4, 4);
+  bytes.erase(end - back_layer - 4, 4);
+  header_bytes -= 8;
+  std::memcpy(bytes.data() + 12, &header_bytes, 4);
+  ASSERT_TRUE(WriteFileAtomic(path_, bytes).ok());
+  RewriteAsVersion(path_, 8, 0, 0);
+  loaded = ReadSceneFile(path_);
+  ASSERT_TRUE(loaded.ok()) << loaded.status();
+  EXPECT_EQ(loaded->version, 8u);
+  ASSERT_EQ(loaded->scene.ego_layers.size(), 2u);
+  EXPECT_EQ(loaded->scene.ego_layers[0].rgb, scene.ego_layers[0].rgb);
+  EXPECT_TRUE(loaded->scene.ego_layers[0].frames.empty());
+  EXPECT_EQ(loaded->scene.ego_layers[1].rgb, scene.ego_layers[1].rgb);
 }
 
 TEST_F(SceneFileTest, ReadsVersionThreeFilesAsSrgb) {
