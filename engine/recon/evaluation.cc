@@ -260,8 +260,9 @@ absl::Status EvaluateExtraViews(const GaussianScene& scene, const DeviceRenderer
     absl::StatusOr<RenderBuffers> buffers =
         renderer.Render(view.camera, view.timestamp_us, checked.edits, render_options);
     if (!buffers.ok()) return StatusWithContext(buffers.status(), what);
-    if (const EgoLayer* ego = FindEgoLayer(scene, view.camera_id))
+    if (const EgoLayer* ego = FindEgoLayer(scene, view.camera_id)) {
       ApplyEgoLayer(*ego, view.timestamp_us, &*buffers);
+    }
     const double render_seconds = SecondsSince(start);
     // With actor edits the tracked boxes are not where the movers are.
     std::vector<uint8_t> mask;

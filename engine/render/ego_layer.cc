@@ -14,14 +14,17 @@ const EgoLayer* FindEgoLayer(const GaussianScene& scene, const std::string& came
   return nullptr;
 }
 
-std::vector<float> EgoColoursAt(const EgoLayer& layer, int64_t timestamp_us) {
+std::vector<float> MeanBodyColours(const EgoLayer& layer) {
   std::vector<float> colours;
-  if (layer.frames.empty()) {
-    for (size_t i = 0; i < layer.mask.size(); ++i) {
-      if (layer.on_body(i)) colours.insert(colours.end(), &layer.rgb[i * 3], &layer.rgb[i * 3 + 3]);
-    }
-    return colours;
+  for (size_t i = 0; i < layer.mask.size(); ++i) {
+    if (layer.on_body(i)) colours.insert(colours.end(), &layer.rgb[i * 3], &layer.rgb[i * 3 + 3]);
   }
+  return colours;
+}
+
+std::vector<float> EgoColoursAt(const EgoLayer& layer, int64_t timestamp_us) {
+  if (layer.frames.empty()) return MeanBodyColours(layer);
+  std::vector<float> colours;
   // The first frame at or after the time; the one before it mixed in.
   const auto after = std::lower_bound(
       layer.frames.begin(), layer.frames.end(), timestamp_us,

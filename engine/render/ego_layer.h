@@ -27,6 +27,10 @@ const EgoLayer* FindEgoLayer(const GaussianScene& scene, const std::string& came
 // three, 0 in the rest.
 bool ApplyEgoLayer(const EgoLayer& layer, int64_t timestamp_us, RenderBuffers* buffers);
 
+// The layer's mean colour (EgoLayer::rgb) of its B body pixels, [B, 3] in
+// pixel order (as the scene file stores it).
+std::vector<float> MeanBodyColours(const EgoLayer& layer);
+
 // The body's colours at `timestamp_us`, [B, 3] in pixel order: the layer's
 // frames either side of it mixed linearly in time (the first frame before
 // it, the last after it), or the mean colour where it has no frames.

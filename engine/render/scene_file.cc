@@ -30,15 +30,6 @@ constexpr size_t kChecksumBytes = 32;  // SHA-256 trailer
 constexpr uint32_t kMaxHeaderBytes = 64u << 20;
 constexpr int64_t kMaxEgoLayerPixels = int64_t{1} << 28;
 
-// The colours of the body pixels, in pixel order.
-std::vector<float> BodyColours(const EgoLayer& layer) {
-  std::vector<float> colours;
-  for (size_t i = 0; i < layer.mask.size(); ++i) {
-    if (!layer.mask[i]) continue;
-    colours.insert(colours.end(), &layer.rgb[i * 3], &layer.rgb[i * 3 + 3]);
-  }
-  return colours;
-}
 constexpr int kMaxChannels = 256;
 
 // Appends plain values to a header buffer.
@@ -308,7 +299,7 @@ absl::Status SaveScene(const GaussianScene& scene, const std::string& path,
     }
     for (const EgoLayer& layer : scene.ego_layers) {
       write(layer.mask.data(), layer.mask.size());
-      const std::vector<float> colours = BodyColours(layer);
+      const std::vector<float> colours = MeanBodyColours(layer);
       write(colours.data(), colours.size() * 4);
       for (const EgoLayer::Frame& frame : layer.frames) {
         write(frame.rgb.data(), frame.rgb.size() * 4);
