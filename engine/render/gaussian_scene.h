@@ -76,7 +76,8 @@ struct EgoLayer {
   int width = 0, height = 0;
   std::vector<uint8_t> mask;  // [H, W] 1 on the body.
   // [H, W, 3] the body's colour, in the scene's colour_encoding; 0 off it:
-  // the mean of the frames below, drawn at every time where there are none.
+  // the mean over the camera's CONTEXT views, drawn at every time where
+  // there are no frames.
   std::vector<float> rgb;
   // The body as each CONTEXT time of the camera showed it, by time (strictly
   // ascending): a render at time t draws the two frames either side of t
