@@ -386,7 +386,7 @@ absl::StatusOr<RenderBuffers> Render(const GaussianScene& scene, const RenderCam
   for (int64_t c = 0; c < num_project_chunks; ++c) {
     by_depth.insert(by_depth.end(), visible_keys[c].begin(), visible_keys[c].end());
   }
-  raster::RadixSortByHighWord(&by_depth, &ws.radix_buffer);
+  raster::RadixSortByHighWord(&by_depth, &ws.radix_buffer, pool);
 
   // 3. Bin: in depth order, each Gaussian emits the tiles its ellipse
   // touches; a counting sort by tile (chunks in order) keeps each tile's

@@ -349,16 +349,17 @@ PF_HD inline void VisitTiles(float mx, float my, float ca, float cb, float cc, f
   const int py1 = std::min(height - 1, static_cast<int>(std::floor(my + ext_y - 0.5f)));
   if (px0 > px1 || py0 > py1) return;
   const int tx0 = px0 / kTile, tx1 = px1 / kTile, ty0 = py0 / kTile, ty1 = py1 / kTile;
-  const bool single = tx0 == tx1 && ty0 == ty1;
+  if (tx0 == tx1 && ty0 == ty1) {  // One tile: no loop, no test.
+    visit(static_cast<uint32_t>(ty0 * tiles_x + tx0));
+    return;
+  }
   for (int ty = ty0; ty <= ty1; ++ty) {
     const float y0 = std::max(ty * kTile, py0) + 0.5f - my;
     const float y1 = std::min(ty * kTile + kTile - 1, py1) + 0.5f - my;
     for (int tx = tx0; tx <= tx1; ++tx) {
-      if (!single) {
-        const float x0 = std::max(tx * kTile, px0) + 0.5f - mx;
-        const float x1 = std::min(tx * kTile + kTile - 1, px1) + 0.5f - mx;
-        if (MinD2OverRect(ca, cb, cc, x0, x1, y0, y1) > span_d2) continue;
-      }
+      const float x0 = std::max(tx * kTile, px0) + 0.5f - mx;
+      const float x1 = std::min(tx * kTile + kTile - 1, px1) + 0.5f - mx;
+      if (MinD2OverRect(ca, cb, cc, x0, x1, y0, y1) > span_d2) continue;
       visit(static_cast<uint32_t>(ty * tiles_x + tx));
     }
   }

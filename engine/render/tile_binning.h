@@ -10,14 +10,72 @@
 #include <vector>
 
 #include "common/thread_pool.h"
+#include "engine/render/splat_projection.h"
 
 namespace pf::raster {
+
+// The fewest keys a slice of RadixSortByHighWord on a pool takes: fewer
+// than two slices' worth sort on one thread.
+inline constexpr size_t kMinSortSlice = size_t{1} << 17;
+
+// RadixSortByHighWord (splat_projection.h) with each pass's counting and
+// scattering split over `pool`'s working threads: the keys in fixed slices,
+// slice s's keys of a digit placed after those of slices 0 .. s-1, so the
+// order is the one a stable sort gives, whatever the thread count.
+inline void RadixSortByHighWord(std::vector<uint64_t>* keys, std::vector<uint64_t>* buffer,
+                                ThreadPool& pool) {
+  const size_t n = keys->size();
+  const size_t slices =
+      std::clamp<size_t>(n / kMinSortSlice, 1, static_cast<size_t>(pool.num_threads()) + 1);
+  if (slices == 1) {
+    RadixSortByHighWord(keys, buffer);
+    return;
+  }
+  constexpr size_t kDigits = 2048;
+  buffer->resize(n);
+  uint64_t* from = keys->data();
+  uint64_t* to = buffer->data();
+  std::vector<size_t> cursor(slices * kDigits);
+  auto slice_begin = [&](size_t s) { return n * s / slices; };
+  for (int shift = 32; shift < 64; shift += 11) {
+    pool.ParallelFor(0, static_cast<int64_t>(slices), 1, [&](int64_t s0, int64_t s1) {
+      for (auto s = static_cast<size_t>(s0); s < static_cast<size_t>(s1); ++s) {
+        size_t* count = &cursor[s * kDigits];
+        std::fill(count, count + kDigits, 0);
+        for (size_t k = slice_begin(s), end = slice_begin(s + 1); k < end; ++k) {
+          ++count[(from[k] >> shift) & (kDigits - 1)];
+        }
+      }
+    });
+    size_t total = 0;
+    for (size_t d = 0; d < kDigits; ++d) {
+      for (size_t s = 0; s < slices; ++s) {
+        const size_t count = cursor[s * kDigits + d];
+        cursor[s * kDigits + d] = total;
+        total += count;
+      }
+    }
+    pool.ParallelFor(0, static_cast<int64_t>(slices), 1, [&](int64_t s0, int64_t s1) {
+      for (auto s = static_cast<size_t>(s0); s < static_cast<size_t>(s1); ++s) {
+        size_t* next = &cursor[s * kDigits];
+        for (size_t k = slice_begin(s), end = slice_begin(s + 1); k < end; ++k) {
+          to[next[(from[k] >> shift) & (kDigits - 1)]++] = from[k];
+        }
+      }
+    });
+    std::swap(from, to);
+  }
+  // Three passes: the result is in `buffer`.
+  keys->swap(*buffer);
+}
 
 // Buffers of BinByTile, kept by callers that bin again and again.
 struct TileBinScratch {
   struct Chunk {
-    std::vector<uint32_t> tiles;      // Tile of each emitted pair.
-    std::vector<uint32_t> ids;        // Id of each emitted pair.
+    struct Pair {
+      uint32_t tile, id;
+    };
+    std::vector<Pair> pairs;          // The emitted pairs, in order.
     std::vector<uint32_t> histogram;  // [tiles] pairs per tile.
     int64_t emitting = 0;             // Positions that emitted any pair.
   };
@@ -47,19 +105,18 @@ int64_t BinByTile(size_t count, int num_tiles, Visit&& visit, ThreadPool& pool,
     for (int64_t c = c0; c < c1; ++c) {
       TileBinScratch::Chunk& chunk = chunks[c];
       chunk.histogram.assign(num_tiles, 0);
-      chunk.tiles.clear();
-      chunk.ids.clear();
+      chunk.pairs.clear();
       chunk.emitting = 0;
       const size_t begin = static_cast<size_t>(c) * kBinChunk;
       const size_t end = std::min(count, begin + kBinChunk);
+      uint32_t* histogram = chunk.histogram.data();
       for (size_t k = begin; k < end; ++k) {
-        const size_t before = chunk.ids.size();
+        const size_t before = chunk.pairs.size();
         visit(k, [&](uint32_t tile, uint32_t id) {
-          chunk.tiles.push_back(tile);
-          chunk.ids.push_back(id);
-          ++chunk.histogram[tile];
+          chunk.pairs.push_back({tile, id});
+          ++histogram[tile];
         });
-        if (chunk.ids.size() > before) ++chunk.emitting;
+        if (chunk.pairs.size() > before) ++chunk.emitting;
       }
     }
   });
@@ -81,7 +138,9 @@ int64_t BinByTile(size_t count, int num_tiles, Visit&& visit, ThreadPool& pool,
     for (int64_t c = c0; c < c1; ++c) {
       uint64_t* my_cursor = &cursor[static_cast<size_t>(c) * num_tiles];
       const TileBinScratch::Chunk& chunk = chunks[c];
-      for (size_t k = 0; k < chunk.ids.size(); ++k) out[my_cursor[chunk.tiles[k]]++] = chunk.ids[k];
+      for (const TileBinScratch::Chunk::Pair& pair : chunk.pairs) {
+        out[my_cursor[pair.tile]++] = pair.id;
+      }
     }
   });
   int64_t emitting = 0;

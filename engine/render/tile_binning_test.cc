@@ -1,9 +1,11 @@
 // Tests of BinByTile: every pair lands in its tile's list, in the order of
-// the positions, whatever the thread count and chunking.
+// the positions, whatever the thread count and chunking; and of the depth
+// sort on a pool.
 #include "engine/render/tile_binning.h"
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <random>
 #include <vector>
 
@@ -51,6 +53,29 @@ TEST(TileBinning, KeepsThePositionsOrderInEveryTileWhateverTheThreads) {
         EXPECT_EQ(got, expected[t]) << "tile " << t << ", " << threads << " threads";
       }
       EXPECT_GE(lists.size(), tile_begin[kTiles]);
+    }
+  }
+}
+
+TEST(TileBinning, TheDepthSortOnAPoolIsTheStableSortWhateverTheThreads) {
+  // Keys (depth bits << 32 | index) with few distinct depths, so ties are
+  // common and only a stable sort keeps them in index order; sizes below,
+  // at and well past one slice per thread.
+  std::mt19937 rng(5);
+  for (size_t n : {size_t{0}, size_t{1000}, kMinSortSlice * 2, kMinSortSlice * 7 + 123}) {
+    std::vector<uint64_t> input(n);
+    for (size_t k = 0; k < n; ++k) {
+      const uint32_t depth = (rng() % 3000) * 4099u;  // Spread over all three digits.
+      input[k] = (static_cast<uint64_t>(depth) << 32) | static_cast<uint32_t>((k * 7919) % n);
+    }
+    std::vector<uint64_t> expected = input;
+    std::stable_sort(expected.begin(), expected.end(),
+                     [](uint64_t a, uint64_t b) { return (a >> 32) < (b >> 32); });
+    for (int threads : {0, 1, 2, 5}) {
+      ThreadPool pool(threads);
+      std::vector<uint64_t> keys = input, buffer;
+      RadixSortByHighWord(&keys, &buffer, pool);
+      EXPECT_EQ(keys, expected) << n << " keys, " << threads << " threads";
     }
   }
 }
