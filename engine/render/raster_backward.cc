@@ -614,7 +614,7 @@ absl::StatusOr<GaussianParams<T>> Backward(const GaussianScene& scene, const Par
     // Keys rise with the index: sorting by the depth bits alone, stably,
     // is the (depth bits, index) order.
     std::vector<uint64_t> buffer;
-    raster::RadixSortByHighWord(&keys, &buffer);
+    raster::RadixSortByHighWord(&keys, &buffer, pool);
   }
   const int num_tiles = frame.tiles_x * frame.tiles_y;
   std::vector<uint64_t> tile_begin;
