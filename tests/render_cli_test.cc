@@ -302,6 +302,15 @@ TEST(PfBench, PfThreadsIsTheNumberOfWorkingThreads) {
     EXPECT_EQ(bench["threads"], std::stoi(threads)) << result.out;
     EXPECT_EQ(bench["device"], "cpu");
     EXPECT_GT(bench["pairs_contributing"].get<int64_t>(), 0);
+    // The render's passes, inside its wall time (one timed render; the
+    // figures are printed to 0.001 ms).
+    const double project = bench["project_ms_median"], sort_bin = bench["sort_bin_ms_median"],
+                 composite = bench["composite_ms_median"];
+    EXPECT_GT(project, 0);
+    EXPECT_GT(sort_bin, 0);
+    EXPECT_GT(composite, 0);
+    EXPECT_LE(project + sort_bin + composite, bench["ms_median"].get<double>() + 0.002)
+        << result.out;
     // The machine's blend peak, measured in the same run, and the share of
     // it the render reached.
     EXPECT_EQ(bench["peak_gaussians_per_tile"], 128);

@@ -419,9 +419,13 @@ absl::StatusOr<RenderBuffers> Render(const GaussianScene& scene, const RenderCam
                  count, sh_rgb, gradients, options, &out, &tested[t], &contributing[t]);
     }
   });
+  const double ms_composite = ms_since(t_start) - ms_project - ms_bin;
   spdlog::debug("render: project {:.2f} ms, sort+bin {:.2f} ms ({} pairs), composite {:.2f} ms",
-                ms_project, ms_bin, tile_begin[num_tiles], ms_since(t_start) - ms_project - ms_bin);
+                ms_project, ms_bin, tile_begin[num_tiles], ms_composite);
   out.stats.gaussians_visible = visible;
+  out.stats.project_ms = ms_project;
+  out.stats.sort_bin_ms = ms_bin;
+  out.stats.composite_ms = ms_composite;
   for (int t = 0; t < num_tiles; ++t) {
     out.stats.pairs_tested += tested[t];
     out.stats.pairs_contributing += contributing[t];

@@ -95,6 +95,11 @@ struct RasterStats {
   int64_t gaussians_visible = 0;   // Projected and inside the image.
   int64_t pairs_tested = 0;        // Gaussian-pixel pairs evaluated.
   int64_t pairs_contributing = 0;  // Pairs that changed the pixel.
+  // Wall milliseconds of Render()'s passes on the CPU (0 from a GPU):
+  // projection, depth sort and binning, compositing with the outputs' writes.
+  double project_ms = 0;
+  double sort_bin_ms = 0;
+  double composite_ms = 0;
 };
 
 // Per-pixel outputs, row-major [H, W, ...].
