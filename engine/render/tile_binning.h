@@ -1,6 +1,6 @@
-// Binning Gaussians into screen tiles, in parallel, keeping their order:
-// the forward rasterizer's and its backward pass's tile lists
-// (rasterizer.cc, raster_backward.cc).
+// Sorting Gaussians by depth and binning them into screen tiles, in
+// parallel, keeping their order: the forward rasterizer's and its backward
+// pass's depth order and tile lists (rasterizer.cc, raster_backward.cc).
 #ifndef POINTFORWARD_ENGINE_RENDER_TILE_BINNING_H_
 #define POINTFORWARD_ENGINE_RENDER_TILE_BINNING_H_
 
