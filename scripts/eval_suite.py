@@ -12,7 +12,7 @@ of the TARGET times, the reconstruction time and the peak memory.
 
 usage: scripts/eval_suite.py [--pf PATH] [--data DIR] [--out DIR] [--clips A,B] [--quick]
                              [--no-pixel-aligned] [--json FILE] [--list] [--eval-args ARGS]
-                             [--depth | --depth-only] [--lidar-as-depth-maps]
+                             [--depth | --depth-only] [--lidar-as-depth-maps] [--bands N]
   --quick   one tiny PandaSet clip (front camera, frames 30-33, quarter resolution): a
             check that the suite runs (ctest eval_suite_quick), not a measurement.
   --eval-args  more flags for every `pf eval`, one string (e.g. "--working-space linear");
@@ -23,6 +23,12 @@ usage: scripts/eval_suite.py [--pf PATH] [--data DIR] [--out DIR] [--clips A,B] 
   --depth-only  only that (no pf eval).
   --lidar-as-depth-maps  import each clip with its LiDAR written as a sparse depth map per
             frame (`pf import ... --lidar-as-depth-maps`), as rigs that give depth maps do.
+  --bands N  also split each clip's error by image rows: N horizontal bands, top to bottom
+            (default 3; 0: none), ours (the contact sheets' truth and render) beside the
+            nearest CONTEXT image of the camera, each the mean PSNR over the TARGET frames;
+            a third table, and "bands" in --json. Each frame's bands, pooled, must give
+            report.json's squared error to 2 % (the suite fails otherwise). Needs numpy and
+            OpenImageIO (Debian's python3-numpy, python3-openimageio).
   Exit 0 when every evaluation ran, 1 when one failed, 2 for bad usage, 77 when the
   sample data is missing (ctest reports the test skipped).
 """
@@ -151,6 +157,59 @@ def evaluate(pf, clip_json, out_dir, model, log, eval_args):
     }
 
 
+def band_split(clip_json, eval_dir, bands):
+    """Per image band (rows, top to bottom), the mean over the TARGET frames of ours and the
+    nearest CONTEXT image's PSNR, from eval_dir's report.json and contact sheets; raises
+    ValueError when a frame's sheet does not give its report.json PSNR."""
+    import numpy as np
+    import OpenImageIO as oiio
+
+    def load(path):
+        pixels = oiio.ImageBuf(path).get_pixels(oiio.FLOAT)
+        if pixels is None or pixels.size == 0:
+            raise ValueError(f"cannot read {path}")
+        return pixels[:, :, :3]
+
+    def psnr(mse):
+        return float(-10 * np.log10(max(mse, 1e-12)))
+
+    with open(clip_json) as f:
+        clip = json.load(f)
+    with open(os.path.join(eval_dir, "report.json")) as f:
+        report = json.load(f)
+    context = {}
+    for frame in clip["frames"]:
+        if frame.get("role") == "CONTEXT":
+            context.setdefault(frame["camera"], []).append(
+                (int(frame["timestampUs"]), os.path.join(os.path.dirname(clip_json),
+                                                         frame["image"])))
+    ours, nearest = [[] for _ in range(bands)], [[] for _ in range(bands)]
+    for frame in report.get("frames", []):
+        sheet = load(os.path.join(eval_dir, os.path.basename(frame["contactSheet"])))
+        width = sheet.shape[1] // 3
+        truth, render = sheet[:, :width], sheet[:, width:2 * width]
+        error = ((truth - render) ** 2).mean(axis=2)
+        # The sheet's 8-bit render adds about (1/255)^2 / 12 to the squared error.
+        if frame.get("psnr") is not None:
+            reported = 10 ** (-frame["psnr"] / 10)
+            if abs(float(error.mean()) - reported) > 0.02 * reported + 3e-6:
+                raise ValueError(f"{frame['contactSheet']}: the sheet gives "
+                                 f"{psnr(error.mean()):.3f} dB, report.json {frame['psnr']:.3f}")
+        rows = np.array_split(np.arange(error.shape[0]), bands)
+        for b, band in enumerate(rows):
+            ours[b].append(psnr(error[band].mean()))
+        candidates = context.get(frame["camera"], [])
+        if candidates:
+            t = int(frame["timestampUs"])
+            image = load(min(candidates, key=lambda c: (abs(c[0] - t), c[0]))[1])
+            if image.shape == truth.shape:
+                near_error = ((truth - image) ** 2).mean(axis=2)
+                for b, band in enumerate(rows):
+                    nearest[b].append(psnr(near_error[band].mean()))
+    mean = lambda values: sum(values) / len(values) if values else None
+    return {"ours": [mean(v) for v in ours], "nearest": [mean(v) for v in nearest]}
+
+
 DEPTH_STAGE_FLAGS = {"--completion": 1, "--no-ground-fill": 0, "--no-facades": 0, "--no-stereo": 0,
                      "--working-space": 1, "--allow-outside-paths": 0}
 
@@ -199,7 +258,11 @@ def main():
     parser.add_argument("--depth", action="store_true")
     parser.add_argument("--depth-only", action="store_true")
     parser.add_argument("--lidar-as-depth-maps", action="store_true")
+    parser.add_argument("--bands", type=int, default=3)
     args = parser.parse_args()
+    if args.bands < 0:
+        print("eval_suite: --bands: must be 0 or more", file=sys.stderr)
+        return 2
 
     clips = QUICK if args.quick else CLIPS
     if args.list:
@@ -248,6 +311,12 @@ def main():
                 failed.append(f"{name}: pf eval --model {model} failed")
                 continue
             row[model] = figures
+            if model == "analytic" and args.bands > 0:
+                try:
+                    row["bands"] = band_split(os.path.join(clip_dir, "clip.json"),
+                                              os.path.join(args.out, name, model), args.bands)
+                except (ImportError, OSError, ValueError, KeyError) as e:
+                    failed.append(f"{name}: the band split failed: {e}")
         for hide in hides:
             depth = depth_evaluate(args.pf, os.path.join(clip_dir, "clip.json"),
                                    os.path.join(args.out, name, "depth"), hide, log,
@@ -261,6 +330,8 @@ def main():
 
     if models:
         print_eval_table(rows)
+    if models and args.bands > 0:
+        print_band_table(rows, args.bands)
     if hides:
         print_depth_table(rows, hides)
     if args.json:
@@ -292,6 +363,20 @@ def print_depth_table(rows, hides):
                   " | ".join(fmt(c, 3) for c in cells) +
                   f" | {fmt(m['ours']['common']['absRel'], 3)} "
                   f"({fmt(m['nearest']['common']['absRel'], 3)}) |")
+
+
+def print_band_table(rows, bands):
+    """Ours and the nearest CONTEXT image per image band, top to bottom."""
+    header = ("| clip | " + " | ".join(f"band {b + 1} ours / nearest" for b in range(bands)) +
+              " |")
+    print(header)
+    print("|" + "---|" * (header.count("|") - 1))
+    for row in rows:
+        split = row.get("bands")
+        if split is None:
+            continue
+        print(f"| {row['clip']} | " + " | ".join(
+            f"{fmt(split['ours'][b])} / {fmt(split['nearest'][b])}" for b in range(bands)) + " |")
 
 
 def print_eval_table(rows):
