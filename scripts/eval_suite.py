@@ -177,12 +177,9 @@ def band_split(clip_json, eval_dir, bands):
         clip = json.load(f)
     with open(os.path.join(eval_dir, "report.json")) as f:
         report = json.load(f)
-    context = {}
-    for frame in clip["frames"]:
-        if frame.get("role") == "CONTEXT":
-            context.setdefault(frame["camera"], []).append(
-                (int(frame["timestampUs"]), os.path.join(os.path.dirname(clip_json),
-                                                         frame["image"])))
+    images = {(frame["camera"], int(frame["timestampUs"])):
+              os.path.join(os.path.dirname(clip_json), frame["image"])
+              for frame in clip["frames"]}
     ours, nearest = [[] for _ in range(bands)], [[] for _ in range(bands)]
     for frame in report.get("frames", []):
         sheet = load(os.path.join(eval_dir, os.path.basename(frame["contactSheet"])))
@@ -198,10 +195,11 @@ def band_split(clip_json, eval_dir, bands):
         rows = np.array_split(np.arange(error.shape[0]), bands)
         for b, band in enumerate(rows):
             ours[b].append(psnr(error[band].mean()))
-        candidates = context.get(frame["camera"], [])
-        if candidates:
-            t = int(frame["timestampUs"])
-            image = load(min(candidates, key=lambda c: (abs(c[0] - t), c[0]))[1])
+        # The CONTEXT frame pf eval took as the nearest baseline (another camera's,
+        # resized, on a split whose target camera gives no context: left out).
+        near = (frame.get("baselines", {}).get("nearest") or {}).get("frames") or []
+        if near:
+            image = load(images[(near[0]["camera"], int(near[0]["timestampUs"]))])
             if image.shape == truth.shape:
                 near_error = ((truth - image) ** 2).mean(axis=2)
                 for b, band in enumerate(rows):
