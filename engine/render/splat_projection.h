@@ -60,19 +60,24 @@ PF_HD inline uint32_t SortDepthBits(float depth, uint32_t i, float order_band) {
   return bits;
 }
 
+// The radix sort's digits: three LSD passes of 11 bits over the high word
+// (shifts 32, 43, 54).
+inline constexpr int kSortDigitBits = 11;
+inline constexpr size_t kSortDigits = size_t{1} << kSortDigitBits;
+
 // Sorts `keys` by their high 32 bits (SortDepthBits), stably: three LSD
-// passes of 11 bits, so keys (bits << 32 | index) end in (depth, index)
-// order. `buffer` is scratch space.
+// passes of kSortDigitBits, so keys (bits << 32 | index) end in (depth,
+// index) order. `buffer` is scratch space.
 inline void RadixSortByHighWord(std::vector<uint64_t>* keys, std::vector<uint64_t>* buffer) {
   buffer->resize(keys->size());
   uint64_t* from = keys->data();
   uint64_t* to = buffer->data();
   const size_t n = keys->size();
-  for (int shift = 32; shift < 64; shift += 11) {
-    size_t count[2049] = {};
-    for (size_t k = 0; k < n; ++k) ++count[((from[k] >> shift) & 2047) + 1];
-    for (int b = 0; b < 2048; ++b) count[b + 1] += count[b];
-    for (size_t k = 0; k < n; ++k) to[count[(from[k] >> shift) & 2047]++] = from[k];
+  for (int shift = 32; shift < 64; shift += kSortDigitBits) {
+    size_t count[kSortDigits + 1] = {};
+    for (size_t k = 0; k < n; ++k) ++count[((from[k] >> shift) & (kSortDigits - 1)) + 1];
+    for (size_t b = 0; b < kSortDigits; ++b) count[b + 1] += count[b];
+    for (size_t k = 0; k < n; ++k) to[count[(from[k] >> shift) & (kSortDigits - 1)]++] = from[k];
     std::swap(from, to);
   }
   // Three passes: the result is in `buffer`.

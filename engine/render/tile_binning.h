@@ -31,35 +31,34 @@ inline void RadixSortByHighWord(std::vector<uint64_t>* keys, std::vector<uint64_
     RadixSortByHighWord(keys, buffer);
     return;
   }
-  constexpr size_t kDigits = 2048;
   buffer->resize(n);
   uint64_t* from = keys->data();
   uint64_t* to = buffer->data();
-  std::vector<size_t> cursor(slices * kDigits);
+  std::vector<size_t> cursor(slices * kSortDigits);
   auto slice_begin = [&](size_t s) { return n * s / slices; };
-  for (int shift = 32; shift < 64; shift += 11) {
+  for (int shift = 32; shift < 64; shift += kSortDigitBits) {
     pool.ParallelFor(0, static_cast<int64_t>(slices), 1, [&](int64_t s0, int64_t s1) {
       for (auto s = static_cast<size_t>(s0); s < static_cast<size_t>(s1); ++s) {
-        size_t* count = &cursor[s * kDigits];
-        std::fill(count, count + kDigits, 0);
+        size_t* count = &cursor[s * kSortDigits];
+        std::fill(count, count + kSortDigits, 0);
         for (size_t k = slice_begin(s), end = slice_begin(s + 1); k < end; ++k) {
-          ++count[(from[k] >> shift) & (kDigits - 1)];
+          ++count[(from[k] >> shift) & (kSortDigits - 1)];
         }
       }
     });
     size_t total = 0;
-    for (size_t d = 0; d < kDigits; ++d) {
+    for (size_t d = 0; d < kSortDigits; ++d) {
       for (size_t s = 0; s < slices; ++s) {
-        const size_t count = cursor[s * kDigits + d];
-        cursor[s * kDigits + d] = total;
+        const size_t count = cursor[s * kSortDigits + d];
+        cursor[s * kSortDigits + d] = total;
         total += count;
       }
     }
     pool.ParallelFor(0, static_cast<int64_t>(slices), 1, [&](int64_t s0, int64_t s1) {
       for (auto s = static_cast<size_t>(s0); s < static_cast<size_t>(s1); ++s) {
-        size_t* next = &cursor[s * kDigits];
+        size_t* next = &cursor[s * kSortDigits];
         for (size_t k = slice_begin(s), end = slice_begin(s + 1); k < end; ++k) {
-          to[next[(from[k] >> shift) & (kDigits - 1)]++] = from[k];
+          to[next[(from[k] >> shift) & (kSortDigits - 1)]++] = from[k];
         }
       }
     });
