@@ -27,6 +27,8 @@ constexpr double kPatchTexture = 0.03;
 constexpr double kPatchMinDifference = 0.03;
 constexpr double kPatchRatio = 3;
 constexpr double kPatchMinScale = 0.67;  // The other frame's scale of the patch, at least.
+constexpr int kPatchOutlineParts = 4;    // A run of still patches: a quarter of the width.
+constexpr int kMovedOutlineParts = 2;    // A run of moved blocks: half of it.
 
 // A view reduced to blocks of `step` x `step` pixels (their mean colour).
 struct Reduced {
@@ -329,13 +331,15 @@ int EdgeBelow(const Reduced& image, int x, int top) {
   return top;
 }
 
-// Evidence of a body below long runs of still patches (`edges`): each
-// 8-connected group of them (joined across gaps of up to kCloseBlocks) that
-// lies in the lower half of the image and spans at least a quarter of its
-// width marks, in every column it covers, the blocks from the edge below its
-// topmost block there (EdgeBelow) down to the bottom row. A body's outline
-// crosses the image; a lone edge given a wrong depth does not.
-std::vector<uint8_t> BelowLongEdges(const std::vector<uint8_t>& edges, const Reduced& image) {
+// Evidence of a body below long runs of `edges` (still patches, or blocks
+// the world's motion does not explain): each 8-connected group of them
+// (joined across gaps of up to kCloseBlocks) that lies in the lower half of
+// the image and spans at least 1/`min_span_parts` of its width marks, in
+// every column it covers, the blocks from the edge below its topmost block
+// there (EdgeBelow) down to the bottom row. A body's outline crosses the
+// image; a lone edge given a wrong depth does not.
+std::vector<uint8_t> BelowLongEdges(const std::vector<uint8_t>& edges, const Reduced& image,
+                                    int min_span_parts) {
   const int w = image.width, h = image.height;
   const std::vector<uint8_t> joined = Morph(edges, w, h, kCloseBlocks, true);
   std::vector<uint8_t> grouped(edges.size(), 0), below(edges.size(), 0);
@@ -362,13 +366,32 @@ std::vector<uint8_t> BelowLongEdges(const std::vector<uint8_t>& edges, const Red
       top[x] = std::min(top[x], y);
       min_x = std::min(min_x, x), max_x = std::max(max_x, x), min_y = std::min(min_y, y);
     }
-    if (max_x < 0 || (max_x - min_x + 1) * 4 < w || min_y * 2 < h) continue;
+    if (max_x < 0 || (max_x - min_x + 1) * min_span_parts < w || min_y * 2 < h) continue;
     for (int x = 0; x < w; ++x) {
       if (top[x] >= h) continue;
       for (int y = EdgeBelow(image, x, top[x]); y < h; ++y) below[size_t(y) * w + x] = 1;
     }
   }
   return below;
+}
+
+// Evidence of a body that mirrors the street: what it shows changes between
+// frames, so it is not still (nor reached), but the motion explains none of
+// its outline. The blocks below a run of `moved` blocks across at least half
+// of the image's width (BelowLongEdges) that are not still (5x5 mean), where
+// most of the 7x7 blocks around are too.
+std::vector<uint8_t> BelowMovedOutline(const std::vector<uint8_t>& moved,
+                                       const std::vector<uint8_t>& still, const Reduced& image) {
+  const int w = image.width, h = image.height;
+  std::vector<uint8_t> outlined = BelowLongEdges(moved, image, kMovedOutlineParts);
+  std::vector<float> share(outlined.size());
+  for (size_t i = 0; i < outlined.size(); ++i) {
+    outlined[i] = outlined[i] && !still[i];
+    share[i] = outlined[i];
+  }
+  share = BoxMean(share, w, h, kDenseRadius);
+  for (size_t i = 0; i < outlined.size(); ++i) outlined[i] = outlined[i] && share[i] >= kDenseShare;
+  return outlined;
 }
 
 // The body continues from its side edges along its rows across `open`
@@ -391,10 +414,12 @@ void ContinueIntoBoxes(const std::vector<uint8_t>& open, int w, int h, std::vect
 }
 
 // The body from the still blocks connected to the bottom row (`reached`)
-// and the blocks the world's motion does not explain (`moved`), continued
+// and the blocks the world's motion does not explain (`moved`), and the
+// blocks below a moved outline (`outlined`, BelowMovedOutline), continued
 // into the still `boxed` blocks (ContinueIntoBoxes).
 std::vector<uint8_t> BodyShape(const std::vector<uint8_t>& reached,
                                const std::vector<uint8_t>& moved,
+                               const std::vector<uint8_t>& outlined,
                                const std::vector<uint8_t>& still_here,
                                const std::vector<uint8_t>& boxed, int w, int h) {
   // Evidence counts where it is dense: most blocks of the 7x7 around.
@@ -403,7 +428,7 @@ std::vector<uint8_t> BodyShape(const std::vector<uint8_t>& reached,
   evidence = BoxMean(evidence, w, h, kDenseRadius);
   std::vector<uint8_t> body(size_t(w) * h);
   for (size_t i = 0; i < body.size(); ++i) {
-    body[i] = reached[i] && moved[i] && evidence[i] >= kDenseShare;
+    body[i] = (reached[i] && moved[i] && evidence[i] >= kDenseShare) || outlined[i];
   }
   body = Morph(Morph(body, w, h, kCloseBlocks, true), w, h, kCloseBlocks, false);
   // The 5x5 mean stops short of the body's edge: grow into blocks still alone.
@@ -547,7 +572,8 @@ std::vector<uint8_t> BodyBlocks(const std::vector<ContextView>& views,
     const std::vector<uint8_t> still_ba = StillPatches(fb, fa, reached);
     for (size_t i = 0; i < edges.size(); ++i) edges[i] |= still_ab[i] | still_ba[i];
   }
-  const std::vector<uint8_t> below = BelowLongEdges(edges, reduced[members[0]]);
+  const std::vector<uint8_t> outlined = BelowMovedOutline(moved, still, reduced[members[0]]);
+  const std::vector<uint8_t> below = BelowLongEdges(edges, reduced[members[0]], kPatchOutlineParts);
   for (size_t i = 0; i < moved.size(); ++i) moved[i] |= below[i];
   std::vector<uint8_t> boxed(size_t(w) * h, 0);
   for (const auto& [a, b] : pairs) {
@@ -562,7 +588,7 @@ std::vector<uint8_t> BodyBlocks(const std::vector<ContextView>& views,
       }
     }
   }
-  const std::vector<uint8_t> body = BodyShape(reached, moved, still_here, boxed, w, h);
+  const std::vector<uint8_t> body = BodyShape(reached, moved, outlined, still_here, boxed, w, h);
   if (!CoversMinArea(body, options.min_area)) return {};
   return body;
 }

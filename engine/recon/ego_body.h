@@ -51,8 +51,12 @@
 //   the image at least a quarter of its width long, every column it covers
 //   from its edge (the first strong grey step under the run's top) down,
 //   where three quarters of that is still and connected to the bottom row
-//   (a lone edge given a wrong depth is short). Kept when it holds at least
-//   `min_area` of the image.
+//   (a lone edge given a wrong depth is short); and below each run of moved
+//   blocks in the lower half of the image at least half its width long, the
+//   blocks that are not still where most of the 7x7 around are not either (a
+//   body that mirrors the street changes between frames, and the motion
+//   explains none of its outline). Kept when it holds at least `min_area` of
+//   the image.
 // A camera with a mask of its own (Camera.ego_mask) keeps it; its layer is
 // that mask. The layer's colour is the mean of the camera's CONTEXT images,
 // and its frames the body in each of them (EgoLayer::frames), which renders

@@ -302,8 +302,9 @@ TEST(EgoBodyTest, ABodyThatStopsJustShortOfTheSideReachesIt) {
 // Eight frames 0.9 m apart whose body's right half mirrors the street: it
 // brightens by 0.008 a frame, still within a run of four frames (0.024 at
 // most between a run's frames) but not over the whole drive (0.056). Searched
-// in runs, the whole body is found; searched over every frame at once, only
-// its left half.
+// in runs, the whole body is found as still; searched over every frame at
+// once, its left half is, and its right half only below its outline, which
+// the motion does not explain (BelowMovedOutline).
 TEST(EgoBodyTest, ABodyThatChangesOverALongDriveIsFoundInRunsOfFrames) {
   Rig rig;
   for (int k = 0; k < 8; ++k) {
@@ -327,7 +328,31 @@ TEST(EgoBodyTest, ABodyThatChangesOverALongDriveIsFoundInRunsOfFrames) {
   const std::vector<EgoLayer> once = DetectEgoBodies(rig.views, rig.depths, {}, at_once);
   ASSERT_EQ(once.size(), 1u);
   EXPECT_GE(BodyAndWall(once[0], 0, half).first, size_t(0.95 * half * rows));
-  EXPECT_LE(BodyAndWall(once[0], half + 8, kRigW).first, size_t(0.05 * half * rows));
+  EXPECT_GE(BodyAndWall(once[0], half + 8, kRigW).first, size_t(0.8 * (half - 8) * rows));
+  EXPECT_LE(BodyAndWall(once[0]).second, size_t(0.02 * kRigW * kBodyTop));
+}
+
+// A glossy body mirrors the street: what it shows moves between the frames
+// (here the wall's pattern, darkened, shifted by the drive), so it is not
+// still, and the motion explains none of its outline: found below it.
+TEST(EgoBodyTest, ABodyThatMirrorsTheStreetIsFoundBelowItsOutline) {
+  Rig rig;
+  for (double z : {0.0, 2.5}) {
+    RigView v = MakeView("side", z, true);
+    for (int y = kBodyTop; y < kRigH; ++y) {
+      for (int x = 0; x < kRigW; ++x) {
+        float rgb[3];
+        WallColour(0.04 * x - 0.8 * z, 0.04 * y, rgb);
+        for (int c = 0; c < 3; ++c) v.view.rgb.at(x, y, c) = 0.4f * rgb[c];
+      }
+    }
+    rig.Add(std::move(v));
+  }
+  const std::vector<EgoLayer> layers = DetectEgoBodies(rig.views, rig.depths, {});
+  ASSERT_EQ(layers.size(), 1u);
+  const auto [body, wall] = BodyAndWall(layers[0]);
+  EXPECT_GE(body, size_t(0.85 * kRigW * (kRigH - kBodyTop)));
+  EXPECT_LE(wall, size_t(0.02 * kRigW * kBodyTop));
 }
 
 TEST(EgoBodyTest, NoEvidenceWhenTheCameraHardlyMoves) {
