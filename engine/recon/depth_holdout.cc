@@ -179,6 +179,7 @@ absl::StatusOr<DepthHoldOutReport> EvaluateDepthHoldOut(ReconInputs inputs,
   DepthStage ours = MeasureViewDepths(inputs.views, kept, inputs.tracks, completion);
   report.facade_pixels = ours.facade_pixels;
   report.stereo_pixels = ours.stereo_pixels;
+  report.upward_pixels = ours.upward_pixels;
   report.ground_pixels = ours.ground_pixels;
   report.methods = {{"nearest", {}, {}}, {"ipBasic", {}, {}}, {"ours", {}, {}}};
   for (size_t v = 0; v < n; ++v) {

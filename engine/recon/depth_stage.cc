@@ -32,6 +32,7 @@ DepthStage MeasureViewDepths(const std::vector<ContextView>& views,
   }
   if (options.stereo) {
     stage.stereo_pixels = ExtendByStereo(views, completed, &stage.measured).pixels;
+    stage.upward_pixels = ExtendUpward(views, completed, &stage.measured);
   }
   return stage;
 }

@@ -2,7 +2,8 @@
 // call: each CONTEXT view's measured depth (view_depth.h: a dense depth map,
 // or sparse measurements completed with the ground plane), facades above the
 // highest measurements (facade_depth.h), a plane sweep over the pixels still
-// unknown (stereo_depth.h), then the far layer for the rest.
+// unknown (stereo_depth.h) and the depth below continued up where the other
+// views agree (facade_depth.h), then the far layer for the rest.
 // The reconstruction and `pf depth-eval` (depth_holdout.h) both run it.
 //
 //   DepthStage stage = MeasureViewDepths(views, sweeps, tracks, options);
@@ -27,6 +28,7 @@ struct DepthStage {
   int64_t ground_pixels = 0;            // Pixels the ground fill set, in all views.
   int64_t facade_pixels = 0;            // Pixels facades set, in all views.
   int64_t stereo_pixels = 0;            // Pixels the plane sweep set, in all views.
+  int64_t upward_pixels = 0;            // Pixels ExtendUpward set, in all views.
   // Set by AddFarLayer: views with no known pixel off the ego body, and the
   // far layer.
   int views_without_depth = 0;
@@ -35,7 +37,7 @@ struct DepthStage {
 
 // Measures the depth of every view: MeasuredDepth by `options`, then, with
 // `options.facades`, ExtendFacades over the completed views, and with
-// `options.stereo`, ExtendByStereo over them.
+// `options.stereo`, ExtendByStereo and then ExtendUpward over them.
 DepthStage MeasureViewDepths(const std::vector<ContextView>& views,
                              const std::vector<LidarSweepData>& sweeps,
                              const std::vector<InstanceTrack>& tracks,

@@ -52,6 +52,32 @@ bool PixelOf(const ContextView& view, const LinePoses& lines, const Vec3& p, int
   return PixelInImage(u, v, view.width(), view.height(), x, y);
 }
 
+// The partners' patch costs of `view`'s pixel (x, y) at world points `near`
+// and `far`, summed over the partners that see both (PatchCost); returns how
+// many did.
+int NearAndFarCosts(const ContextView& view, int x, int y, const std::vector<ContextView>& views,
+                    const std::vector<size_t>& partners,
+                    const std::vector<LinePoses>& partner_lines, const Vec3& near, const Vec3& far,
+                    double* cost_near, double* cost_far) {
+  *cost_near = 0, *cost_far = 0;
+  int seen = 0;
+  for (size_t k = 0; k < partners.size(); ++k) {
+    const ContextView& other = views[partners[k]];
+    int px, py, fx, fy;
+    if (!PixelOf(other, partner_lines[k], near, &px, &py) ||
+        !PixelOf(other, partner_lines[k], far, &fx, &fy)) {
+      continue;
+    }
+    const double cn = PatchCost(view, x, y, other, px, py);
+    const double cf = PatchCost(view, x, y, other, fx, fy);
+    if (cn < 0 || cf < 0) continue;
+    *cost_near += cn;
+    *cost_far += cf;
+    ++seen;
+  }
+  return seen;
+}
+
 // A vertical plane: the points p with Dot(normal, p) = offset.
 struct Facade {
   Vec3 normal;  // Horizontal.
@@ -169,22 +195,9 @@ int64_t ExtendFacades(const std::vector<ContextView>& views, const std::vector<b
           const Vec3 p = origin + s * dir;
           if (Dot(up, p) - ground.offset > facade.top_height + options.max_rise) break;
           const Vec3 far = origin + (kFarDistance / Norm(dir)) * dir;
-          double cost_plane = 0, cost_far = 0;
-          int seen = 0;
-          for (size_t k = 0; k < partners.size(); ++k) {
-            const ContextView& other = views[partners[k]];
-            int px, py, fx, fy;
-            if (!PixelOf(other, partner_lines[k], p, &px, &py) ||
-                !PixelOf(other, partner_lines[k], far, &fx, &fy)) {
-              continue;
-            }
-            const double cp = PatchCost(view, x, y, other, px, py);
-            const double cf = PatchCost(view, x, y, other, fx, fy);
-            if (cp < 0 || cf < 0) continue;
-            cost_plane += cp;
-            cost_far += cf;
-            ++seen;
-          }
+          double cost_plane, cost_far;
+          const int seen = NearAndFarCosts(view, x, y, views, partners, partner_lines, p, far,
+                                           &cost_plane, &cost_far);
           column[y] = static_cast<float>(s);
           if (seen == 0 || cost_far / seen < options.min_contrast) continue;  // Undecided.
           if (cost_plane < options.accept_ratio * cost_far) {
@@ -200,6 +213,79 @@ int64_t ExtendFacades(const std::vector<ContextView>& views, const std::vector<b
           if (column[y] > 0.f) {
             depth.at(x, y) = column[y];
             ++local;
+          }
+        }
+        set += local;
+      }
+    });
+    total += set.load();
+  }
+  return total;
+}
+
+int64_t ExtendUpward(const std::vector<ContextView>& views, const std::vector<bool>& extend,
+                     std::vector<ImageF>* measured, const UpwardOptions& options) {
+  int64_t total = 0;
+  for (size_t v = 0; v < views.size(); ++v) {
+    if (!extend[v]) continue;
+    const std::vector<size_t> partners =
+        CheckingViews(views, v, options.min_baseline, std::numeric_limits<double>::infinity(), 0.0,
+                      options.partners);
+    if (partners.empty()) continue;
+    const ContextView& view = views[v];
+    const ImageF before = (*measured)[v];
+    ImageF& depth = (*measured)[v];
+    const int w = before.width, h = before.height;
+    const LinePoses lines = view.lines();
+    std::vector<LinePoses> partner_lines;
+    for (size_t u : partners) partner_lines.push_back(views[u].lines());
+    std::atomic<int64_t> set{0};
+    DefaultThreadPool().ParallelFor(0, w, 8, [&](int64_t x0, int64_t x1) {
+      std::vector<float> band;
+      for (int64_t xl = x0; xl < x1; ++xl) {
+        const int x = static_cast<int>(xl);
+        int64_t local = 0;
+        float prior = 0.f;  // 0: no run open.
+        int rejections = 0;
+        for (int y = h - 1; y >= 0; --y) {
+          if (before.at(x, y) > 0.f) {
+            prior = -1.f;  // Known: the next unknown pixel above opens a run.
+            continue;
+          }
+          if (prior == 0.f) continue;  // The run was closed, or none opened.
+          if (prior < 0.f) {
+            // The run's prior: the median known depth of the rows below it.
+            band.clear();
+            for (int cx = std::max(0, x - options.window_px);
+                 cx <= std::min(w - 1, x + options.window_px); ++cx) {
+              for (int yy = y + 1; yy < std::min(h, y + 1 + options.band_px); ++yy) {
+                if (before.at(cx, yy) > 0.f) band.push_back(before.at(cx, yy));
+              }
+            }
+            if (band.size() < 8) {
+              prior = 0.f;
+              continue;
+            }
+            std::nth_element(band.begin(), band.begin() + long(band.size() / 2), band.end());
+            prior = band[band.size() / 2];
+            rejections = 0;
+          }
+          Vec3 p, far;
+          if (!lines.Lift(x + 0.5, y + 0.5, prior, &p) ||
+              !lines.Lift(x + 0.5, y + 0.5, float(kFarDistance), &far)) {
+            prior = 0.f;
+            continue;
+          }
+          double cost_near, cost_far;
+          const int seen = NearAndFarCosts(view, x, y, views, partners, partner_lines, p, far,
+                                           &cost_near, &cost_far);
+          if (seen == 0 || cost_far / seen < options.min_contrast) continue;
+          if (cost_near < options.accept_ratio * cost_far) {
+            depth.at(x, y) = prior;
+            ++local;
+            rejections = 0;
+          } else if (cost_near > cost_far) {
+            if (++rejections >= options.stop_after) prior = 0.f;
           }
         }
         set += local;

@@ -161,5 +161,46 @@ TEST(FacadeDepth, APartnersEgoBodyIsNoEvidence) {
   }
 }
 
+TEST(UpwardDepth, ContinuesTheDepthBelowUpTheFrontAndLeavesTheSky) {
+  // Depth below row 50: the front's depth (12 m) continued up its columns
+  // to the roof line (row 22.5) where the other view matches it there
+  // clearly better than at the far point (a few bricks that it happens to
+  // match as well at the far point stay unknown); the sky above matches the
+  // far point as well and stays unknown.
+  const Street street = StreetWithLidarFrom(50);
+  std::vector<ImageF> extended = street.measured;
+  const int64_t set = ExtendUpward(street.views, {true, false}, &extended);
+  int64_t on_front = 0, changed = 0;
+  for (int y = 0; y < 120; ++y) {
+    for (int x = 0; x < 160; ++x) {
+      const float d = extended[0].at(x, y);
+      if (d == street.measured[0].at(x, y)) continue;
+      ++changed;
+      // The 3x3 patches of the sky's first rows above the roof line hold
+      // bricks: the front may fatten up by them, no further.
+      if (y >= 24) EXPECT_NEAR(d, TrueDepth(street.views[0], x, y), 0.05) << x << "," << y;
+      EXPECT_GE(y, 20) << x;
+      on_front += x >= 2 && x < 140 && y >= 25 && y < 50;
+    }
+  }
+  EXPECT_EQ(set, changed);
+  EXPECT_GE(on_front, int64_t(0.95 * 138 * 25));
+  EXPECT_EQ(extended[1].pixels, street.measured[1].pixels);
+  // Without a second view to check against, nothing is set.
+  std::vector<ImageF> alone = {street.measured[0]};
+  EXPECT_EQ(ExtendUpward({street.views[0]}, {true}, &alone), 0);
+}
+
+TEST(UpwardDepth, ADepthThatTheOtherViewsDoNotMatchIsNotTaken) {
+  // Depth below row 80 only: the road's (about 7.3 m at row 80). Continued
+  // up, it puts the front's bricks (12 m) where the other view sees other
+  // bricks or the sky: a few pixels pass by chance (random bricks), under
+  // 3 % of the 80 rows above, where the right depth gives 95 %.
+  Street street = StreetWithLidarFrom(80);
+  std::vector<ImageF> extended = street.measured;
+  const int64_t set = ExtendUpward(street.views, {true, false}, &extended);
+  EXPECT_LE(set, int64_t(0.03 * 160 * 80));
+}
+
 }  // namespace
 }  // namespace pf

@@ -130,6 +130,7 @@ absl::Status Pipeline::Depth() {
   stats.ground_pixels = depth_stage_.ground_pixels;
   stats.facade_pixels = depth_stage_.facade_pixels;
   stats.stereo_pixels = depth_stage_.stereo_pixels;
+  stats.upward_pixels = depth_stage_.upward_pixels;
   depths_ = AddFarLayer(views, &depth_stage_);
   stats.views_without_depth = depth_stage_.views_without_depth;
   stats.rolling_shutter_views =
@@ -154,8 +155,9 @@ absl::Status Pipeline::Depth() {
   Done(ReconStage::kDepth,
        absl::StrCat(" (", stats.lidar_views, " of ", num_views, " views from LiDAR", sparse_maps,
                     ", ", stats.ground_pixels, " pixels from the ground plane, ",
-                    stats.facade_pixels, " from facades, ", stats.stereo_pixels,
-                    " from stereo, far layer radius ", depth_stage_.far.radius, " m", ego,
+                    stats.facade_pixels, " from facades, ", stats.stereo_pixels, " from stereo, ",
+                    stats.upward_pixels, " from the depth below continued up, far layer radius ",
+                    depth_stage_.far.radius, " m", ego,
                     stats.rolling_shutter_views > 0
                         ? absl::StrCat(", ", stats.rolling_shutter_views,
                                        " with a rolling shutter, lifted line by line")

@@ -87,7 +87,8 @@ struct CompletionOptions {
   bool facades = true;
   // The completed views' pixels still unknown then take the depth a plane
   // sweep over the nearby context views finds, where it is clear
-  // (stereo_depth.h).
+  // (stereo_depth.h), and then the depth below them continued up, where
+  // other views agree (ExtendUpward, facade_depth.h).
   bool stereo = true;
 };
 
