@@ -65,7 +65,7 @@ struct UpwardOptions {
   int partners = 2;            // Views that check each view.
   double accept_ratio = 0.6;   // Patch cost at the depth below this x the far point's: set.
   double min_contrast = 0.03;  // Far point's mean absolute difference below this: no test.
-  int stop_after = 12;         // Consecutive rejections that end a run's scan.
+  int stop_after = 30;         // Consecutive rejections that end a run's scan.
 };
 
 // For every view v with `extend[v]`, scans each column of `(*measured)[v]`

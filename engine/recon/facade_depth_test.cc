@@ -195,11 +195,11 @@ TEST(UpwardDepth, ADepthThatTheOtherViewsDoNotMatchIsNotTaken) {
   // Depth below row 80 only: the road's (about 7.3 m at row 80). Continued
   // up, it puts the front's bricks (12 m) where the other view sees other
   // bricks or the sky: a few pixels pass by chance (random bricks), under
-  // 3 % of the 80 rows above, where the right depth gives 95 %.
+  // 4 % of the 80 rows above, where the right depth gives 95 %.
   Street street = StreetWithLidarFrom(80);
   std::vector<ImageF> extended = street.measured;
   const int64_t set = ExtendUpward(street.views, {true, false}, &extended);
-  EXPECT_LE(set, int64_t(0.03 * 160 * 80));
+  EXPECT_LE(set, int64_t(0.04 * 160 * 80));
 }
 
 }  // namespace
