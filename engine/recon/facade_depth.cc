@@ -52,31 +52,56 @@ bool PixelOf(const ContextView& view, const LinePoses& lines, const Vec3& p, int
   return PixelInImage(u, v, view.width(), view.height(), x, y);
 }
 
-// The partners' patch costs of `view`'s pixel (x, y) at world points `near`
-// and `far`, summed over the partners that see both (PatchCost); returns how
-// many did.
-int NearAndFarCosts(const ContextView& view, int x, int y, const std::vector<ContextView>& views,
-                    const std::vector<size_t>& partners,
-                    const std::vector<LinePoses>& partner_lines, const Vec3& near, const Vec3& far,
-                    double* cost_near, double* cost_far) {
-  *cost_near = 0, *cost_far = 0;
-  int seen = 0;
-  for (size_t k = 0; k < partners.size(); ++k) {
-    const ContextView& other = views[partners[k]];
-    int px, py, fx, fy;
-    if (!PixelOf(other, partner_lines[k], near, &px, &py) ||
-        !PixelOf(other, partner_lines[k], far, &fx, &fy)) {
-      continue;
-    }
-    const double cn = PatchCost(view, x, y, other, px, py);
-    const double cf = PatchCost(view, x, y, other, fx, fy);
-    if (cn < 0 || cf < 0) continue;
-    *cost_near += cn;
-    *cost_far += cf;
-    ++seen;
+// The views that check one view's pixels (the `count` nearest at least
+// `min_baseline` away), and how they see a pixel's patch.
+class Checkers {
+ public:
+  Checkers(const std::vector<ContextView>& views, size_t v, double min_baseline, int count)
+      : views_(views),
+        view_(views[v]),
+        partners_(CheckingViews(views, v, min_baseline, std::numeric_limits<double>::infinity(),
+                                0.0, count)) {
+    for (size_t u : partners_) lines_.push_back(views[u].lines());
   }
-  return seen;
-}
+  bool empty() const { return partners_.empty(); }
+
+  enum class Verdict {
+    kUndecided,  // No checking view sees both points, or the far point's patch is flat.
+    kNear,       // `near` matches clearly better (cost < accept_ratio x the far point's).
+    kFar,        // The far point matches better.
+    kNeither,
+  };
+  // Compares the 3x3 patch of pixel (x, y) with what the checking views see
+  // at world points `near` and `far` (PatchCost, summed over the views that
+  // see both).
+  Verdict Ask(int x, int y, const Vec3& near, const Vec3& far, double accept_ratio,
+              double min_contrast) const {
+    double cost_near = 0, cost_far = 0;
+    int seen = 0;
+    for (size_t k = 0; k < partners_.size(); ++k) {
+      const ContextView& other = views_[partners_[k]];
+      int px, py, fx, fy;
+      if (!PixelOf(other, lines_[k], near, &px, &py) || !PixelOf(other, lines_[k], far, &fx, &fy)) {
+        continue;
+      }
+      const double cn = PatchCost(view_, x, y, other, px, py);
+      const double cf = PatchCost(view_, x, y, other, fx, fy);
+      if (cn < 0 || cf < 0) continue;
+      cost_near += cn;
+      cost_far += cf;
+      ++seen;
+    }
+    if (seen == 0 || cost_far / seen < min_contrast) return Verdict::kUndecided;
+    if (cost_near < accept_ratio * cost_far) return Verdict::kNear;
+    return cost_near > cost_far ? Verdict::kFar : Verdict::kNeither;
+  }
+
+ private:
+  const std::vector<ContextView>& views_;
+  const ContextView& view_;
+  std::vector<size_t> partners_;
+  std::vector<LinePoses> lines_;
+};
 
 // A vertical plane: the points p with Dot(normal, p) = offset.
 struct Facade {
@@ -93,10 +118,8 @@ int64_t ExtendFacades(const std::vector<ContextView>& views, const std::vector<b
   int64_t total = 0;
   for (size_t v = 0; v < views.size(); ++v) {
     if (!extend[v] || !grounds[v].valid) continue;
-    const std::vector<size_t> partners =
-        CheckingViews(views, v, options.min_baseline, std::numeric_limits<double>::infinity(), 0.0,
-                      options.partners);
-    if (partners.empty()) continue;
+    const Checkers checkers(views, v, options.min_baseline, options.partners);
+    if (checkers.empty()) continue;
     const ContextView& view = views[v];
     const GroundPlane& ground = grounds[v];
     const ImageF before = (*measured)[v];
@@ -106,8 +129,6 @@ int64_t ExtendFacades(const std::vector<ContextView>& views, const std::vector<b
     Vec3 e1, e2;
     LevelAxes(up, &e1, &e2);
     const LinePoses lines = view.lines();
-    std::vector<LinePoses> partner_lines;
-    for (size_t u : partners) partner_lines.push_back(views[u].lines());
 
     // The highest known pixel of every column, and the world point of a pixel.
     std::vector<int> top(w, -1);
@@ -195,15 +216,13 @@ int64_t ExtendFacades(const std::vector<ContextView>& views, const std::vector<b
           const Vec3 p = origin + s * dir;
           if (Dot(up, p) - ground.offset > facade.top_height + options.max_rise) break;
           const Vec3 far = origin + (kFarDistance / Norm(dir)) * dir;
-          double cost_plane, cost_far;
-          const int seen = NearAndFarCosts(view, x, y, views, partners, partner_lines, p, far,
-                                           &cost_plane, &cost_far);
           column[y] = static_cast<float>(s);
-          if (seen == 0 || cost_far / seen < options.min_contrast) continue;  // Undecided.
-          if (cost_plane < options.accept_ratio * cost_far) {
+          const Checkers::Verdict verdict =
+              checkers.Ask(x, y, p, far, options.accept_ratio, options.min_contrast);
+          if (verdict == Checkers::Verdict::kNear) {
             last_accept = y;
             rejections = 0;
-          } else if (cost_plane > cost_far) {
+          } else if (verdict == Checkers::Verdict::kFar) {
             if (++rejections >= options.stop_after) break;
           }
         }
@@ -228,64 +247,61 @@ int64_t ExtendUpward(const std::vector<ContextView>& views, const std::vector<bo
   int64_t total = 0;
   for (size_t v = 0; v < views.size(); ++v) {
     if (!extend[v]) continue;
-    const std::vector<size_t> partners =
-        CheckingViews(views, v, options.min_baseline, std::numeric_limits<double>::infinity(), 0.0,
-                      options.partners);
-    if (partners.empty()) continue;
-    const ContextView& view = views[v];
+    const Checkers checkers(views, v, options.min_baseline, options.partners);
+    if (checkers.empty()) continue;
+    // Read from `before`, so that no column sees another's new depths.
     const ImageF before = (*measured)[v];
     ImageF& depth = (*measured)[v];
     const int w = before.width, h = before.height;
-    const LinePoses lines = view.lines();
-    std::vector<LinePoses> partner_lines;
-    for (size_t u : partners) partner_lines.push_back(views[u].lines());
+    const LinePoses lines = views[v].lines();
+    // The median known depth in the band_px rows under row `y` of the
+    // columns around x; 0 with fewer than 8.
+    auto depth_below = [&](int x, int y, std::vector<float>* band) {
+      band->clear();
+      for (int cx = std::max(0, x - options.window_px);
+           cx <= std::min(w - 1, x + options.window_px); ++cx) {
+        for (int yy = y + 1; yy < std::min(h, y + 1 + options.band_px); ++yy) {
+          if (before.at(cx, yy) > 0.f) band->push_back(before.at(cx, yy));
+        }
+      }
+      if (band->size() < 8) return 0.f;
+      std::nth_element(band->begin(), band->begin() + long(band->size() / 2), band->end());
+      return (*band)[band->size() / 2];
+    };
     std::atomic<int64_t> set{0};
     DefaultThreadPool().ParallelFor(0, w, 8, [&](int64_t x0, int64_t x1) {
       std::vector<float> band;
       for (int64_t xl = x0; xl < x1; ++xl) {
         const int x = static_cast<int>(xl);
         int64_t local = 0;
-        float prior = 0.f;  // 0: no run open.
+        bool below_known = false;  // The pixel under this one is known.
+        float prior = 0.f;         // The open run's depth; 0: no run open.
         int rejections = 0;
         for (int y = h - 1; y >= 0; --y) {
           if (before.at(x, y) > 0.f) {
-            prior = -1.f;  // Known: the next unknown pixel above opens a run.
+            below_known = true;
             continue;
           }
-          if (prior == 0.f) continue;  // The run was closed, or none opened.
-          if (prior < 0.f) {
-            // The run's prior: the median known depth of the rows below it.
-            band.clear();
-            for (int cx = std::max(0, x - options.window_px);
-                 cx <= std::min(w - 1, x + options.window_px); ++cx) {
-              for (int yy = y + 1; yy < std::min(h, y + 1 + options.band_px); ++yy) {
-                if (before.at(cx, yy) > 0.f) band.push_back(before.at(cx, yy));
-              }
-            }
-            if (band.size() < 8) {
-              prior = 0.f;
-              continue;
-            }
-            std::nth_element(band.begin(), band.begin() + long(band.size() / 2), band.end());
-            prior = band[band.size() / 2];
+          if (below_known) {  // A run starts.
+            below_known = false;
+            prior = depth_below(x, y, &band);
             rejections = 0;
           }
+          if (prior == 0.f) continue;
           Vec3 p, far;
           if (!lines.Lift(x + 0.5, y + 0.5, prior, &p) ||
               !lines.Lift(x + 0.5, y + 0.5, float(kFarDistance), &far)) {
             prior = 0.f;
             continue;
           }
-          double cost_near, cost_far;
-          const int seen = NearAndFarCosts(view, x, y, views, partners, partner_lines, p, far,
-                                           &cost_near, &cost_far);
-          if (seen == 0 || cost_far / seen < options.min_contrast) continue;
-          if (cost_near < options.accept_ratio * cost_far) {
+          const Checkers::Verdict verdict =
+              checkers.Ask(x, y, p, far, options.accept_ratio, options.min_contrast);
+          if (verdict == Checkers::Verdict::kNear) {
             depth.at(x, y) = prior;
             ++local;
             rejections = 0;
-          } else if (cost_near > cost_far) {
-            if (++rejections >= options.stop_after) prior = 0.f;
+          } else if (verdict == Checkers::Verdict::kFar && ++rejections >= options.stop_after) {
+            prior = 0.f;
           }
         }
         set += local;
