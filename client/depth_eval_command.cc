@@ -47,15 +47,16 @@ Methods, on the same kept points:
             completion radius (LiDAR completion alone)
   ipBasic   IP-Basic with its upward extension (pf eval's warp baseline)
   ours      the reconstruction's depth stage with the flags given: completion,
-            ground plane, facades, stereo (the plane sweep and the depth
-            below continued up); pixels left to the far layer are missing
+            ground plane, facades, stereo (the plane sweep, the depth
+            below continued up and the gaps enclosed by known depth);
+            pixels left to the far layer are missing
 Per method: points (hidden points with a depth), coverage (their share), AbsRel
 (mean |depth - truth| / truth), RMSE (m), within5 (share within 5 %), over its
 own points and over the points every method covers ("common").
 
   --json FILE   {"clip", "hide", "topShare", "views", "hiddenPoints",
                 "keptMeasurements", "facadePixels", "stereoPixels", "upwardPixels",
-                "groundPixels", "seconds",
+                "enclosedPixels", "groundPixels", "seconds",
                 "methods": {"nearest"|"ipBasic"|"ours": {"points", "missing",
                 "coverage", "absRel", "rmse", "within5", "common": {"points",
                 "absRel", "rmse", "within5"}}}}
@@ -131,9 +132,10 @@ absl::Status DepthEvalCommand(const CommandLine& cl) {
   }
   std::printf(
       "  ours: %lld pixels from the ground plane, %lld from facades, %lld from stereo, %lld from "
-      "the depth below continued up\n",
+      "the depth below continued up, %lld in gaps enclosed by known depth\n",
       static_cast<long long>(report.ground_pixels), static_cast<long long>(report.facade_pixels),
-      static_cast<long long>(report.stereo_pixels), static_cast<long long>(report.upward_pixels));
+      static_cast<long long>(report.stereo_pixels), static_cast<long long>(report.upward_pixels),
+      static_cast<long long>(report.enclosed_pixels));
   if (cl.Has("json")) {
     nlohmann::ordered_json j;
     j["clip"] = clip_path;
@@ -145,6 +147,7 @@ absl::Status DepthEvalCommand(const CommandLine& cl) {
     j["facadePixels"] = report.facade_pixels;
     j["stereoPixels"] = report.stereo_pixels;
     j["upwardPixels"] = report.upward_pixels;
+    j["enclosedPixels"] = report.enclosed_pixels;
     j["groundPixels"] = report.ground_pixels;
     j["seconds"] = report.seconds;
     j["methods"] = methods;

@@ -66,8 +66,8 @@ absl::Status ReconstructCommand(const CommandLine& cl) {
       "reconstructed %s (%s) -> %s\n"
       "  gaussians: %zu (static %lld incl. far layer %lld, dynamic %lld)\n"
       "  instances: %d, context views: %d (%d with depth from LiDAR, %d from sparse depth maps, "
-      "%lld pixels of them from the ground plane, %lld from facades, %lld from stereo and %lld "
-      "from the depth below continued up, %d "
+      "%lld pixels of them from the ground plane, %lld from facades, %lld from stereo, %lld "
+      "from the depth below continued up and %lld in gaps enclosed by known depth, %d "
       "without depth), "
       "N_s %lld, N_d %lld\n"
       "  time: %s; total %.2f s\n",
@@ -76,9 +76,10 @@ absl::Status ReconstructCommand(const CommandLine& cl) {
       static_cast<long long>(s.dynamic_gaussians), s.instances, s.views, s.lidar_views,
       s.sparse_map_views, static_cast<long long>(s.ground_pixels),
       static_cast<long long>(s.facade_pixels), static_cast<long long>(s.stereo_pixels),
-      static_cast<long long>(s.upward_pixels), s.views_without_depth,
-      static_cast<long long>(s.static_per_view), static_cast<long long>(s.dynamic_per_instance),
-      absl::StrJoin(stages, ", ").c_str(), s.total_seconds);
+      static_cast<long long>(s.upward_pixels), static_cast<long long>(s.enclosed_pixels),
+      s.views_without_depth, static_cast<long long>(s.static_per_view),
+      static_cast<long long>(s.dynamic_per_instance), absl::StrJoin(stages, ", ").c_str(),
+      s.total_seconds);
   return absl::OkStatus();
 }
 

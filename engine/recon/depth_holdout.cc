@@ -180,6 +180,7 @@ absl::StatusOr<DepthHoldOutReport> EvaluateDepthHoldOut(ReconInputs inputs,
   report.facade_pixels = ours.facade_pixels;
   report.stereo_pixels = ours.stereo_pixels;
   report.upward_pixels = ours.upward_pixels;
+  report.enclosed_pixels = ours.enclosed_pixels;
   report.ground_pixels = ours.ground_pixels;
   report.methods = {{"nearest", {}, {}}, {"ipBasic", {}, {}}, {"ours", {}, {}}};
   for (size_t v = 0; v < n; ++v) {

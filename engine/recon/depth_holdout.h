@@ -78,6 +78,7 @@ struct DepthHoldOutReport {
   int64_t facade_pixels = 0;                // Set by "ours"' facades.
   int64_t stereo_pixels = 0;                // Set by "ours"' plane sweep.
   int64_t upward_pixels = 0;                // Set by "ours"' depth below continued up.
+  int64_t enclosed_pixels = 0;              // Set by "ours"' fill of enclosed gaps.
   int64_t ground_pixels = 0;                // Set by "ours"' ground fill.
   double seconds = 0;
 };

@@ -2,7 +2,9 @@
 #include "engine/recon/depth_stage.h"
 
 #include <algorithm>
+#include <cstdlib>
 
+#include "common/thread_pool.h"
 #include "engine/recon/facade_depth.h"
 #include "engine/recon/stereo_depth.h"
 
@@ -33,8 +35,55 @@ DepthStage MeasureViewDepths(const std::vector<ContextView>& views,
   if (options.stereo) {
     stage.stereo_pixels = ExtendByStereo(views, completed, &stage.measured).pixels;
     stage.upward_pixels = ExtendUpward(views, completed, &stage.measured);
+    stage.enclosed_pixels = FillEnclosedGaps(views, completed, &stage.measured);
   }
   return stage;
+}
+
+int64_t FillEnclosedGaps(const std::vector<ContextView>& views, const std::vector<bool>& extend,
+                         std::vector<ImageF>* measured, int max_gap_px) {
+  int64_t total = 0;
+  for (size_t v = 0; v < views.size(); ++v) {
+    if (!extend[v]) continue;
+    ImageF& depth = (*measured)[v];
+    const int w = depth.width, h = depth.height;
+    // The deepest of the nearest known depths each way (0 where a way has
+    // none within reach), the horizontal ways first.
+    std::vector<float> deepest(size_t(w) * h, 0.f);
+    std::vector<uint8_t> ways(size_t(w) * h, 0);
+    auto sweep = [&](int count, int length, auto&& index) {
+      DefaultThreadPool().ParallelFor(0, count, 16, [&](int64_t l0, int64_t l1) {
+        for (int64_t line = l0; line < l1; ++line) {
+          for (int direction = 0; direction < 2; ++direction) {
+            float last = 0.f;
+            int last_at = -1;
+            for (int k = 0; k < length; ++k) {
+              const int i = direction == 0 ? k : length - 1 - k;
+              const size_t j = index(int(line), i);
+              if (depth.pixels[j] > 0.f) {
+                last = depth.pixels[j];
+                last_at = i;
+              } else if (last_at >= 0 && std::abs(i - last_at) <= max_gap_px) {
+                deepest[j] = std::max(deepest[j], last);
+                ++ways[j];
+              }
+            }
+          }
+        }
+      });
+    };
+    sweep(h, w, [w](int y, int x) { return size_t(y) * w + x; });
+    sweep(w, h, [w](int x, int y) { return size_t(y) * w + x; });
+    int64_t set = 0;
+    for (size_t j = 0; j < deepest.size(); ++j) {
+      if (ways[j] == 4 && !views[v].is_ego(j)) {
+        depth.pixels[j] = deepest[j];
+        ++set;
+      }
+    }
+    total += set;
+  }
+  return total;
 }
 
 std::vector<ViewDepth> AddFarLayer(const std::vector<ContextView>& views, DepthStage* stage) {

@@ -488,6 +488,7 @@ std::string EvalReportJson(const EvalReport& report) {
   j["stereo"] = report.options.completion.stereo;
   j["stereoPixels"] = report.stats.stereo_pixels;
   j["upwardPixels"] = report.stats.upward_pixels;
+  j["enclosedPixels"] = report.stats.enclosed_pixels;
   j["splatSigma"] = report.options.decoder.tangent_sigma;
   j["lowPass"] = report.stats.low_pass;
   j["orderBand"] = report.options.decoder.order_band;

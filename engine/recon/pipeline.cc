@@ -131,6 +131,7 @@ absl::Status Pipeline::Depth() {
   stats.facade_pixels = depth_stage_.facade_pixels;
   stats.stereo_pixels = depth_stage_.stereo_pixels;
   stats.upward_pixels = depth_stage_.upward_pixels;
+  stats.enclosed_pixels = depth_stage_.enclosed_pixels;
   depths_ = AddFarLayer(views, &depth_stage_);
   stats.views_without_depth = depth_stage_.views_without_depth;
   stats.rolling_shutter_views =
@@ -156,7 +157,8 @@ absl::Status Pipeline::Depth() {
        absl::StrCat(" (", stats.lidar_views, " of ", num_views, " views from LiDAR", sparse_maps,
                     ", ", stats.ground_pixels, " pixels from the ground plane, ",
                     stats.facade_pixels, " from facades, ", stats.stereo_pixels, " from stereo, ",
-                    stats.upward_pixels, " from the depth below continued up, far layer radius ",
+                    stats.upward_pixels, " from the depth below continued up, ",
+                    stats.enclosed_pixels, " in gaps enclosed by known depth, far layer radius ",
                     depth_stage_.far.radius, " m", ego,
                     stats.rolling_shutter_views > 0
                         ? absl::StrCat(", ", stats.rolling_shutter_views,

@@ -92,6 +92,7 @@ struct ReconStats {
   int64_t facade_pixels = 0;    // Completed views' pixels set by facades (facade_depth.h).
   int64_t stereo_pixels = 0;    // Completed views' pixels set by the plane sweep (stereo_depth.h).
   int64_t upward_pixels = 0;    // Set by the depth below continued up (facade_depth.h).
+  int64_t enclosed_pixels = 0;  // Set by the gaps enclosed by known depth (depth_stage.h).
   int views_without_depth = 0;  // No depth map, no LiDAR point: all far layer.
   int rolling_shutter_views = 0;  // Frames with a rolling shutter, lifted line by line.
   float low_pass = 0;  // The scene's screen-space low-pass, pixels^2 (DecoderOptions::low_pass).

@@ -88,7 +88,9 @@ struct CompletionOptions {
   // The completed views' pixels still unknown then take the depth a plane
   // sweep over the nearby context views finds, where it is clear
   // (stereo_depth.h), and then the depth below them continued up, where
-  // other views agree (ExtendUpward, facade_depth.h).
+  // other views agree (ExtendUpward, facade_depth.h); the gaps these leave
+  // enclosed by known depth take the depth around them (FillEnclosedGaps,
+  // depth_stage.h).
   bool stereo = true;
 };
 
