@@ -51,29 +51,56 @@ int64_t FillEnclosedGaps(const std::vector<ContextView>& views, const std::vecto
     // none within reach), the horizontal ways first.
     std::vector<float> deepest(size_t(w) * h, 0.f);
     std::vector<uint8_t> ways(size_t(w) * h, 0);
-    auto sweep = [&](int count, int length, auto&& index) {
-      DefaultThreadPool().ParallelFor(0, count, 16, [&](int64_t l0, int64_t l1) {
-        for (int64_t line = l0; line < l1; ++line) {
-          for (int direction = 0; direction < 2; ++direction) {
-            float last = 0.f;
-            int last_at = -1;
-            for (int k = 0; k < length; ++k) {
-              const int i = direction == 0 ? k : length - 1 - k;
-              const size_t j = index(int(line), i);
-              if (depth.pixels[j] > 0.f) {
-                last = depth.pixels[j];
-                last_at = i;
-              } else if (last_at >= 0 && std::abs(i - last_at) <= max_gap_px) {
-                deepest[j] = std::max(deepest[j], last);
-                ++ways[j];
-              }
+    // Along each row, both ways.
+    DefaultThreadPool().ParallelFor(0, h, 16, [&](int64_t y0, int64_t y1) {
+      for (int64_t y = y0; y < y1; ++y) {
+        for (int direction = 0; direction < 2; ++direction) {
+          float last = 0.f;
+          int last_at = -1;
+          for (int k = 0; k < w; ++k) {
+            const int x = direction == 0 ? k : w - 1 - k;
+            const size_t j = size_t(y) * w + x;
+            if (depth.pixels[j] > 0.f) {
+              last = depth.pixels[j];
+              last_at = x;
+            } else if (last_at >= 0 && std::abs(x - last_at) <= max_gap_px) {
+              deepest[j] = std::max(deepest[j], last);
+              ++ways[j];
             }
           }
         }
-      });
-    };
-    sweep(h, w, [w](int y, int x) { return size_t(y) * w + x; });
-    sweep(w, h, [w](int x, int y) { return size_t(y) * w + x; });
+      }
+    });
+    // Along each column, both ways: rows in memory order, a block of
+    // columns per task with the last known depth of each.
+    constexpr int kColumns = 64;
+    DefaultThreadPool().ParallelFor(
+        0, (w + kColumns - 1) / kColumns, 1, [&](int64_t b0, int64_t b1) {
+          float last[kColumns];
+          int last_at[kColumns];
+          for (int64_t block = b0; block < b1; ++block) {
+            const int x0 = int(block) * kColumns, x1 = std::min(w, x0 + kColumns);
+            for (int direction = 0; direction < 2; ++direction) {
+              std::fill(last, last + kColumns, 0.f);
+              std::fill(last_at, last_at + kColumns, -1);
+              for (int k = 0; k < h; ++k) {
+                const int y = direction == 0 ? k : h - 1 - k;
+                const size_t row = size_t(y) * w;
+                for (int x = x0; x < x1; ++x) {
+                  const size_t j = row + x;
+                  const int c = x - x0;
+                  if (depth.pixels[j] > 0.f) {
+                    last[c] = depth.pixels[j];
+                    last_at[c] = y;
+                  } else if (last_at[c] >= 0 && std::abs(y - last_at[c]) <= max_gap_px) {
+                    deepest[j] = std::max(deepest[j], last[c]);
+                    ++ways[j];
+                  }
+                }
+              }
+            }
+          }
+        });
     int64_t set = 0;
     for (size_t j = 0; j < deepest.size(); ++j) {
       if (ways[j] == 4 && !views[v].is_ego(j)) {
