@@ -81,6 +81,7 @@ int Info(const std::string& path) {
               scene.sh_degree < 0 ? "none" : absl::StrCat(scene.sh_degree).c_str());
   std::printf("low-pass:     %g px^2\n", scene.low_pass);
   std::printf("order band:   %g of depth\n", scene.order_band);
+  std::printf("render blur:  %g px\n", scene.render_blur);
   std::printf("intensity:    %s\n",
               scene.lidar_intensity_channel < 0
                   ? "none"

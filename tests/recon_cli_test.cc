@@ -892,6 +892,44 @@ TEST_F(ReconCli, TheScenesLowPassIsStoredAndReported) {
       << bad.err;
 }
 
+// The scene's render blur (GaussianScene::render_blur): none unless
+// --render-blur says so, stored in the scene and its PLY, shown by pf scene
+// info and reported; every render of the scene is blurred by it, so the
+// same Gaussians score lower on this sharp synth clip. Out of range is bad
+// input.
+TEST_F(ReconCli, TheScenesRenderBlurIsStoredAndReported) {
+  const nlohmann::json sharp = Report("analytic");
+  EXPECT_EQ(sharp["renderBlur"], 0.f);
+  const std::string scene_path = *dir_ + "/render_blur.pfscene";
+  CommandResult result = RunCommand(
+      {Pf(), "reconstruct", Clip(), "--out", scene_path, "--ns", "2000", "--render-blur", "1.5"});
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  absl::StatusOr<SceneFile> file = ReadSceneFile(scene_path);
+  ASSERT_TRUE(file.ok()) << file.status();
+  EXPECT_EQ(file->scene.render_blur, 1.5f);
+  result = RunCommand({Pf(), "scene", "info", scene_path});
+  EXPECT_NE(result.out.find("render blur:  1.5 px"), std::string::npos) << result.out;
+  const std::string ply = *dir_ + "/render_blur.ply";
+  result = RunCommand({Pf(), "scene", "export", scene_path, "--ply", ply});
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  result = RunCommand({Pf(), "scene", "info", ply});
+  EXPECT_NE(result.out.find("render blur:  1.5 px"), std::string::npos) << result.out;
+
+  const std::string out = *dir_ + "/eval_render_blur";
+  result = RunCommand({Pf(), "eval", Clip(), "--out", out, "--render-blur", "1.5"});
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  const nlohmann::json blurred = ReadJsonFile(out + "/report.json");
+  EXPECT_EQ(blurred["renderBlur"], 1.5f);
+  EXPECT_EQ(blurred["gaussians"], sharp["gaussians"]);
+  EXPECT_GT(sharp["mean"]["psnr"].get<double>(), blurred["mean"]["psnr"].get<double>() + 0.5);
+
+  const CommandResult bad =
+      RunCommand({Pf(), "reconstruct", Clip(), "--out", *dir_ + "/x", "--render-blur", "5"});
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_NE(bad.err.find("--render-blur: must be in [0, 4] pixels, got 5"), std::string::npos)
+      << bad.err;
+}
+
 // The order band: 0.0005 unless --order-band says otherwise, stored in the
 // scene, shown by pf scene info and reported; out of range is bad input. The
 // LiDAR intensity channel is stored and shown the same way.

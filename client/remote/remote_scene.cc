@@ -43,7 +43,7 @@ constexpr char kRemoteSceneUsage[] =
     "[--hidden-band PX] "
     "[--colour-fit-memory GB] "
     "[--no-ground-fill] "
-    "[--no-facades] [--no-stereo] [--no-ego-layer] [--colour gradients|flat] "
+    "[--no-facades] [--no-stereo] [--no-ego-layer] [--render-blur PX] [--colour gradients|flat] "
     "[--completion nearest|ip-basic] [--working-space srgb|linear] "
     "[--optimize-steps N [--optimize-seconds S] [--optimize-poses] [--optimize-densify]]\n"
     "       pf --server ADDR scene get NAME | list [--page-size N [--page-token T]] | delete "

@@ -93,6 +93,8 @@ std::vector<Spec> MakeTable() {
       Number("order_band", Kind::kReal, 0, false, kMaxOrderBand, "", Key::kHexFloatWhenSet));
   table.push_back(Number("fade_frames", Kind::kReal, 0, false, 100, " frames", Key::kHexWhenSet));
   table.push_back(Switch("no_ego_layer", Key::kOffWhenSet, "ego_layer"));
+  table.push_back(Number("render_blur", Kind::kReal, 0, false, kMaxRenderBlur, " pixels",
+                         Key::kHexFloatWhenSet));
   Spec device{"device", Kind::kDevice};
   device.choices = {"cpu"};
   device.fills_default = true;

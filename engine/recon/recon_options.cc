@@ -32,6 +32,7 @@ absl::StatusOr<ReconOptions> ReconOptionsFromProto(const v1::ReconstructionOptio
   options.completion.facades = !p.no_facades();
   options.completion.stereo = !p.no_stereo();
   options.ego_layer = !p.no_ego_layer();
+  if (p.has_render_blur()) options.render_blur = static_cast<float>(p.render_blur());
   options.completion.method = p.completion() == "ip-basic" ? CompletionOptions::Method::kIpBasic
                                                            : CompletionOptions::Method::kNearest;
   if (p.has_refine()) options.refinement.iterations = p.refine();

@@ -62,6 +62,9 @@ struct ReconOptions {
   // Find each camera's ego body after the depth stage, lift none of it, and
   // keep it as the scene's ego layer (ego_body.h).
   bool ego_layer = true;
+  // The scene's render blur (GaussianScene::render_blur), pixels in
+  // [0, kMaxRenderBlur]; 0: none.
+  float render_blur = 0;
   bool allow_outside_paths = false;
   // The working colour encoding: the context images are decoded to it, and
   // the scene's colours are in it (GaussianScene::colour_encoding). Renders
@@ -95,7 +98,8 @@ struct ReconStats {
   int64_t enclosed_pixels = 0;  // Set by the gaps enclosed by known depth (depth_stage.h).
   int views_without_depth = 0;  // No depth map, no LiDAR point: all far layer.
   int rolling_shutter_views = 0;  // Frames with a rolling shutter, lifted line by line.
-  float low_pass = 0;  // The scene's screen-space low-pass, pixels^2 (DecoderOptions::low_pass).
+  float low_pass = 0;     // The scene's screen-space low-pass, pixels^2 (DecoderOptions::low_pass).
+  float render_blur = 0;  // The scene's render blur, pixels (ReconOptions::render_blur).
   // Each ego layer's camera and the share of its pixels on the body.
   std::vector<std::pair<std::string, double>> ego_body;
   // The scene's colours carry gradients (the fit ran with them; a fit over

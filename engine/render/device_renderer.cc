@@ -4,6 +4,7 @@
 #include <string>
 
 #include "absl/strings/str_cat.h"
+#include "engine/render/render_blur.h"
 
 namespace pf {
 
@@ -31,10 +32,12 @@ absl::StatusOr<RenderBuffers> DeviceRenderer::Render(const RenderCamera& camera,
                                                      const std::vector<ActorEdit>& edits,
                                                      const RenderOptions& options) const {
   // The CUDA rasterizer has no rolling shutter: such views render on the CPU.
-  if (gpu_ != nullptr && !camera.rolling_shutter.has_value()) {
-    return gpu_->Render(camera, timestamp_us, edits, options);
-  }
-  return pf::Render(*scene_, camera, timestamp_us, edits, options);
+  absl::StatusOr<RenderBuffers> out =
+      gpu_ != nullptr && !camera.rolling_shutter.has_value()
+          ? gpu_->Render(camera, timestamp_us, edits, options)
+          : pf::Render(*scene_, camera, timestamp_us, edits, options);
+  if (out.ok()) BlurRender(scene_->render_blur, &*out);
+  return out;
 }
 
 }  // namespace pf

@@ -67,6 +67,8 @@ inline constexpr float kThreeDgsLowPass = 0.3f;
 inline constexpr float kMaxLowPass = 4.f;
 // The largest GaussianScene::order_band ValidateScene accepts.
 inline constexpr float kMaxOrderBand = 0.05f;
+// The largest GaussianScene::render_blur, pixels.
+inline constexpr float kMaxRenderBlur = 4.f;
 
 // The ego vehicle's body as one rig camera sees it: fixed in that camera's
 // image whatever the pose, so renders of the camera show it on top of the
@@ -131,6 +133,10 @@ struct GaussianScene {
   // scenes; reconstructions in the sRGB working space) or linear light.
   // Render outputs convert from it (render_outputs.h).
   ColourEncoding colour_encoding = ColourEncoding::kSrgb;
+  // Std-dev in pixels of the blur DeviceRenderer gives every render's
+  // colour, features and alpha (render_blur.h), in [0, kMaxRenderBlur]; 0:
+  // none (the default, and scene files before version 10).
+  float render_blur = 0;
   // The feature channel of LiDAR intensity, in [0, num_channels); -1: none.
   int lidar_intensity_channel = -1;
 

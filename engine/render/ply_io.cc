@@ -374,11 +374,12 @@ class BodyReader {
 // scene file version 2; files without it keep the 3DGS one; colour_encoding
 // since version 4, else srgb; order_band since version 5, else 0;
 // lidar_intensity_channel since version 6, else -1), then "fade_begin=B
-// fade_end=E" where the scene's fade span is bounded (else unbounded).
+// fade_end=E" where the scene's fade span is bounded (else unbounded) and
+// "render_blur=S" where it is over 0 (else 0).
 void ParseOurComment(const std::vector<std::string>& comments, int64_t* time_origin_us,
                      std::optional<int>* sh_degree, float* low_pass,
                      ColourEncoding* colour_encoding, float* order_band, int* intensity_channel,
-                     FadeSpan* fade_span) {
+                     FadeSpan* fade_span, float* render_blur) {
   for (const std::string& comment : comments) {
     std::vector<std::string> words = absl::StrSplit(comment, ' ', absl::SkipWhitespace());
     if (words.empty() || words[0] != kCommentTag) continue;
@@ -399,6 +400,11 @@ void ParseOurComment(const std::vector<std::string>& comments, int64_t* time_ori
         if (absl::SimpleAtof(kv.second, &t)) {
           (kv.first == "fade_begin" ? fade_span->begin : fade_span->end) = t;
         }
+        continue;
+      }
+      if (kv.first == "render_blur") {
+        float s = 0;
+        if (absl::SimpleAtof(kv.second, &s)) *render_blur = s;
         continue;
       }
       if (kv.first == "colour_encoding") {
@@ -433,6 +439,7 @@ absl::StatusOr<std::string> EncodePly(const GaussianScene& scene, const PlyExpor
       scene.fade_span.bounded()
           ? absl::StrCat(" fade_begin=", scene.fade_span.begin, " fade_end=", scene.fade_span.end)
           : std::string(),
+      scene.render_blur > 0 ? absl::StrCat(" render_blur=", scene.render_blur) : std::string(),
       "\nelement vertex ", n, "\n");
   for (const std::string& name : names) absl::StrAppend(&header, "property float ", name, "\n");
   absl::StrAppend(&header, "end_header\n");
@@ -594,7 +601,7 @@ absl::StatusOr<GaussianScene> DecodePly(const std::string& bytes, const std::str
   std::optional<int> stored_degree;
   ParseOurComment(header.comments, &scene.time_origin_us, &stored_degree, &scene.low_pass,
                   &scene.colour_encoding, &scene.order_band, &scene.lidar_intensity_channel,
-                  &scene.fade_span);
+                  &scene.fade_span, &scene.render_blur);
   // Our export of a scene without SH writes degree-0 f_dc; restore "no SH".
   if (degree == 0 && stored_degree == -1) degree = -1;
   scene.sh_degree = degree;

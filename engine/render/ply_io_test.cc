@@ -228,6 +228,24 @@ TEST(PlyRoundTrip, KeepsTheFadeSpan) {
   EXPECT_EQ(back->fade_span.end, 2.75f);
 }
 
+TEST(PlyRoundTrip, KeepsTheRenderBlur) {
+  GaussianScene scene = MakeScene(-1, 3);
+  absl::StatusOr<GaussianScene> back = DecodePly(*EncodePly(scene), "mem.ply");
+  ASSERT_TRUE(back.ok()) << back.status();
+  EXPECT_EQ(back->render_blur, 0.f);
+  scene.render_blur = 0.75f;
+  back = DecodePly(*EncodePly(scene), "mem.ply");
+  ASSERT_TRUE(back.ok()) << back.status();
+  EXPECT_EQ(back->render_blur, 0.75f);
+  // Out of range in the comment: refused, by name.
+  std::string ply = *EncodePly(scene);
+  ply.replace(ply.find("render_blur=0.75"), 16, "render_blur=9");
+  back = DecodePly(ply, "mem.ply");
+  EXPECT_NE(back.status().message().find("render_blur: 9 pixels is outside [0, 4]"),
+            absl::string_view::npos)
+      << back.status();
+}
+
 TEST(PlyRoundTrip, ExportImportRenderGivesIdenticalImages) {
   const RenderCamera camera = MakeCamera();
   const std::string dir = testing::MakeTempDir("ply_io");

@@ -154,6 +154,10 @@ absl::Status ValidateScene(const GaussianScene& scene) {
     return absl::InvalidArgumentError(absl::StrCat("fade_span: [", scene.fade_span.begin, ", ",
                                                    scene.fade_span.end, "] is not an interval"));
   }
+  if (!(scene.render_blur >= 0 && scene.render_blur <= kMaxRenderBlur)) {
+    return absl::InvalidArgumentError(absl::StrCat("render_blur: ", scene.render_blur,
+                                                   " pixels is outside [0, ", kMaxRenderBlur, "]"));
+  }
   if (scene.lidar_intensity_channel < -1 || scene.lidar_intensity_channel >= scene.num_channels) {
     return absl::InvalidArgumentError(
         absl::StrCat("lidar_intensity_channel: ", scene.lidar_intensity_channel,
@@ -241,6 +245,7 @@ absl::Status SaveScene(const GaussianScene& scene, const std::string& path,
   header.Put<int32_t>(scene.lidar_intensity_channel);
   header.Put<float>(scene.fade_span.begin);
   header.Put<float>(scene.fade_span.end);
+  header.Put<float>(scene.render_blur);
   header.Put<uint32_t>(static_cast<uint32_t>(scene.instances.size()));
   for (const InstanceTrack& track : scene.instances) {
     header.PutString(track.id);
@@ -407,6 +412,14 @@ absl::StatusOr<SceneFile> ReadSceneFile(const std::string& path) {
     if (!(scene.fade_span.begin <= scene.fade_span.end)) {
       return invalid("header fade span [", scene.fade_span.begin, ", ", scene.fade_span.end,
                      "] is not an interval");
+    }
+  }
+  // Version 10 added the render blur (0 before).
+  if (version >= 10) {
+    RETURN_IF_ERROR(header.Get("render_blur", &scene.render_blur));
+    if (!(scene.render_blur >= 0 && scene.render_blur <= kMaxRenderBlur)) {
+      return invalid("header render_blur ", scene.render_blur, " is outside [0, ", kMaxRenderBlur,
+                     "]");
     }
   }
   if (num_channels < 1 || num_channels > kMaxChannels) {

@@ -37,8 +37,10 @@ inline constexpr char kSceneFileMagic[8] = {'P', 'F', 'S', 'C', 'E', 'N', 'E', '
 // float32 after the LiDAR intensity channel; older files: unbounded).
 // Version 9 added the ego layers' frames (EgoLayer::frames): per layer their
 // count and times after its body pixel count, their colours after its own
-// (older files: none, the mean colour at every time).
-inline constexpr uint32_t kSceneFileVersion = 9;
+// (older files: none, the mean colour at every time). Version 10 added the
+// render blur (GaussianScene::render_blur, a float32 after the fade span;
+// older files: 0).
+inline constexpr uint32_t kSceneFileVersion = 10;
 inline constexpr uint32_t kOldestSceneFileVersion = 1;
 
 // A scene as stored: the Gaussians, free-form metadata (e.g. "model",

@@ -57,6 +57,7 @@ void ExpectScenesEqual(const GaussianScene& a, const GaussianScene& b) {
   EXPECT_EQ(a.order_band, b.order_band);
   EXPECT_EQ(a.fade_span.begin, b.fade_span.begin);
   EXPECT_EQ(a.fade_span.end, b.fade_span.end);
+  EXPECT_EQ(a.render_blur, b.render_blur);
   EXPECT_EQ(a.colour_encoding, b.colour_encoding);
   EXPECT_EQ(a.lidar_intensity_channel, b.lidar_intensity_channel);
   EXPECT_EQ(a.means, b.means);
@@ -169,12 +170,12 @@ TEST_F(SceneFileTest, RejectsWrongMagic) {
 }
 
 TEST_F(SceneFileTest, RejectsWrongVersion) {
-  for (int version : {0, 10}) {
+  for (int version : {0, 11}) {
     const absl::Status status =
         LoadEdited([version](std::string& b) { b[8] = static_cast<char>(version); });
     EXPECT_EQ(status.code(), absl::StatusCode::kInvalidArgument);
     EXPECT_NE(status.message().find(absl::StrCat("unsupported scene file version ", version,
-                                                 " (this build reads versions 1 to 9)")),
+                                                 " (this build reads versions 1 to 10)")),
               absl::string_view::npos)
         << status;
   }
@@ -186,6 +187,10 @@ void RewriteAsVersion(const std::string& path, uint32_t version, size_t offset, 
   std::string bytes = *ReadFileToString(path);
   uint32_t header_bytes = 0;
   std::memcpy(&header_bytes, bytes.data() + 12, 4);
+  if (version < 10) {  // Nor the render blur (a float32 at byte 68).
+    bytes.erase(68, 4);
+    header_bytes -= 4;
+  }
   if (version < 8) {  // Nor the fade span (two float32 at byte 60).
     bytes.erase(60, 8);
     header_bytes -= 8;
@@ -216,7 +221,7 @@ TEST_F(SceneFileTest, RoundTripWithColourGradients) {
   ASSERT_TRUE(SaveScene(scene, path_).ok());
   absl::StatusOr<SceneFile> loaded = ReadSceneFile(path_);
   ASSERT_TRUE(loaded.ok()) << loaded.status();
-  EXPECT_EQ(loaded->version, 9u);
+  EXPECT_EQ(loaded->version, kSceneFileVersion);
   ExpectScenesEqual(scene, loaded->scene);
   // 6 more floats per Gaussian than the same scene with flat colours.
   const std::string flat_path = path_ + ".flat";
@@ -276,6 +281,28 @@ TEST_F(SceneFileTest, RoundTripKeepsTheFadeSpanAndVersionSevenFilesHaveNone) {
   const absl::Status status = SaveScene(scene, path_);
   EXPECT_NE(status.message().find("fade_span: [2, 1] is not an interval"), absl::string_view::npos)
       << status;
+}
+
+TEST_F(SceneFileTest, RoundTripKeepsTheRenderBlurAndVersionNineFilesHaveNone) {
+  GaussianScene scene = MakeScene();
+  scene.render_blur = 1.25f;
+  ASSERT_TRUE(SaveScene(scene, path_).ok());
+  float stored = 0;
+  std::memcpy(&stored, ReadFileToString(path_)->data() + 68, 4);
+  EXPECT_EQ(stored, 1.25f);
+  absl::StatusOr<SceneFile> loaded = ReadSceneFile(path_);
+  ASSERT_TRUE(loaded.ok()) << loaded.status();
+  ExpectScenesEqual(scene, loaded->scene);
+  // A version-9 file is a version-10 file without it: no blur.
+  RewriteAsVersion(path_, 9, 0, 0);
+  loaded = ReadSceneFile(path_);
+  ASSERT_TRUE(loaded.ok()) << loaded.status();
+  EXPECT_EQ(loaded->version, 9u);
+  EXPECT_EQ(loaded->scene.render_blur, 0.f);
+  // Outside [0, 4]: refused on save, by name.
+  scene.render_blur = 5.f;
+  EXPECT_NE(SaveScene(scene, path_).message().find("render_blur: 5 pixels is outside [0, 4]"),
+            absl::string_view::npos);
 }
 
 TEST_F(SceneFileTest, RoundTripKeepsTheOrderBandAndVersionFourFilesHaveNone) {
@@ -357,7 +384,7 @@ TEST_F(SceneFileTest, RoundTripKeepsTheEgoLayersAndVersionSixFilesHaveNone) {
   ASSERT_TRUE(SaveScene(scene, path_).ok());
   absl::StatusOr<SceneFile> loaded = ReadSceneFile(path_);
   ASSERT_TRUE(loaded.ok()) << loaded.status();
-  EXPECT_EQ(loaded->version, 9u);
+  EXPECT_EQ(loaded->version, kSceneFileVersion);
   ExpectScenesEqual(scene, loaded->scene);
   ASSERT_EQ(loaded->scene.ego_layers.size(), 2u);
   for (size_t k = 0; k < 2; ++k) {
@@ -606,6 +633,14 @@ TEST_F(SceneFileTest, RejectsHostileCountsWithoutAllocating) {
   status = LoadEdited([](std::string& b) {
     const uint32_t huge = 0x7FFFFFFFu;
     std::memcpy(b.data() + 16 + 8 + 4 + 4 + 8 + 4 + 4 + 4 + 4 + 4 + 8, &huge, 4);
+  });
+  EXPECT_EQ(status.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(status.message().find("header render_blur nan is outside [0, 4]"),
+            absl::string_view::npos)
+      << status;
+  status = LoadEdited([](std::string& b) {
+    const uint32_t huge = 0x7FFFFFFFu;
+    std::memcpy(b.data() + 16 + 8 + 4 + 4 + 8 + 4 + 4 + 4 + 4 + 4 + 8 + 4, &huge, 4);
   });
   EXPECT_EQ(status.code(), absl::StatusCode::kInvalidArgument);
   EXPECT_NE(status.message().find("num_instances"), absl::string_view::npos) << status;
