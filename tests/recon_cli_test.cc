@@ -860,6 +860,58 @@ TEST_F(ReconCli, AblationFlagsChangeTheScene) {
 // clips it is worth 0.4-0.7 dB (docs/QUALITY.md); on this 192x144 clip
 // 0.14 dB (24.78 against 24.64 with 0.3), too little to bound here, so the
 // eval below changes it alone to 2 px^2: 22.77 dB.
+// A track whose boxes do not move (a parked car; scene_graph.h IsStillTrack)
+// is reconstructed with the static scene and then owns the Gaussians in its
+// first box, so it stays an instance that edits can move or remove; report.json
+// counts it. Here the clip's first car is made still by giving every box of
+// its track the first box's pose.
+TEST_F(ReconCli, AStillTrackIsDecodedAsStaticAndOwnsTheGaussiansInItsBox) {
+  nlohmann::json clip = ReadJsonFile(Clip());
+  nlohmann::json& boxes = clip["instances"][0]["boxes"];
+  ASSERT_GE(boxes.size(), 2u);
+  const std::string id = clip["instances"][0]["id"];
+  for (nlohmann::json& box : boxes) {
+    box["center"] = boxes[0]["center"];
+    box["rotation"] = boxes[0]["rotation"];
+  }
+  const std::string still_clip = *dir_ + "/clip/still.json";
+  std::ofstream(still_clip) << clip.dump();
+  const std::string scene_path = *dir_ + "/still.pfscene";
+  const CommandResult result =
+      RunCommand({Pf(), "reconstruct", still_clip, "--out", scene_path, "--ns", "2000"});
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_NE(result.err.find("1 instances that do not move decoded as static"), std::string::npos)
+      << result.err;
+  absl::StatusOr<SceneFile> file = ReadSceneFile(scene_path);
+  ASSERT_TRUE(file.ok()) << file.status();
+  const GaussianScene& scene = file->scene;
+  ASSERT_EQ(scene.instances.size(), clip["instances"].size());
+  // Still tracks come after the moving ones.
+  EXPECT_EQ(scene.instances.back().id, id);
+  const uint32_t owner = static_cast<uint32_t>(scene.instances.size());
+  const TrackBox& box = scene.instances.back().boxes.front();
+  int64_t owned = 0;
+  for (size_t i = 0; i < scene.size(); ++i) {
+    if (scene.owners[i] != owner) continue;
+    ++owned;
+    // In the box frame, within the box grown by 0.15 m, its floor raised by
+    // 0.05 m (kMembershipMargin).
+    const Vec3 p{scene.means[3 * i] - box.center.x, scene.means[3 * i + 1] - box.center.y,
+                 scene.means[3 * i + 2] - box.center.z};
+    const Vec3 q = Transpose(ToMatrix(box.rotation)) * p;
+    EXPECT_LE(std::abs(q.x), box.size.x / 2 + 0.15 + 1e-4) << "Gaussian " << i;
+    EXPECT_LE(std::abs(q.y), box.size.y / 2 + 0.15 + 1e-4) << "Gaussian " << i;
+    EXPECT_LE(q.z, box.size.z / 2 + 0.15 + 1e-4) << "Gaussian " << i;
+    EXPECT_GE(q.z, -box.size.z / 2 + 0.05 - 1e-4) << "Gaussian " << i;
+  }
+  EXPECT_GT(owned, 20);
+  const std::string out = *dir_ + "/eval_still";
+  const CommandResult eval = RunCommand({Pf(), "eval", still_clip, "--out", out, "--ns", "2000"});
+  ASSERT_EQ(eval.exit_code, 0) << eval.err;
+  EXPECT_EQ(ReadJsonFile(out + "/report.json")["stillInstances"], 1);
+  EXPECT_EQ(Report("analytic")["stillInstances"], 0);
+}
+
 TEST_F(ReconCli, TheScenesLowPassIsStoredAndReported) {
   const std::string scene_path = *dir_ + "/low_pass.pfscene";
   CommandResult result = RunCommand(

@@ -493,6 +493,7 @@ std::string EvalReportJson(const EvalReport& report) {
   j["lowPass"] = report.stats.low_pass;
   j["orderBand"] = report.options.decoder.order_band;
   j["renderBlur"] = report.stats.render_blur;
+  j["stillInstances"] = report.stats.still_instances;
   j["refineIterations"] = report.options.refinement.iterations;
   // What the scene has, not what was asked: --refine 0, or a fit over the
   // memory bound, leaves it flat.

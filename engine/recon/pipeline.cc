@@ -95,6 +95,14 @@ Pipeline::Pipeline(ReconInputs inputs, const ReconOptions& options)
   ReconStats& stats = result_.stats;
   stats.views = static_cast<int>(views.size());
   stats.instances = static_cast<int>(inputs_.tracks.size());
+  // Tracks that do not move are reconstructed as static points and get their
+  // Gaussians back after decoding (scene_graph.h IsStillTrack).
+  std::vector<InstanceTrack> moving;
+  for (InstanceTrack& track : inputs_.tracks) {
+    (IsStillTrack(track) ? still_tracks_ : moving).push_back(std::move(track));
+  }
+  inputs_.tracks = std::move(moving);
+  stats.still_instances = static_cast<int>(still_tracks_.size());
   const int width = views.empty() ? 0 : views[0].width();
   const int height = views.empty() ? 0 : views[0].height();
   stats.static_per_view = options.static_per_view > 0
@@ -258,6 +266,15 @@ void Pipeline::Decode() {
                       decoder.fade_frames, &result_.scene);
   result_.scene.colour_encoding = inputs_.colour_encoding;
   CountGaussians(queries_.owners, queries_.far, {}, &stats);
+  std::string still;
+  if (!still_tracks_.empty()) {
+    int64_t adopted = 0;
+    for (const int64_t n : AdoptStillInstances(still_tracks_, queries_.far, &result_.scene)) {
+      adopted += n;
+    }
+    still = absl::StrCat("; ", still_tracks_.size(), " instances that do not move decoded as ",
+                         "static, then given their ", adopted, " Gaussians");
+  }
   // The scene holds what the stages after this one need: the queries, their
   // fusion and the views' depths, owners and masks are freed, so the colour
   // fit's weights can take their memory.
@@ -278,15 +295,15 @@ void Pipeline::Decode() {
       sweeps.push_back(&inputs_.sweeps[s]);
     }
   }
-  std::string intensity = " (no LiDAR: no intensity)";
+  std::string intensity = "no LiDAR: no intensity";
   if (!sweeps.empty()) {
     const LidarIntensityStats fused = FuseLidarIntensity(sweeps, kIntensityChannel, &result_.scene);
     result_.scene.lidar_intensity_channel = kIntensityChannel;
     intensity =
-        absl::StrCat(" (LiDAR intensity from ", fused.points, " returns of ", sweeps.size(),
-                     " sweeps: ", fused.assigned, " of ", result_.scene.size(), " Gaussians)");
+        absl::StrCat("LiDAR intensity from ", fused.points, " returns of ", sweeps.size(),
+                     " sweeps: ", fused.assigned, " of ", result_.scene.size(), " Gaussians");
   }
-  Done(ReconStage::kDecode, intensity);
+  Done(ReconStage::kDecode, absl::StrCat(" (", intensity, still, ")"));
 }
 
 absl::Status Pipeline::FitColours() {

@@ -97,6 +97,9 @@ struct ReconStats {
   int64_t upward_pixels = 0;    // Set by the depth below continued up (facade_depth.h).
   int64_t enclosed_pixels = 0;  // Set by the gaps enclosed by known depth (depth_stage.h).
   int views_without_depth = 0;  // No depth map, no LiDAR point: all far layer.
+  // Of `instances`, those whose boxes do not move (scene_graph.h IsStillTrack):
+  // reconstructed as static, their Gaussians theirs after decoding.
+  int still_instances = 0;
   int rolling_shutter_views = 0;  // Frames with a rolling shutter, lifted line by line.
   float low_pass = 0;     // The scene's screen-space low-pass, pixels^2 (DecoderOptions::low_pass).
   float render_blur = 0;  // The scene's render blur, pixels (ReconOptions::render_blur).

@@ -38,6 +38,45 @@ bool PointInBox(const Vec3& p, const TrackBox& box, const BoxMargin& margin) {
   return InBox(p, box, Transpose(ToMatrix(box.rotation)), margin);
 }
 
+bool IsStillTrack(const InstanceTrack& track) {
+  if (track.boxes.size() < 2) return false;
+  const TrackBox& first = track.boxes.front();
+  const Quat a = QuatNormalized(first.rotation);
+  for (const TrackBox& box : track.boxes) {
+    const Vec3 d = box.center - first.center;
+    if (std::sqrt(d.x * d.x + d.y * d.y + d.z * d.z) > kStillCentre) return false;
+    const Quat b = QuatNormalized(box.rotation);
+    const double dot = std::min(1.0, std::abs(a.w * b.w + a.x * b.x + a.y * b.y + a.z * b.z));
+    if (2 * std::acos(dot) > kStillAngle) return false;
+  }
+  return true;
+}
+
+std::vector<int64_t> AdoptStillInstances(const std::vector<InstanceTrack>& still,
+                                         const std::vector<uint8_t>& far, GaussianScene* scene) {
+  std::vector<int64_t> taken(still.size(), 0);
+  const uint32_t first_owner = static_cast<uint32_t>(scene->instances.size()) + 1;
+  scene->instances.insert(scene->instances.end(), still.begin(), still.end());
+  if (still.empty()) return taken;
+  std::vector<InstanceTrack> first_boxes;
+  for (const InstanceTrack& track : still) first_boxes.push_back({"", "", {track.boxes.front()}});
+  const BoxesAt boxes(first_boxes, first_boxes.front().boxes.front().timestamp_us);
+  const int64_t n = static_cast<int64_t>(scene->size());
+  DefaultThreadPool().ParallelFor(0, n, 1 << 14, [&](int64_t begin, int64_t end) {
+    for (int64_t i = begin; i < end; ++i) {
+      if (scene->owners[i] != 0 || (size_t(i) < far.size() && far[i] != 0)) continue;
+      const Vec3 p{scene->means[3 * i], scene->means[3 * i + 1], scene->means[3 * i + 2]};
+      if (const uint32_t k = boxes.Owner(p, kMembershipMargin); k != 0) {
+        scene->owners[i] = first_owner + k - 1;
+      }
+    }
+  });
+  for (const uint32_t owner : scene->owners) {
+    if (owner >= first_owner) ++taken[owner - first_owner];
+  }
+  return taken;
+}
+
 Rigid CanonicalFromWorld(const InstanceTrack& track, int64_t timestamp_us) {
   return InstancePoseAt(track.boxes, timestamp_us).Inverse();
 }

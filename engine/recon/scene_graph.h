@@ -42,6 +42,26 @@ inline constexpr BoxMargin kMembershipMargin{0.15, 0.05};
 // in the box frame.
 bool PointInBox(const Vec3& p, const TrackBox& box, const BoxMargin& margin = {});
 
+// A track whose boxes all lie within kStillCentre metres (centre) and
+// kStillAngle radians (rotation) of its first, with two boxes or more: an
+// actor that does not move over the clip (a parked car). Reconstruction
+// samples, fuses and decodes its points as static ones, at the static
+// density and with no box pose to misplace them, and then hands the
+// Gaussians in its first box to it (AdoptStillInstances), so it can still be
+// moved or removed.
+inline constexpr double kStillCentre = 0.05;
+inline constexpr double kStillAngle = 0.035;  // 2 degrees.
+bool IsStillTrack(const InstanceTrack& track);
+
+// Appends `still` to scene->instances and makes each Gaussian that is static
+// (owner 0), not on the far layer (`far`, per Gaussian, may be shorter: not
+// far) and inside a still track's first box grown by kMembershipMargin
+// belong to it (the first such track). Its mean stays: the first box is the
+// canonical frame, and the track's boxes do not move. Returns how many
+// Gaussians each of `still` took, in order.
+std::vector<int64_t> AdoptStillInstances(const std::vector<InstanceTrack>& still,
+                                         const std::vector<uint8_t>& far, GaussianScene* scene);
+
 // Returns the canonical-from-world transform of `track` at `timestamp_us`:
 // the inverse of InstancePoseAt(track.boxes, timestamp_us).
 Rigid CanonicalFromWorld(const InstanceTrack& track, int64_t timestamp_us);

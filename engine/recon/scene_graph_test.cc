@@ -32,6 +32,68 @@ TEST(SceneGraph, PointInRotatedBox) {
   EXPECT_TRUE(PointInBox({10, 2.15, 1}, box, kMembershipMargin));
 }
 
+// A track of boxes 4x2x2 at `centres` (t = 0, 1, 2 s ...) turned by `yaws`.
+InstanceTrack TrackThrough(const std::vector<Vec3>& centres, const std::vector<double>& yaws) {
+  InstanceTrack track;
+  track.id = "car";
+  for (size_t i = 0; i < centres.size(); ++i) {
+    TrackBox box;
+    box.timestamp_us = static_cast<int64_t>(i) * 1000000;
+    box.center = centres[i];
+    box.size = {4, 2, 2};
+    box.rotation = Yaw(yaws[i]);
+    track.boxes.push_back(box);
+  }
+  return track;
+}
+
+TEST(SceneGraph, StillTracksAreThoseWhoseBoxesStayWithinTheTolerance) {
+  const Vec3 c{10, 5, 1};
+  EXPECT_TRUE(IsStillTrack(TrackThrough({c, c, c}, {30, 30, 30})));
+  // 4 cm and 1.5 degrees of annotation jitter: still.
+  EXPECT_TRUE(IsStillTrack(TrackThrough({c, c + Vec3{0.04, 0, 0}, c}, {30, 31.5, 30})));
+  // 6 cm, or 2.5 degrees, from the first box: moving.
+  EXPECT_FALSE(IsStillTrack(TrackThrough({c, c, c + Vec3{0, 0.06, 0}}, {30, 30, 30})));
+  EXPECT_FALSE(IsStillTrack(TrackThrough({c, c, c}, {30, 32.5, 30})));
+  // A quaternion and its negation are one rotation.
+  InstanceTrack flipped = TrackThrough({c, c}, {30, 30});
+  Quat& q = flipped.boxes[1].rotation;
+  q = {-q.w, -q.x, -q.y, -q.z};
+  EXPECT_TRUE(IsStillTrack(flipped));
+  // One box says nothing about motion; no boxes own nothing.
+  EXPECT_FALSE(IsStillTrack(TrackThrough({c}, {30})));
+  EXPECT_FALSE(IsStillTrack(InstanceTrack{}));
+}
+
+TEST(SceneGraph, StillInstancesTakeTheStaticGaussiansInTheirFirstBox) {
+  // One moving instance already in the scene (owner 1) and two still tracks
+  // appended (owners 2 and 3). Gaussian 0 is static inside the first still
+  // box (within its 0.15 m margin), 1 inside the second, 2 inside the first
+  // but on the far layer, 3 outside both, 4 inside the first but the moving
+  // instance's, 5 on the road under the first box (below its raised floor).
+  GaussianScene scene;
+  scene.num_channels = 3;
+  scene.instances.push_back(TrackThrough({{0, 0, 1}, {5, 0, 1}}, {0, 0}));
+  const std::vector<Vec3> means = {{10, 5, 2.1}, {-10, 5, 1},  {10, 5, 1},
+                                   {0, 20, 1},   {10, 5.5, 1}, {10, 5, 0.02}};
+  scene.Resize(means.size());
+  for (size_t i = 0; i < means.size(); ++i) {
+    for (int a = 0; a < 3; ++a) scene.means[3 * i + a] = static_cast<float>(means[i][a]);
+  }
+  scene.owners[4] = 1;
+  const std::vector<InstanceTrack> still = {TrackThrough({{10, 5, 1}, {10, 5, 1}}, {90, 90}),
+                                            TrackThrough({{-10, 5, 1}, {-10, 5, 1}}, {0, 0})};
+  const std::vector<uint8_t> far = {0, 0, 1};  // Shorter than the scene: the rest not far.
+  const std::vector<float> means_before = scene.means;
+  const std::vector<int64_t> taken = AdoptStillInstances(still, far, &scene);
+  EXPECT_EQ(taken, (std::vector<int64_t>{1, 1}));
+  EXPECT_EQ(scene.owners, (std::vector<uint32_t>{2, 3, 0, 0, 1, 0}));
+  ASSERT_EQ(scene.instances.size(), 3u);
+  EXPECT_EQ(scene.instances[1].boxes[0].center.x, 10);
+  EXPECT_EQ(scene.instances[2].boxes[0].center.x, -10);
+  EXPECT_EQ(scene.means, means_before);  // The first box is the canonical frame.
+}
+
 TEST(SceneGraph, CanonicalisationMatchesHandComputedPoint) {
   InstanceTrack track;
   TrackBox first;
