@@ -122,9 +122,10 @@ TEST(ImportCli, PandasetSequenceImportsIntoAValidClip) {
   ASSERT_EQ(run.exit_code, 0) << run.err;
   EXPECT_TRUE(Contains(run.out, out + "/clip.json: 2 cameras, 4 frames (2 context, 2 target)"))
       << run.out;
-  EXPECT_TRUE(Contains(run.out, "33 instances (66 boxes), 2 LiDAR sweeps")) << run.out;
+  EXPECT_TRUE(Contains(run.out, "94 instances (188 boxes), 2 LiDAR sweeps")) << run.out;
   EXPECT_EQ(std::count(run.out.begin(), run.out.end(), '\n'), 1) << run.out;
-  EXPECT_TRUE(Contains(run.err, "pf import: warning: 61 stationary tracks")) << run.err;
+  // Stationary tracks are instances too (parked cars stay editable).
+  EXPECT_FALSE(Contains(run.err, "stationary")) << run.err;
   // The reader's scratch files are gone.
   for (const auto& entry : fs::directory_iterator(out)) {
     EXPECT_NE(entry.path().filename().string().rfind(".pandaset", 0), 0u) << entry.path();

@@ -152,7 +152,6 @@ class PandasetImport {
   const PandasetOptions& pandaset_;
   std::set<int> frames_;  // Frames with an image in the range, all cameras.
   std::map<std::string, v1::Instance> instances_;
-  std::set<std::string> stationary_tracks_;
   std::vector<int> frames_without_lidar_, frames_without_cuboids_;
   // The Pandar64's head in the frame of lidar/poses.json (LocateLidarHead).
   LidarOriginEstimate lidar_head_;
@@ -396,10 +395,6 @@ absl::Status PandasetImport::AddCuboids(const std::string& pickles, int frame,
     if (!stationary->is_boolean()) {
       return absl::InvalidArgumentError(absl::StrCat(where, ".stationary: not a boolean"));
     }
-    if (stationary->get<bool>()) {
-      stationary_tracks_.insert(uuid);
-      continue;
-    }
     ASSIGN_OR_RETURN(double sensor, JsonNumber(row, "cuboids.sensor_id", where));
     if (sensor == 1) {
       ASSIGN_OR_RETURN(std::string sibling, JsonString(row, "cuboids.sibling_id", where));
@@ -503,11 +498,6 @@ absl::StatusOr<ImportResult> PandasetImport::Run() {
         "the Pandar64's head could not be located from its points (", lidar_head_.pairs,
         " point pairs): the sweeps keep lidar/poses.json's origin, which on PandaSet lies about "
         "1.9 m below the head, so LiDAR rendered from them starts too low"));
-  }
-  if (!stationary_tracks_.empty()) {
-    result.warnings.push_back(absl::StrCat(stationary_tracks_.size(),
-                                           " stationary tracks (parked cars, signs, cones, ...) "
-                                           "are not imported as instances"));
   }
   ASSIGN_OR_RETURN(result.manifest_path, WriteClipManifest(clip_, options_.out_dir));
   result.clip = std::move(clip_);

@@ -13,9 +13,11 @@
 //   (spinning_lidar_origin.h; ImportResult::warnings says where, or that
 //   the pose was kept).
 // - annotations/cuboids/NN.pkl.gz: boxes in the world at the LiDAR's time;
-//   tracks with `stationary` false become instances (id = uuid, category =
-//   label). A box seen by both LiDARs is listed twice (cuboids.sensor_id 0
-//   and 1, each naming the other as cuboids.sibling_id): the Pandar64's is
+//   every track becomes an instance (id = uuid, category = label); the
+//   `stationary` ones (parked cars, signs, cones) keep one pose, and
+//   reconstruction keeps such tracks with the static scene
+//   (engine/recon/scene_graph.h IsStillTrack). A box seen by both LiDARs is listed twice
+//   (cuboids.sensor_id 0 and 1, each naming the other as cuboids.sibling_id): the Pandar64's is
 //   kept. Rotation Rz(yaw + 90 degrees), size (dimensions.y, dimensions.x,
 //   dimensions.z).
 // The pickles are pandas DataFrames: pandaset_pickles.py (beside this file;

@@ -47,6 +47,20 @@ nlohmann::json PandasetJson(const std::string& path) {
   return nlohmann::json::parse(*ReadFileToString(path));
 }
 
+// Whether any box of `instance` lies over 5 cm from its first (the
+// stationary tracks keep one pose).
+bool Moves(const v1::Instance& instance) {
+  for (const v1::Box& box : instance.boxes()) {
+    double d2 = 0;
+    for (int a = 0; a < 3; ++a) {
+      const double d = box.center(a) - instance.boxes(0).center(a);
+      d2 += d * d;
+    }
+    if (d2 > 0.05 * 0.05) return true;
+  }
+  return false;
+}
+
 // A clip sweep's points (sensor frame) taken to the world.
 std::vector<Vec3> PandasetWorldPoints(const std::string& clip_dir, const v1::LidarSweep& sweep) {
   const std::string bytes = *ReadFileToString(clip_dir + "/" + sweep.points());
@@ -119,21 +133,24 @@ TEST(PandasetFrames, ParsesHalfOpenRangesAndRejectsJunk) {
   }
 }
 
-TEST_F(PandasetSequence, ImportsSixCamerasTwoFramesLidarAndMovingTracks) {
+TEST_F(PandasetSequence, ImportsSixCamerasTwoFramesLidarAndTracks) {
   PF_REQUIRE_DATA(dir, kSequence);
   const v1::Clip& clip = result_->clip;
   EXPECT_EQ(clip.name(), "pandaset_002");
   ASSERT_EQ(clip.cameras_size(), 6);
   ASSERT_EQ(clip.frames_size(), 12);
   ASSERT_EQ(clip.lidar_size(), 2);
-  // Moving tracks in frames 46-47, each box once (PandarGT twins dropped).
-  EXPECT_EQ(clip.instances_size(), 33);
-  int boxes = 0;
-  for (const v1::Instance& instance : clip.instances()) boxes += instance.boxes_size();
-  EXPECT_EQ(boxes, 66);
-  ASSERT_EQ(result_->warnings.size(), 2u);  // And where the LiDAR's head is (below).
-  EXPECT_EQ(result_->warnings[1],
-            "61 stationary tracks (parked cars, signs, cones, ...) are not imported as instances");
+  // Every track in frames 46-47, moving or stationary, each box once
+  // (PandarGT twins dropped); the stationary ones at one pose.
+  EXPECT_EQ(clip.instances_size(), 94);
+  int boxes = 0, moving = 0;
+  for (const v1::Instance& instance : clip.instances()) {
+    boxes += instance.boxes_size();
+    moving += Moves(instance);
+  }
+  EXPECT_EQ(boxes, 188);
+  EXPECT_EQ(moving, 31);
+  ASSERT_EQ(result_->warnings.size(), 1u);  // Where the LiDAR's head is (below).
 
   // front_camera: intrinsics +0.5 (integer pixel centres), timestamps to the
   // microsecond, the pose as poses.json has it, the JPEG byte for byte.
@@ -275,6 +292,7 @@ std::pair<int64_t, int> PointsInMovingBoxes(const v1::Clip& clip,
   int64_t inside = 0;
   int held = 0;
   for (const v1::Instance& instance : clip.instances()) {
+    if (!Moves(instance)) continue;
     for (const v1::Box& b : instance.boxes()) {
       OrientedBox box = BoxFromProto(b);
       const double angle = std::atan2(box.rotation.m[1][0], box.rotation.m[0][0]);
@@ -297,7 +315,9 @@ TEST_F(PandasetSequence, MovingBoxesHoldTheirLidarPoints) {
   PF_REQUIRE_DATA(dir, kSequence);
   const v1::Clip& clip = result_->clip;
   int boxes = 0;
-  for (const v1::Instance& instance : clip.instances()) boxes += instance.boxes_size();
+  for (const v1::Instance& instance : clip.instances()) {
+    if (Moves(instance)) boxes += instance.boxes_size();
+  }
   const auto [ours, held] = PointsInMovingBoxes(clip, *sweeps_(), [](double a) { return a; });
   const auto [turned, turned_held] =
       PointsInMovingBoxes(clip, *sweeps_(), [](double a) { return a - M_PI / 2; });

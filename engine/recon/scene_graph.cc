@@ -39,7 +39,7 @@ bool PointInBox(const Vec3& p, const TrackBox& box, const BoxMargin& margin) {
 }
 
 bool IsStillTrack(const InstanceTrack& track) {
-  if (track.boxes.size() < 2) return false;
+  if (track.boxes.empty()) return false;
   const TrackBox& first = track.boxes.front();
   const Quat a = QuatNormalized(first.rotation);
   for (const TrackBox& box : track.boxes) {

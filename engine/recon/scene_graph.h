@@ -43,8 +43,9 @@ inline constexpr BoxMargin kMembershipMargin{0.15, 0.05};
 bool PointInBox(const Vec3& p, const TrackBox& box, const BoxMargin& margin = {});
 
 // A track whose boxes all lie within kStillCentre metres (centre) and
-// kStillAngle radians (rotation) of its first, with two boxes or more: an
-// actor that does not move over the clip (a parked car). Reconstruction
+// kStillAngle radians (rotation) of its first: an actor that does not move
+// over the clip (a parked car; a track of one box, which every time holds,
+// too). Reconstruction
 // samples, fuses and decodes its points as static ones, at the static
 // density and with no box pose to misplace them, and then hands the
 // Gaussians in its first box to it (AdoptStillInstances), so it can still be
