@@ -492,7 +492,7 @@ std::string EvalReportJson(const EvalReport& report) {
   j["splatSigma"] = report.options.decoder.tangent_sigma;
   j["lowPass"] = report.stats.low_pass;
   j["orderBand"] = report.options.decoder.order_band;
-  j["renderBlur"] = report.stats.render_blur;
+  j["renderBlur"] = report.options.render_blur;
   j["stillInstances"] = report.stats.still_instances;
   j["refineIterations"] = report.options.refinement.iterations;
   // What the scene has, not what was asked: --refine 0, or a fit over the

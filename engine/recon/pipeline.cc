@@ -429,7 +429,6 @@ absl::Status Pipeline::Optimize() {
 ReconResult Pipeline::Finish() {
   result_.scene.ego_layers = std::move(ego_layers_);
   result_.scene.render_blur = options_.render_blur;
-  result_.stats.render_blur = options_.render_blur;
   result_.stats.colour_gradients = result_.scene.has_colour_gradients();
   result_.stats.total_seconds = Now() - start_;
   return std::move(result_);

@@ -101,8 +101,7 @@ struct ReconStats {
   // reconstructed as static, their Gaussians theirs after decoding.
   int still_instances = 0;
   int rolling_shutter_views = 0;  // Frames with a rolling shutter, lifted line by line.
-  float low_pass = 0;     // The scene's screen-space low-pass, pixels^2 (DecoderOptions::low_pass).
-  float render_blur = 0;  // The scene's render blur, pixels (ReconOptions::render_blur).
+  float low_pass = 0;  // The scene's screen-space low-pass, pixels^2 (DecoderOptions::low_pass).
   // Each ego layer's camera and the share of its pixels on the body.
   std::vector<std::pair<std::string, double>> ego_body;
   // The scene's colours carry gradients (the fit ran with them; a fit over

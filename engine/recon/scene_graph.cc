@@ -43,8 +43,7 @@ bool IsStillTrack(const InstanceTrack& track) {
   const TrackBox& first = track.boxes.front();
   const Quat a = QuatNormalized(first.rotation);
   for (const TrackBox& box : track.boxes) {
-    const Vec3 d = box.center - first.center;
-    if (std::sqrt(d.x * d.x + d.y * d.y + d.z * d.z) > kStillCentre) return false;
+    if (Norm(box.center - first.center) > kStillCentre) return false;
     const Quat b = QuatNormalized(box.rotation);
     const double dot = std::min(1.0, std::abs(a.w * b.w + a.x * b.x + a.y * b.y + a.z * b.z));
     if (2 * std::acos(dot) > kStillAngle) return false;
