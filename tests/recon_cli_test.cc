@@ -863,17 +863,20 @@ TEST_F(ReconCli, AblationFlagsChangeTheScene) {
 // A track whose boxes do not move (a parked car; scene_graph.h IsStillTrack)
 // is reconstructed with the static scene and then owns the Gaussians in its
 // first box, so it stays an instance that edits can move or remove; report.json
-// counts it. Here the clip's first car is made still by giving every box of
-// its track the first box's pose.
+// counts it, and its pixels are not in dynamicPsnr's. Here the clip's first
+// car is made still by giving every box of its track the first box's pose,
+// then every car.
 TEST_F(ReconCli, AStillTrackIsDecodedAsStaticAndOwnsTheGaussiansInItsBox) {
   nlohmann::json clip = ReadJsonFile(Clip());
-  nlohmann::json& boxes = clip["instances"][0]["boxes"];
-  ASSERT_GE(boxes.size(), 2u);
+  auto hold_first_pose = [](nlohmann::json& instance) {
+    for (nlohmann::json& box : instance["boxes"]) {
+      box["center"] = instance["boxes"][0]["center"];
+      box["rotation"] = instance["boxes"][0]["rotation"];
+    }
+  };
+  ASSERT_GE(clip["instances"][0]["boxes"].size(), 2u);
   const std::string id = clip["instances"][0]["id"];
-  for (nlohmann::json& box : boxes) {
-    box["center"] = boxes[0]["center"];
-    box["rotation"] = boxes[0]["rotation"];
-  }
+  hold_first_pose(clip["instances"][0]);
   const std::string still_clip = *dir_ + "/clip/still.json";
   std::ofstream(still_clip) << clip.dump();
   const std::string scene_path = *dir_ + "/still.pfscene";
@@ -908,8 +911,32 @@ TEST_F(ReconCli, AStillTrackIsDecodedAsStaticAndOwnsTheGaussiansInItsBox) {
   const std::string out = *dir_ + "/eval_still";
   const CommandResult eval = RunCommand({Pf(), "eval", still_clip, "--out", out, "--ns", "2000"});
   ASSERT_EQ(eval.exit_code, 0) << eval.err;
-  EXPECT_EQ(ReadJsonFile(out + "/report.json")["stillInstances"], 1);
-  EXPECT_EQ(Report("analytic")["stillInstances"], 0);
+  const nlohmann::json still_report = ReadJsonFile(out + "/report.json");
+  EXPECT_EQ(still_report["stillInstances"], 1);
+  const nlohmann::json moving_report = Report("analytic");
+  EXPECT_EQ(moving_report["stillInstances"], 0);
+  // dynamicPsnr is over the actors that move: the still car's pixels are
+  // left out, the other cars' kept.
+  auto dynamic_pixels = [](const nlohmann::json& report) {
+    int64_t n = 0;
+    for (const nlohmann::json& frame : report["frames"]) n += frame["dynamicPixels"].get<int64_t>();
+    return n;
+  };
+  ASSERT_GE(clip["instances"].size(), 2u);
+  EXPECT_GT(dynamic_pixels(still_report), 0);
+  EXPECT_GT(dynamic_pixels(moving_report), 0);
+  // Every car still: no dynamic pixel in any frame, so no dynamicPsnr.
+  for (nlohmann::json& instance : clip["instances"]) hold_first_pose(instance);
+  const std::string all_still_clip = *dir_ + "/clip/all_still.json";
+  std::ofstream(all_still_clip) << clip.dump();
+  const std::string all_out = *dir_ + "/eval_all_still";
+  const CommandResult all =
+      RunCommand({Pf(), "eval", all_still_clip, "--out", all_out, "--ns", "2000"});
+  ASSERT_EQ(all.exit_code, 0) << all.err;
+  const nlohmann::json all_report = ReadJsonFile(all_out + "/report.json");
+  EXPECT_EQ(all_report["stillInstances"], clip["instances"].size());
+  EXPECT_EQ(dynamic_pixels(all_report), 0);
+  EXPECT_TRUE(all_report["mean"]["dynamicPsnr"].is_null()) << all_report["mean"];
 }
 
 TEST_F(ReconCli, TheScenesLowPassIsStoredAndReported) {

@@ -248,6 +248,7 @@ absl::Status EvaluateExtraViews(const GaussianScene& scene, const DeviceRenderer
   RenderOptions render_options;
   render_options.features = false;
   render_options.instance = false;
+  const std::vector<InstanceTrack> moving = MovingTracks(scene.instances);
   for (size_t i = 0; i < checked.views.size(); ++i) {
     const RenderView& view = checked.views[i].view;
     const std::string what = absl::StrCat("views[", i, "] '", view.name, "'");
@@ -267,8 +268,8 @@ absl::Status EvaluateExtraViews(const GaussianScene& scene, const DeviceRenderer
     // With actor edits the tracked boxes are not where the movers are.
     std::vector<uint8_t> mask;
     if (checked.edits.empty()) {
-      mask = DynamicMask(view.camera.model, view.camera.world_from_camera, scene.instances,
-                         view.timestamp_us);
+      mask =
+          DynamicMask(view.camera.model, view.camera.world_from_camera, moving, view.timestamp_us);
     }
     ImageF render;
     FrameMetrics m = Measure(truth_rgb, truth_depth, *buffers, scene.colour_encoding,
@@ -726,6 +727,8 @@ absl::StatusOr<EvalReport> EvaluateClip(const LoadedClip& loaded, const ReconOpt
   render_options.features = false;
   render_options.instance = false;
   EvalBaselines baselines(loaded, view_options);
+  // dynamicPsnr is over the actors that move; still ones are drawn as static.
+  const std::vector<InstanceTrack> moving = MovingTracks(scene.instances);
   for (size_t t = 0; t < targets.size(); ++t) {
     const ContextView& target = targets[t];
     const auto start = std::chrono::steady_clock::now();
@@ -737,9 +740,8 @@ absl::StatusOr<EvalReport> EvaluateClip(const LoadedClip& loaded, const ReconOpt
     }
     const double render_seconds = SecondsSince(start);
     const auto metrics_start = std::chrono::steady_clock::now();
-    const std::vector<uint8_t> mask =
-        DynamicMask(target.camera, target.lines().MiddleWorldFromCamera(), scene.instances,
-                    target.middle_time_us());
+    const std::vector<uint8_t> mask = DynamicMask(
+        target.camera, target.lines().MiddleWorldFromCamera(), moving, target.middle_time_us());
     ImageF render;
     FrameMetrics m = Measure(target.rgb, target.depth, buffers, scene.colour_encoding, mask,
                              target.ego, &render);

@@ -31,8 +31,9 @@
 // frame has depth (frames without a depth map leave it out); lidarAbsRel is
 // the mean |depth - z| / z over the target time's own LiDAR points where the
 // render has depth, lidarCoverage the share of those points it has depth at
-// (null without LiDAR); dynamicPsnr over pixels whose ray crosses an
-// instance box at the frame's time (left out where there are none);
+// (null without LiDAR); dynamicPsnr over pixels whose ray crosses the box
+// of an instance that moves (MovingTracks, scene_graph.h) at the frame's
+// time (left out where there are none);
 // holeFraction is the share of pixels the render leaves (nearly) empty,
 // alpha < 0.5, which show black (regions no context view saw). Means
 // are over the frames that have the figure; a figure no frame has is null.

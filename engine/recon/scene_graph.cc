@@ -51,6 +51,14 @@ bool IsStillTrack(const InstanceTrack& track) {
   return true;
 }
 
+std::vector<InstanceTrack> MovingTracks(const std::vector<InstanceTrack>& tracks) {
+  std::vector<InstanceTrack> moving;
+  for (const InstanceTrack& track : tracks) {
+    if (!IsStillTrack(track)) moving.push_back(track);
+  }
+  return moving;
+}
+
 std::vector<int64_t> AdoptStillInstances(const std::vector<InstanceTrack>& still,
                                          const std::vector<uint8_t>& far, GaussianScene* scene) {
   std::vector<int64_t> taken(still.size(), 0);

@@ -54,6 +54,10 @@ inline constexpr double kStillCentre = 0.05;
 inline constexpr double kStillAngle = 0.035;  // 2 degrees.
 bool IsStillTrack(const InstanceTrack& track);
 
+// The tracks of `tracks` that move (not IsStillTrack), in order: the actors
+// whose pixels pf eval's dynamic figures (dynamicPsnr) are taken over.
+std::vector<InstanceTrack> MovingTracks(const std::vector<InstanceTrack>& tracks);
+
 // Appends `still` to scene->instances and makes each Gaussian that is static
 // (owner 0), not on the far layer (`far`, per Gaussian, may be shorter: not
 // far) and inside a still track's first box grown by kMembershipMargin

@@ -65,6 +65,21 @@ TEST(SceneGraph, StillTracksAreThoseWhoseBoxesStayWithinTheTolerance) {
   EXPECT_FALSE(IsStillTrack(InstanceTrack{}));
 }
 
+TEST(SceneGraph, MovingTracksLeaveTheStillOnesOut) {
+  const Vec3 c{10, 5, 1};
+  InstanceTrack parked = TrackThrough({c, c}, {30, 30});
+  parked.id = "parked";
+  InstanceTrack driving = TrackThrough({c, c + Vec3{2, 0, 0}}, {30, 30});
+  driving.id = "driving";
+  InstanceTrack turning = TrackThrough({c, c}, {30, 45});
+  turning.id = "turning";
+  const std::vector<InstanceTrack> moving = MovingTracks({parked, driving, turning});
+  ASSERT_EQ(moving.size(), 2u);
+  EXPECT_EQ(moving[0].id, "driving");
+  EXPECT_EQ(moving[1].id, "turning");
+  EXPECT_TRUE(MovingTracks({parked}).empty());
+}
+
 TEST(SceneGraph, StillInstancesTakeTheStaticGaussiansInTheirFirstBox) {
   // One moving instance already in the scene (owner 1) and two still tracks
   // appended (owners 2 and 3). Gaussian 0 is static inside the first still
