@@ -7,8 +7,9 @@ set by the split below, then `pf eval CLIP --out DIR [--model pixel-aligned]` ru
 /usr/bin/time for the peak memory. Per clip the table has our PSNR and SSIM, the
 pixel-aligned model's, the baselines every report.json carries (`nearest`: the nearest
 CONTEXT image of the target's camera; `warp`: the two nearest CONTEXT frames forward-warped
-with LiDAR depth completed by IP-Basic), the depth error of our render against the LiDAR
-of the TARGET times, the reconstruction time and the peak memory.
+with LiDAR depth completed by IP-Basic), the PSNR of each over the moving actors' pixels
+(report.json's dynamicPsnr), the depth error of our render against the LiDAR of the
+TARGET times, the reconstruction time and the peak memory.
 
 usage: scripts/eval_suite.py [--pf PATH] [--data DIR] [--out DIR] [--clips A,B] [--quick]
                              [--no-pixel-aligned] [--json FILE] [--list] [--eval-args ARGS]
@@ -150,6 +151,9 @@ def evaluate(pf, clip_json, out_dir, model, log, eval_args):
         "warpPsnr": figure(report, "baselines", "warp", "psnr"),
         "warpSsim": figure(report, "baselines", "warp", "ssim"),
         "warpLidarAbsRel": figure(report, "baselines", "warp", "lidarAbsRel"),
+        "dynamicPsnr": figure(report, "mean", "dynamicPsnr"),
+        "nearestDynamicPsnr": figure(report, "baselines", "nearest", "dynamicPsnr"),
+        "warpDynamicPsnr": figure(report, "baselines", "warp", "dynamicPsnr"),
         "reconstructSeconds": report.get("reconstructSeconds"),
         "evalSeconds": seconds,
         "peakGiB": peak_gib(time_log),
@@ -379,8 +383,8 @@ def print_band_table(rows, bands):
 
 def print_eval_table(rows):
     header = ("| clip | context / target views | ours PSNR | pixel-aligned | nearest | warp | "
-              "ours SSIM | nearest SSIM | warp SSIM | depth AbsRel ours / warp | "
-              "reconstruction s | peak GiB | Gaussians |")
+              "ours SSIM | nearest SSIM | warp SSIM | moving actors PSNR ours / nearest / warp | "
+              "depth AbsRel ours / warp | reconstruction s | peak GiB | Gaussians |")
     print(header)
     print("|" + "---|" * (header.count("|") - 1))
     for row in rows:
@@ -390,6 +394,8 @@ def print_eval_table(rows):
               f"{fmt(pixel.get('psnr'))} | {fmt(ours.get('nearestPsnr'))} | "
               f"{fmt(ours.get('warpPsnr'))} | {fmt(ours.get('ssim'), 3)} | "
               f"{fmt(ours.get('nearestSsim'), 3)} | {fmt(ours.get('warpSsim'), 3)} | "
+              f"{fmt(ours.get('dynamicPsnr'))} / {fmt(ours.get('nearestDynamicPsnr'))} / "
+              f"{fmt(ours.get('warpDynamicPsnr'))} | "
               f"{fmt(ours.get('lidarAbsRel'), 3)} / {fmt(ours.get('warpLidarAbsRel'), 3)} | "
               f"{fmt(ours.get('reconstructSeconds'), 1)} | {fmt(ours.get('peakGiB'))} | "
               f"{ours.get('gaussians', '-')} |")
