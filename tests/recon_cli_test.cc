@@ -908,10 +908,13 @@ TEST_F(ReconCli, AStillTrackIsDecodedAsStaticAndOwnsTheGaussiansInItsBox) {
     EXPECT_GE(q.z, -box.size.z / 2 + 0.05 - 1e-4) << "Gaussian " << i;
   }
   EXPECT_GT(owned, 20);
-  const std::string out = *dir_ + "/eval_still";
-  const CommandResult eval = RunCommand({Pf(), "eval", still_clip, "--out", out, "--ns", "2000"});
-  ASSERT_EQ(eval.exit_code, 0) << eval.err;
-  const nlohmann::json still_report = ReadJsonFile(out + "/report.json");
+  // pf eval of `clip_path` into `out`; its report.json.
+  auto evaluate = [&](const std::string& clip_path, const std::string& out) {
+    const CommandResult eval = RunCommand({Pf(), "eval", clip_path, "--out", out, "--ns", "2000"});
+    EXPECT_EQ(eval.exit_code, 0) << eval.err;
+    return ReadJsonFile(out + "/report.json");
+  };
+  const nlohmann::json still_report = evaluate(still_clip, *dir_ + "/eval_still");
   EXPECT_EQ(still_report["stillInstances"], 1);
   const nlohmann::json moving_report = Report("analytic");
   EXPECT_EQ(moving_report["stillInstances"], 0);
@@ -929,11 +932,7 @@ TEST_F(ReconCli, AStillTrackIsDecodedAsStaticAndOwnsTheGaussiansInItsBox) {
   for (nlohmann::json& instance : clip["instances"]) hold_first_pose(instance);
   const std::string all_still_clip = *dir_ + "/clip/all_still.json";
   std::ofstream(all_still_clip) << clip.dump();
-  const std::string all_out = *dir_ + "/eval_all_still";
-  const CommandResult all =
-      RunCommand({Pf(), "eval", all_still_clip, "--out", all_out, "--ns", "2000"});
-  ASSERT_EQ(all.exit_code, 0) << all.err;
-  const nlohmann::json all_report = ReadJsonFile(all_out + "/report.json");
+  const nlohmann::json all_report = evaluate(all_still_clip, *dir_ + "/eval_all_still");
   EXPECT_EQ(all_report["stillInstances"], clip["instances"].size());
   EXPECT_EQ(dynamic_pixels(all_report), 0);
   EXPECT_TRUE(all_report["mean"]["dynamicPsnr"].is_null()) << all_report["mean"];
