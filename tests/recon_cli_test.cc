@@ -14,6 +14,7 @@
 #include <sstream>
 #include <string>
 #include <tuple>
+#include <utility>
 #include <vector>
 
 #include "engine/image/image_io.h"
@@ -936,6 +937,63 @@ TEST_F(ReconCli, AStillTrackIsDecodedAsStaticAndOwnsTheGaussiansInItsBox) {
   EXPECT_EQ(all_report["stillInstances"], clip["instances"].size());
   EXPECT_EQ(dynamic_pixels(all_report), 0);
   EXPECT_TRUE(all_report["mean"]["dynamicPsnr"].is_null()) << all_report["mean"];
+}
+
+TEST_F(ReconCli, TheViewsOfACameraThatStandsStillAreSampledDenser) {
+  // The clip with every camera held at its first pose, as a rig stopped at
+  // a light.
+  nlohmann::json clip = ReadJsonFile(Clip());
+  std::map<std::string, nlohmann::json> first_pose;
+  for (nlohmann::json& frame : clip["frames"]) {
+    const auto [it, inserted] = first_pose.emplace(frame["camera"], frame["worldFromCamera"]);
+    frame["worldFromCamera"] = it->second;
+  }
+  const std::string still_clip = *dir_ + "/clip/still_rig.json";
+  std::ofstream(still_clip) << clip.dump();
+  // The static Gaussians of `clip_path` reconstructed with `extra`, and the log.
+  auto reconstruct = [&](const std::string& clip_path, const std::vector<std::string>& extra) {
+    const std::string path = *dir_ + "/still_rig.pfscene";
+    std::vector<std::string> argv = {Pf(), "reconstruct", clip_path, "--out", path, "--ns", "2000"};
+    argv.insert(argv.end(), extra.begin(), extra.end());
+    const CommandResult result = RunCommand(argv);
+    EXPECT_EQ(result.exit_code, 0) << result.err;
+    absl::StatusOr<SceneFile> file = ReadSceneFile(path);
+    EXPECT_TRUE(file.ok()) << file.status();
+    std::vector<float> means;
+    if (file.ok()) {
+      for (size_t i = 0; i < file->scene.size(); ++i) {
+        if (file->scene.owners[i] != 0) continue;
+        means.insert(means.end(), &file->scene.means[3 * i], &file->scene.means[3 * i + 3]);
+      }
+    }
+    return std::make_pair(means, result.err);
+  };
+  const auto [tripled, tripled_log] = reconstruct(still_clip, {});
+  EXPECT_NE(tripled_log.find("6 views of cameras that stand still at 3 x N_s"), std::string::npos)
+      << tripled_log;
+  const auto [doubled, doubled_log] = reconstruct(still_clip, {"--still-rig-density", "2"});
+  EXPECT_NE(doubled_log.find("6 views of cameras that stand still at 2 x N_s"), std::string::npos)
+      << doubled_log;
+  const auto [plain, plain_log] = reconstruct(still_clip, {"--still-rig-density", "1"});
+  EXPECT_EQ(plain_log.find("stand still"), std::string::npos) << plain_log;
+  // F x N_s per view: about F times the static Gaussians.
+  const double plain_size = double(std::max<size_t>(1, plain.size()));
+  EXPECT_GT(doubled.size() / plain_size, 1.7);
+  EXPECT_LT(doubled.size() / plain_size, 2.3);
+  EXPECT_GT(tripled.size() / plain_size, 2.5);
+  EXPECT_LT(tripled.size() / plain_size, 3.5);
+  // The synth rig moves: the option changes nothing there.
+  const auto [moving, moving_log] = reconstruct(Clip(), {"--still-rig-density", "3"});
+  EXPECT_EQ(moving_log.find("stand still"), std::string::npos) << moving_log;
+  const auto [moving_plain, unused] = reconstruct(Clip(), {"--still-rig-density", "1"});
+  EXPECT_EQ(moving, moving_plain);
+  EXPECT_EQ(Report("analytic")["stillRigViews"], 0);
+  EXPECT_EQ(Report("analytic")["stillRigDensity"], 3.0);
+  // Out of [1, 4]: an error that names the flag.
+  const CommandResult bad = RunCommand(
+      {Pf(), "reconstruct", Clip(), "--out", *dir_ + "/bad.pfscene", "--still-rig-density", "8"});
+  EXPECT_NE(bad.exit_code, 0);
+  EXPECT_NE(bad.err.find("still-rig-density"), std::string::npos) << bad.err;
 }
 
 TEST_F(ReconCli, TheScenesLowPassIsStoredAndReported) {

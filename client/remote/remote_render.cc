@@ -42,7 +42,7 @@ constexpr char kRemoteRenderUsage[] =
     "[--order-band B] [--fade-frames F] [--hidden-band PX] [--colour-fit-memory GB] "
     "[--no-ground-fill] "
     "[--no-facades] [--no-stereo] "
-    "[--no-ego-layer] [--render-blur PX] [--colour gradients|flat] "
+    "[--no-ego-layer] [--render-blur PX] [--still-rig-density F] [--colour gradients|flat] "
     "[--completion nearest|ip-basic] [--working-space srgb|linear] "
     "[--optimize-steps N [--optimize-seconds S] [--optimize-poses] [--optimize-densify]] --cameras "
     "VIEWS.json [--out DIR --wait] "

@@ -495,6 +495,8 @@ std::string EvalReportJson(const EvalReport& report) {
   j["orderBand"] = report.options.decoder.order_band;
   j["renderBlur"] = report.options.render_blur;
   j["stillInstances"] = report.stats.still_instances;
+  j["stillRigViews"] = report.stats.still_rig_views;
+  j["stillRigDensity"] = report.options.still_rig_density;
   j["refineIterations"] = report.options.refinement.iterations;
   // What the scene has, not what was asked: --refine 0, or a fit over the
   // memory bound, leaves it flat.

@@ -220,13 +220,25 @@ void Pipeline::Sample(bool dense) {
           FadeSigma(views.cameras, views.times_us, options_.decoder.fade_frames)) {
     sampling.finer_view_seconds = *sigma + 1.0;
   }
+  const std::vector<bool> still = StillCameraViews(inputs_.views);
   std::vector<SamplingView> sampling_views(num_views);
+  int still_views = 0;
   for (size_t v = 0; v < num_views; ++v) {
     sampling_views[v] = {&inputs_.views[v], &depths_[v], &lifted_[v], &owners_[v]};
+    if (still[v] && !dense && options_.still_rig_density != 1.0) {
+      sampling_views[v].static_density = options_.still_rig_density;
+      ++still_views;
+    }
   }
+  result_.stats.still_rig_views = still_views;
   queries_ = SampleQueries(sampling_views, inputs_.tracks, sampling);
   lifted_.clear();
-  Done(ReconStage::kSample, absl::StrCat(" (", queries_.size(), " queries)"));
+  std::string still_note;
+  if (still_views > 0) {
+    still_note = absl::StrCat("; ", still_views, " views of cameras that stand still at ",
+                              options_.still_rig_density, " x N_s");
+  }
+  Done(ReconStage::kSample, absl::StrCat(" (", queries_.size(), " queries", still_note, ")"));
 }
 
 absl::Status Pipeline::Fuse() {

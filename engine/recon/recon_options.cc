@@ -20,6 +20,7 @@ absl::StatusOr<ReconOptions> ReconOptionsFromProto(const v1::ReconstructionOptio
   options.model = p.model();
   options.static_per_view = p.ns();
   options.dynamic_per_instance = p.nd();
+  if (p.has_still_rig_density()) options.still_rig_density = p.still_rig_density();
   if (p.fusion() == "average") {
     options.fusion.weights = FusionWeights::kPlainAverage;
   } else if (p.fusion() == "no-depth") {

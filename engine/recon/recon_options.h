@@ -7,6 +7,9 @@
 //   --model analytic|pixel-aligned   (default analytic; recon_model.h)
 //   --ns N  --nd N                   N_s per view, N_d per instance
 //                                    (default 100K / 10K scaled to the image size)
+//   --still-rig-density F            N_s of the views of a camera that stands still
+//                                    over the CONTEXT frames is F x N_s (default 3;
+//                                    1: no more; sparse_sampling.h StillCameraViews)
 //   --fusion softmax|average|no-depth  fusion weights (ablations; default softmax)
 //   --lifespan                       static Gaussians that a view at another time
 //                                    sees past fade with time (off by default;

@@ -38,6 +38,9 @@ struct ReconOptions {
   // context image's size relative to 768 x 576.
   int64_t static_per_view = 0;
   int64_t dynamic_per_instance = 0;
+  // N_s of the views of a camera that stands still (StillCameraViews,
+  // sparse_sampling.h) is static_per_view times this, in [1, 4]; 1: the same.
+  double still_rig_density = 3.0;
   FusionOptions fusion;
   DecoderOptions decoder;
   // iterations = 0: no refinement. The fit's memory bound is its max_pairs
@@ -89,6 +92,8 @@ struct ReconStats {
   int64_t static_gaussians = 0;      // Owner 0, far layer included.
   int64_t far_gaussians = 0;
   int64_t dynamic_gaussians = 0;
+  // Views whose camera stands still, sampled at still_rig_density x N_s.
+  int still_rig_views = 0;
   int lidar_views = 0;          // Views whose depth came from LiDAR.
   int sparse_map_views = 0;     // Views whose sparse depth map was completed (view_depth.h).
   int64_t ground_pixels = 0;    // Completed views' pixels set by the ground fill (view_depth.h).

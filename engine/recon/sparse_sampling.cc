@@ -6,7 +6,9 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <optional>
+#include <string>
 #include <tuple>
 #include <vector>
 
@@ -958,10 +960,15 @@ class SeenSurfaces {
   absl::flat_hash_map<uint64_t, std::pair<uint32_t, uint32_t>> cells_;
 };
 
+// The view's N_s (SamplingView::static_density).
+double StaticBudget(const SamplingView& sv, const SamplingOptions& options) {
+  return double(std::max<int64_t>(1, options.static_per_view)) * std::max(1e-6, sv.static_density);
+}
+
 double StaticStride(const SamplingView& sv, const SamplingOptions& options) {
   if (options.dense) return 1.0;
   const double pixels = double(sv.view->width()) * sv.view->height();
-  return std::max(1.0, std::sqrt(pixels / double(std::max<int64_t>(1, options.static_per_view))));
+  return std::max(1.0, std::sqrt(pixels / StaticBudget(sv, options)));
 }
 
 // Appends the static queries of `views` to `out`, with every view's grid
@@ -1112,6 +1119,28 @@ size_t SampleStatic(const std::vector<SamplingView>& views,
 
 }  // namespace
 
+std::vector<bool> StillCameraViews(const std::vector<ContextView>& views) {
+  std::vector<bool> still(views.size(), false);
+  std::map<std::string, std::vector<size_t>> by_camera;
+  for (size_t v = 0; v < views.size(); ++v) by_camera[views[v].camera_id].push_back(v);
+  for (const auto& [camera, members] : by_camera) {
+    if (members.size() < 2) continue;
+    const Rigid& first = views[members.front()].world_from_camera;
+    const bool stands = std::all_of(members.begin(), members.end(), [&](size_t v) {
+      const Rigid& pose = views[v].world_from_camera;
+      if (Norm(pose.translation - first.translation) > kStillCentre) return false;
+      const Mat3 relative = Transpose(first.rotation) * pose.rotation;
+      const double cos_angle =
+          std::clamp((relative.m[0][0] + relative.m[1][1] + relative.m[2][2] - 1) / 2, -1.0, 1.0);
+      return std::acos(cos_angle) <= kStillAngle;
+    });
+    if (stands) {
+      for (size_t v : members) still[v] = true;
+    }
+  }
+  return still;
+}
+
 QuerySet SampleQueries(const std::vector<SamplingView>& views,
                        const std::vector<InstanceTrack>& tracks, const SamplingOptions& options) {
   QuerySet out;
@@ -1129,8 +1158,8 @@ QuerySet SampleQueries(const std::vector<SamplingView>& views,
   footprints.reserve(views.size());
   for (const SamplingView& sv : views) footprints.emplace_back(sv.view->camera);
   const size_t kept = SampleStatic(views, footprints, options, 1.0, floor, &out, &colours);
-  const double budget =
-      double(views.size()) * double(std::max<int64_t>(1, options.static_per_view));
+  double budget = 0;
+  for (const SamplingView& sv : views) budget += StaticBudget(sv, options);
   if (options.fill_static_budget && !options.dense && kept > 0 && kept < 0.95 * budget) {
     const double refine =
         std::max(1 / std::sqrt(options.max_refill), std::sqrt(double(kept) / budget));

@@ -139,7 +139,19 @@ struct SamplingView {
   const ViewDepth* depth = nullptr;
   const LiftedView* lifted = nullptr;
   const std::vector<uint32_t>* owners = nullptr;  // [H, W] box membership at the view's time
+  // The view's N_s is SamplingOptions::static_per_view times this (its grid
+  // cells 1 / sqrt(this) as wide); the budget the refill keeps is the sum.
+  double static_density = 1.0;
 };
+
+// Per view of `views`, whether its camera stands still: the camera has two
+// or more views and each lies within kStillCentre and kStillAngle
+// (scene_graph.h) of its first. A rig stopped at a light sees the same
+// pixels at every time, so the skip of covered voxels leaves one view's
+// worth of queries per camera, and the renders wanted of it are at those
+// poses, where more discs per pixel draw more of the image (ReconOptions::
+// still_rig_density).
+std::vector<bool> StillCameraViews(const std::vector<ContextView>& views);
 
 // Returns the queries of `views` as described above. `tracks` give the
 // canonical frames of the owners.

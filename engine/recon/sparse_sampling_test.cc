@@ -617,6 +617,51 @@ TEST(SparseSampling, InstanceQueriesAreCanonicalAndWithinBudget) {
     if (q.owners[i] == 0) EXPECT_EQ(plane.owners[q.pixels[i]], 0u);
 }
 
+// A camera at `x` metres along world x, turned `degrees` about its optical axis.
+Rigid CameraAt(double x, double degrees) {
+  const double half = 0.5 * degrees * M_PI / 180.0;
+  Rigid pose;
+  pose.rotation = ToMatrix(Quat{std::cos(half), 0, 0, std::sin(half)});
+  pose.translation = {x, 0, 0};
+  return pose;
+}
+
+TEST(SparseSampling, ACameraStandsStillWhenEveryViewIsWithinFiveCentimetresAndTwoDegrees) {
+  std::vector<ContextView> views(9);
+  const auto set = [&](size_t v, const char* camera, double x, double degrees) {
+    views[v].camera_id = camera;
+    views[v].world_from_camera = CameraAt(x, degrees);
+  };
+  set(0, "still", 0, 0);
+  set(1, "moving", 0, 0);
+  set(2, "still", 0.04, 1.5);  // Within 5 cm and 2 degrees of its first.
+  set(3, "moving", 0.04, 0);
+  set(4, "moving", 0.08, 0);  // 8 cm from its first: it moves.
+  set(5, "turning", 0, 0);
+  set(6, "turning", 0, 3);  // 3 degrees: it turns.
+  set(7, "alone", 0, 0);    // One view: nothing to compare.
+  set(8, "still", 0.01, -1);
+  const std::vector<bool> still = StillCameraViews(views);
+  const std::vector<bool> want = {true, false, true, false, false, false, false, false, true};
+  EXPECT_EQ(still, want);
+}
+
+TEST(SparseSampling, AViewsStaticDensityScalesItsQueries) {
+  const PlaneView plane(192, 144, Rigid{});
+  SamplingOptions options;
+  options.static_per_view = 1728;  // Stride 4 px at density 1.
+  SamplingView dense = plane.sampling();
+  dense.static_density = 4;  // Cells half as wide: stride 2 px.
+  const QuerySet q = SampleQueries({dense}, {}, options);
+  EXPECT_EQ(q.size(), 4u * 1728u);
+  std::set<int> pixels(q.pixels.begin(), q.pixels.end());
+  EXPECT_EQ(pixels.size(), q.size());
+  // Every 4 x 4 block holds one sample per 2 x 2 cell.
+  std::vector<int> per_block((192 / 4) * (144 / 4), 0);
+  for (int p : q.pixels) ++per_block[(p / 192 / 4) * (192 / 4) + (p % 192) / 4];
+  for (int count : per_block) EXPECT_EQ(count, 4);
+}
+
 }  // namespace
 }  // namespace pf
 
