@@ -968,7 +968,10 @@ TEST_F(ReconCli, TheViewsOfACameraThatStandsStillAreSampledDenser) {
     }
     return std::make_pair(means, result.err);
   };
-  const auto [tripled, tripled_log] = reconstruct(still_clip, {});
+  const auto [by_default, default_log] = reconstruct(still_clip, {});
+  EXPECT_NE(default_log.find("6 views of cameras that stand still at 8 x N_s"), std::string::npos)
+      << default_log;
+  const auto [tripled, tripled_log] = reconstruct(still_clip, {"--still-rig-density", "3"});
   EXPECT_NE(tripled_log.find("6 views of cameras that stand still at 3 x N_s"), std::string::npos)
       << tripled_log;
   const auto [doubled, doubled_log] = reconstruct(still_clip, {"--still-rig-density", "2"});
@@ -982,16 +985,17 @@ TEST_F(ReconCli, TheViewsOfACameraThatStandsStillAreSampledDenser) {
   EXPECT_LT(doubled.size() / plain_size, 2.3);
   EXPECT_GT(tripled.size() / plain_size, 2.5);
   EXPECT_LT(tripled.size() / plain_size, 3.5);
+  EXPECT_GT(by_default.size(), tripled.size());
   // The synth rig moves: the option changes nothing there.
   const auto [moving, moving_log] = reconstruct(Clip(), {"--still-rig-density", "3"});
   EXPECT_EQ(moving_log.find("stand still"), std::string::npos) << moving_log;
   const auto [moving_plain, unused] = reconstruct(Clip(), {"--still-rig-density", "1"});
   EXPECT_EQ(moving, moving_plain);
   EXPECT_EQ(Report("analytic")["stillRigViews"], 0);
-  EXPECT_EQ(Report("analytic")["stillRigDensity"], 3.0);
+  EXPECT_EQ(Report("analytic")["stillRigDensity"], 8.0);
   // Out of [1, 4]: an error that names the flag.
   const CommandResult bad = RunCommand(
-      {Pf(), "reconstruct", Clip(), "--out", *dir_ + "/bad.pfscene", "--still-rig-density", "8"});
+      {Pf(), "reconstruct", Clip(), "--out", *dir_ + "/bad.pfscene", "--still-rig-density", "20"});
   EXPECT_NE(bad.exit_code, 0);
   EXPECT_NE(bad.err.find("still-rig-density"), std::string::npos) << bad.err;
 }

@@ -107,7 +107,7 @@ Pipeline::Pipeline(ReconInputs inputs, const ReconOptions& options)
   const int height = views.empty() ? 0 : views[0].height();
   stats.static_per_view = options.static_per_view > 0
                               ? options.static_per_view
-                              : ScaledBudget(kDefaultStaticPerView, width, height);
+                              : ScaledStaticBudget(kDefaultStaticPerView, width, height);
   stats.dynamic_per_instance = options.dynamic_per_instance > 0
                                    ? options.dynamic_per_instance
                                    : ScaledBudget(kDefaultDynamicPerInstance, width, height);

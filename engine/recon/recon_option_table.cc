@@ -56,7 +56,7 @@ std::vector<Spec> MakeTable() {
   table.push_back(Number("ns", Kind::kInt, 1, false, 1e9, " queries per view", Key::kText));
   table.push_back(Number("nd", Kind::kInt, 1, false, 1e9, " queries per instance", Key::kText));
   table.push_back(
-      Number("still_rig_density", Kind::kReal, 1, false, 4, " x N_s", Key::kHexWhenSet));
+      Number("still_rig_density", Kind::kReal, 1, false, 16, " x N_s", Key::kHexWhenSet));
   Spec fusion = Choice("fusion", "weighting", {"softmax", "average", "no-depth"}, Key::kText);
   fusion.fills_default = true;
   table.push_back(fusion);

@@ -6,9 +6,10 @@
 //
 //   --model analytic|pixel-aligned   (default analytic; recon_model.h)
 //   --ns N  --nd N                   N_s per view, N_d per instance
-//                                    (default 100K / 10K scaled to the image size)
+//                                    (default 100K / 10K scaled to the image size;
+//                                    sparse_sampling.h ScaledStaticBudget)
 //   --still-rig-density F            N_s of the views of a camera that stands still
-//                                    over the CONTEXT frames is F x N_s (default 3;
+//                                    over the CONTEXT frames is F x N_s (default 8;
 //                                    1: no more; sparse_sampling.h StillCameraViews)
 //   --fusion softmax|average|no-depth  fusion weights (ablations; default softmax)
 //   --lifespan                       static Gaussians that a view at another time

@@ -35,12 +35,13 @@ namespace pf {
 struct ReconOptions {
   std::string model = "analytic";  // A name of recon_model.h's registry.
   // N_s and N_d; <= 0 means the paper's 100K / 10K scaled to the first
-  // context image's size relative to 768 x 576.
+  // context image's size relative to 768 x 576 (N_s by ScaledStaticBudget,
+  // N_d by ScaledBudget; sparse_sampling.h).
   int64_t static_per_view = 0;
   int64_t dynamic_per_instance = 0;
   // N_s of the views of a camera that stands still (StillCameraViews,
-  // sparse_sampling.h) is static_per_view times this, in [1, 4]; 1: the same.
-  double still_rig_density = 3.0;
+  // sparse_sampling.h) is static_per_view times this, in [1, 16]; 1: the same.
+  double still_rig_density = 8.0;
   FusionOptions fusion;
   DecoderOptions decoder;
   // iterations = 0: no refinement. The fit's memory bound is its max_pairs

@@ -348,6 +348,12 @@ int64_t ScaledBudget(int64_t at_768x576, int width, int height) {
   return std::max<int64_t>(1, static_cast<int64_t>(std::llround(double(at_768x576) * scale)));
 }
 
+int64_t ScaledStaticBudget(int64_t at_768x576, int width, int height) {
+  const double scale = double(width) * height / (768.0 * 576.0);
+  if (scale <= 1.0) return ScaledBudget(at_768x576, width, height);
+  return static_cast<int64_t>(std::llround(double(at_768x576) * std::sqrt(scale)));
+}
+
 int LineTimeSample(const std::optional<RollingShutter>& rolling_shutter, int width, int height,
                    size_t pixel) {
   if (!rolling_shutter.has_value() || width <= 0) return 0;

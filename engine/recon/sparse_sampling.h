@@ -133,6 +133,13 @@ struct SamplingOptions {
 // 768 x 576 (at least 1).
 int64_t ScaledBudget(int64_t at_768x576, int width, int height);
 
+// N_s's scaling: as ScaledBudget up to 768 x 576, by the square root of the
+// pixel count's ratio above it (with the image's side). The depth the
+// queries are lifted with (LiDAR, its completion) does not get finer with
+// the image, and finer discs on it draw new views worse: at 1936x1216,
+// 0.43 x ScaledBudget.
+int64_t ScaledStaticBudget(int64_t at_768x576, int width, int height);
+
 // One view's inputs to sampling.
 struct SamplingView {
   const ContextView* view = nullptr;

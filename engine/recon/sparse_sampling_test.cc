@@ -44,6 +44,14 @@ TEST(SparseSampling, ScaledBudgetFollowsPixelCount) {
   EXPECT_EQ(ScaledBudget(10, 1, 1), 1);
 }
 
+TEST(SparseSampling, TheStaticBudgetGrowsWithTheImagesSideAbove768x576) {
+  EXPECT_EQ(ScaledStaticBudget(100000, 768, 576), 100000);
+  EXPECT_EQ(ScaledStaticBudget(100000, 384, 288), 25000);     // Below: with the area.
+  EXPECT_EQ(ScaledStaticBudget(100000, 1536, 1152), 200000);  // 4x the pixels, 2x the side.
+  EXPECT_EQ(ScaledStaticBudget(100000, 1936, 1216), 230689);  // DGP: sqrt(5.32).
+  EXPECT_EQ(ScaledBudget(100000, 1936, 1216), 532176);
+}
+
 TEST(SparseSampling, StaticSamplesCoverEveryCellWithoutDuplicates) {
   const PlaneView plane(192, 144, Rigid{});
   SamplingOptions options;
