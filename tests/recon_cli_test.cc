@@ -993,7 +993,7 @@ TEST_F(ReconCli, TheViewsOfACameraThatStandsStillAreSampledDenser) {
   EXPECT_EQ(moving, moving_plain);
   EXPECT_EQ(Report("analytic")["stillRigViews"], 0);
   EXPECT_EQ(Report("analytic")["stillRigDensity"], 8.0);
-  // Out of [1, 4]: an error that names the flag.
+  // Out of [1, 16]: an error that names the flag.
   const CommandResult bad = RunCommand(
       {Pf(), "reconstruct", Clip(), "--out", *dir_ + "/bad.pfscene", "--still-rig-density", "20"});
   EXPECT_NE(bad.exit_code, 0);

@@ -38,17 +38,21 @@ bool PointInBox(const Vec3& p, const TrackBox& box, const BoxMargin& margin) {
   return InBox(p, box, Transpose(ToMatrix(box.rotation)), margin);
 }
 
+bool WithinStillReach(const Vec3& first_centre, const Quat& first_rotation, const Vec3& centre,
+                      const Quat& rotation) {
+  if (Norm(centre - first_centre) > kStillCentre) return false;
+  const Quat a = QuatNormalized(first_rotation);
+  const Quat b = QuatNormalized(rotation);
+  const double dot = std::min(1.0, std::abs(a.w * b.w + a.x * b.x + a.y * b.y + a.z * b.z));
+  return 2 * std::acos(dot) <= kStillAngle;
+}
+
 bool IsStillTrack(const InstanceTrack& track) {
   if (track.boxes.empty()) return false;
   const TrackBox& first = track.boxes.front();
-  const Quat a = QuatNormalized(first.rotation);
-  for (const TrackBox& box : track.boxes) {
-    if (Norm(box.center - first.center) > kStillCentre) return false;
-    const Quat b = QuatNormalized(box.rotation);
-    const double dot = std::min(1.0, std::abs(a.w * b.w + a.x * b.x + a.y * b.y + a.z * b.z));
-    if (2 * std::acos(dot) > kStillAngle) return false;
-  }
-  return true;
+  return std::all_of(track.boxes.begin(), track.boxes.end(), [&](const TrackBox& box) {
+    return WithinStillReach(first.center, first.rotation, box.center, box.rotation);
+  });
 }
 
 std::vector<InstanceTrack> MovingTracks(const std::vector<InstanceTrack>& tracks) {

@@ -54,6 +54,12 @@ inline constexpr double kStillCentre = 0.05;
 inline constexpr double kStillAngle = 0.035;  // 2 degrees.
 bool IsStillTrack(const InstanceTrack& track);
 
+// Whether the pose (`centre`, `rotation`) lies within kStillCentre and
+// kStillAngle of (`first_centre`, `first_rotation`): the rule of
+// IsStillTrack, and of a camera that stands still (StillCameraViews).
+bool WithinStillReach(const Vec3& first_centre, const Quat& first_rotation, const Vec3& centre,
+                      const Quat& rotation);
+
 // The tracks of `tracks` that move (not IsStillTrack), in order: the actors
 // whose pixels pf eval's dynamic figures (dynamicPsnr) are taken over.
 std::vector<InstanceTrack> MovingTracks(const std::vector<InstanceTrack>& tracks);

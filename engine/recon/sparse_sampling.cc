@@ -1132,13 +1132,11 @@ std::vector<bool> StillCameraViews(const std::vector<ContextView>& views) {
   for (const auto& [camera, members] : by_camera) {
     if (members.size() < 2) continue;
     const Rigid& first = views[members.front()].world_from_camera;
+    const Quat first_rotation = FromMatrix(first.rotation);
     const bool stands = std::all_of(members.begin(), members.end(), [&](size_t v) {
       const Rigid& pose = views[v].world_from_camera;
-      if (Norm(pose.translation - first.translation) > kStillCentre) return false;
-      const Mat3 relative = Transpose(first.rotation) * pose.rotation;
-      const double cos_angle =
-          std::clamp((relative.m[0][0] + relative.m[1][1] + relative.m[2][2] - 1) / 2, -1.0, 1.0);
-      return std::acos(cos_angle) <= kStillAngle;
+      return WithinStillReach(first.translation, first_rotation, pose.translation,
+                              FromMatrix(pose.rotation));
     });
     if (stands) {
       for (size_t v : members) still[v] = true;
