@@ -998,6 +998,23 @@ TEST_F(ReconCli, TheViewsOfACameraThatStandsStillAreSampledDenser) {
       {Pf(), "reconstruct", Clip(), "--out", *dir_ + "/bad.pfscene", "--still-rig-density", "20"});
   EXPECT_NE(bad.exit_code, 0);
   EXPECT_NE(bad.err.find("still-rig-density"), std::string::npos) << bad.err;
+
+  // Depth from LiDAR on a rig that stands still: no render blur unless asked
+  // (reconstruction.h DefaultRenderBlur; the moving rig's LiDAR-only clip
+  // takes 0.5 px: LidarOnlyDepthGainsFromTheGroundPlaneFacadesAndStereo).
+  for (nlohmann::json& frame : clip["frames"]) {
+    if (frame.value("role", "") == "CONTEXT") frame.erase("depth");
+  }
+  const std::string still_lidar_clip = *dir_ + "/clip/still_rig_lidar.json";
+  std::ofstream(still_lidar_clip) << clip.dump();
+  const std::string still_lidar_scene = *dir_ + "/still_rig_lidar.pfscene";
+  const CommandResult still_lidar = RunCommand(
+      {Pf(), "reconstruct", still_lidar_clip, "--out", still_lidar_scene, "--ns", "2000"});
+  ASSERT_EQ(still_lidar.exit_code, 0) << still_lidar.err;
+  EXPECT_NE(still_lidar.err.find("6 of 6 views from LiDAR"), std::string::npos) << still_lidar.err;
+  absl::StatusOr<SceneFile> still_lidar_file = ReadSceneFile(still_lidar_scene);
+  ASSERT_TRUE(still_lidar_file.ok()) << still_lidar_file.status();
+  EXPECT_EQ(still_lidar_file->scene.render_blur, 0.f);
 }
 
 TEST_F(ReconCli, TheScenesLowPassIsStoredAndReported) {
@@ -1032,11 +1049,12 @@ TEST_F(ReconCli, TheScenesLowPassIsStoredAndReported) {
       << bad.err;
 }
 
-// The scene's render blur (GaussianScene::render_blur): none unless
-// --render-blur says so, stored in the scene and its PLY, shown by pf scene
-// info and reported; every render of the scene is blurred by it, so the
-// same Gaussians score lower on this sharp synth clip. Out of range is bad
-// input.
+// The scene's render blur (GaussianScene::render_blur): none on this clip of
+// dense depth maps unless --render-blur says so, stored in the scene and its
+// PLY, shown by pf scene info and reported; every render of the scene is
+// blurred by it, so the same Gaussians score lower on this sharp synth clip.
+// Out of range is bad input. (Depth from LiDAR: 0.5 px unless asked,
+// LidarOnlyDepthGainsFromTheGroundPlaneFacadesAndStereo.)
 TEST_F(ReconCli, TheScenesRenderBlurIsStoredAndReported) {
   const nlohmann::json sharp = Report("analytic");
   EXPECT_EQ(sharp["renderBlur"], 0.f);
@@ -1199,8 +1217,18 @@ TEST_F(ReconCli, LidarOnlyDepthGainsFromTheGroundPlaneFacadesAndStereo) {
   const nlohmann::json ground = eval("eval_no_facades", {"--no-facades", "--no-stereo"});
   const nlohmann::json neither =
       eval("eval_neither", {"--no-facades", "--no-ground-fill", "--no-stereo"});
-  // Depth from LiDAR: the wider low-pass (gaussian_decoder.h DefaultLowPass).
+  // Depth from LiDAR: the wider low-pass (gaussian_decoder.h DefaultLowPass)
+  // and the render blur (reconstruction.h DefaultRenderBlur), which
+  // --render-blur 0 turns off: the same Gaussians, drawn sharp (renders are
+  // deterministic, so any difference in the figures is the blur's; on this
+  // small clip they differ by under 0.01 dB).
   EXPECT_EQ(all["lowPass"], 0.2f);
+  EXPECT_EQ(all["renderBlur"], 0.5f);
+  const nlohmann::json sharp = eval("eval_sharp", {"--no-stereo", "--render-blur", "0"});
+  EXPECT_EQ(sharp["renderBlur"], 0.f);
+  EXPECT_EQ(sharp["gaussians"], both["gaussians"]);
+  EXPECT_NE(sharp["mean"]["psnr"].get<double>(), both["mean"]["psnr"].get<double>());
+  EXPECT_NE(sharp["mean"]["ssim"].get<double>(), both["mean"]["ssim"].get<double>());
   EXPECT_EQ(both["groundFill"], true);
   EXPECT_EQ(both["facades"], true);
   EXPECT_EQ(ground["facades"], false);
@@ -1287,9 +1315,11 @@ TEST_F(ReconCli, SparseDepthMapsAreCompletedAsLidarIs) {
   EXPECT_EQ(sparse["sparseDepthMapViews"], 6);
   EXPECT_EQ(sparse["lidarViews"], 0);
   EXPECT_EQ(dense["sparseDepthMapViews"], 0);
-  // Completed sparse maps are measured depth: the wider low-pass.
+  // Completed sparse maps are measured depth: the wider low-pass, a render blur.
   EXPECT_EQ(sparse["lowPass"], 0.2f);
   EXPECT_EQ(dense["lowPass"], 0.1f);
+  EXPECT_EQ(sparse["renderBlur"], 0.5f);
+  EXPECT_EQ(dense["renderBlur"], 0.f);
   EXPECT_GT(sparse["groundPixels"].get<int64_t>(), 6 * 192 * 144 / 20);
   // Measured: 24.90 dB against 26.22 with the dense maps, depth RMSE 9.2 m
   // (taken as final, 97 % of the pixels would be on the far layer, hundreds

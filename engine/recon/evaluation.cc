@@ -493,7 +493,7 @@ std::string EvalReportJson(const EvalReport& report) {
   j["splatSigma"] = report.options.decoder.tangent_sigma;
   j["lowPass"] = report.stats.low_pass;
   j["orderBand"] = report.options.decoder.order_band;
-  j["renderBlur"] = report.options.render_blur;
+  j["renderBlur"] = report.stats.render_blur;
   j["stillInstances"] = report.stats.still_instances;
   j["stillRigViews"] = report.stats.still_rig_views;
   j["stillRigDensity"] = report.options.still_rig_density;

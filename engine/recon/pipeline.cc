@@ -16,6 +16,7 @@
 #include "engine/recon/cuda_colour_fit.h"
 #include "engine/recon/lidar_intensity.h"
 #include "engine/recon/scene_graph.h"
+#include "engine/recon/sparse_sampling.h"
 #include "pointforward/v1/clip.pb.h"
 #if PF_HAVE_TORCH
 #include "engine/recon/tensor_fusion.h"
@@ -267,11 +268,18 @@ void Pipeline::Decode() {
   const ViewCamerasAndTimes views = CamerasAndTimes(inputs_.views);
   ReconStats& stats = result_.stats;
   DecoderOptions decoder = options_.decoder;
-  if (!decoder.low_pass) {
-    decoder.low_pass = DefaultLowPass(stats.lidar_views == 0 && stats.sparse_map_views == 0 &&
-                                      stats.views_without_depth == 0);
-  }
+  const bool all_views_dense_depth =
+      stats.lidar_views == 0 && stats.sparse_map_views == 0 && stats.views_without_depth == 0;
+  if (!decoder.low_pass) decoder.low_pass = DefaultLowPass(all_views_dense_depth);
   stats.low_pass = *decoder.low_pass;
+  if (options_.render_blur) {
+    stats.render_blur = *options_.render_blur;
+  } else {
+    const std::vector<bool> still = StillCameraViews(inputs_.views);
+    const bool rig_stands_still =
+        !still.empty() && std::all_of(still.begin(), still.end(), [](bool s) { return s; });
+    stats.render_blur = DefaultRenderBlur(all_views_dense_depth, rig_stands_still);
+  }
   result_.scene = DecodeGaussians(queries_, fused_, views.times_us, inputs_.time_origin_us,
                                   inputs_.tracks, decoder);
   FadeStaticGaussians(views.cameras, views.times_us, queries_.owners, queries_.far,
@@ -440,7 +448,7 @@ absl::Status Pipeline::Optimize() {
 
 ReconResult Pipeline::Finish() {
   result_.scene.ego_layers = std::move(ego_layers_);
-  result_.scene.render_blur = options_.render_blur;
+  result_.scene.render_blur = result_.stats.render_blur;
   result_.stats.colour_gradients = result_.scene.has_colour_gradients();
   result_.stats.total_seconds = Now() - start_;
   return std::move(result_);

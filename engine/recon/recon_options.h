@@ -22,8 +22,9 @@
 //   --no-ego-layer                   find no ego body: lift every pixel, no ego layer
 //                                    in the scene (ego_body.h)
 //   --render-blur PX                 every render of the scene blurred by a Gaussian
-//                                    of std-dev PX pixels (render_blur.h; default 0:
-//                                    none; docs/QUALITY.md, "Render blur")
+//                                    of std-dev PX pixels (render_blur.h; default 0.5
+//                                    where the rig moves and depth is measured, else
+//                                    0; docs/QUALITY.md, "Render blur")
 //   --completion nearest|ip-basic    how LiDAR depth is completed (default nearest)
 //   --refine N                       colour-fit iterations (default 20; 0 off)
 //   --splat-sigma S                  Gaussian std-dev per query spacing (default 0.65)

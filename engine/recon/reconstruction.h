@@ -32,6 +32,18 @@
 
 namespace pf {
 
+// The render blur of a reconstructed scene when none is given (pixels):
+// kMeasuredDepthRenderBlur where the rig moves and depth is measured (LiDAR,
+// sparse maps or none), else none. A scene from measured depth draws detail a
+// little off where a new pose sees it: the real clips of moving rigs are
+// closer to their TARGET frames blurred by 0.5 px. Exact depth is not, nor a
+// rig that stands still (every view StillCameraViews), whose renders are
+// wanted at the poses it was seen from (docs/QUALITY.md, "Render blur").
+inline constexpr float kMeasuredDepthRenderBlur = 0.5f;
+inline float DefaultRenderBlur(bool all_views_dense_depth, bool rig_stands_still) {
+  return all_views_dense_depth || rig_stands_still ? 0.f : kMeasuredDepthRenderBlur;
+}
+
 struct ReconOptions {
   std::string model = "analytic";  // A name of recon_model.h's registry.
   // N_s and N_d; <= 0 means the paper's 100K / 10K scaled to the first
@@ -67,8 +79,8 @@ struct ReconOptions {
   // keep it as the scene's ego layer (ego_body.h).
   bool ego_layer = true;
   // The scene's render blur (GaussianScene::render_blur), pixels in
-  // [0, kMaxRenderBlur]; 0: none.
-  float render_blur = 0;
+  // [0, kMaxRenderBlur]; 0: none; unset: DefaultRenderBlur().
+  std::optional<float> render_blur;
   bool allow_outside_paths = false;
   // The working colour encoding: the context images are decoded to it, and
   // the scene's colours are in it (GaussianScene::colour_encoding). Renders
@@ -107,7 +119,8 @@ struct ReconStats {
   // reconstructed as static, their Gaussians theirs after decoding.
   int still_instances = 0;
   int rolling_shutter_views = 0;  // Frames with a rolling shutter, lifted line by line.
-  float low_pass = 0;  // The scene's screen-space low-pass, pixels^2 (DecoderOptions::low_pass).
+  float low_pass = 0;     // The scene's screen-space low-pass, pixels^2 (DecoderOptions::low_pass).
+  float render_blur = 0;  // The scene's render blur, pixels (ReconOptions::render_blur).
   // Each ego layer's camera and the share of its pixels on the body.
   std::vector<std::pair<std::string, double>> ego_body;
   // The scene's colours carry gradients (the fit ran with them; a fit over
