@@ -40,7 +40,7 @@ constexpr char kEvalUsage[] =
     "[--fusion softmax|average|no-depth] [--lifespan] [--refine N] [--splat-sigma S] "
     "[--low-pass PX2] [--order-band B] [--fade-frames F] [--hidden-band PX] "
     "[--colour-fit-memory GB] [--no-ground-fill] [--no-facades] [--no-stereo] [--no-ego-layer] "
-    "[--render-blur PX] [--still-rig-density F] "
+    "[--render-blur PX] [--render-blur-growth G] [--still-rig-density F] "
     "[--device cpu|cuda[:N]] [--optimize-steps N [--optimize-seconds S] [--optimize-poses] "
     "[--optimize-densify]] "
     "[--allow-outside-paths] [--views VIEWS.json --truth TRUTH_DIR] "
@@ -83,7 +83,7 @@ reconstruction flags (as pf reconstruct):
   --lifespan  --refine N  --splat-sigma S  --low-pass PX2  --order-band B  --fade-frames F  --hidden-band PX
   --colour-fit-memory GB (the colour fit's memory bound, fixed; default 2 GB raised to half
                        of the memory free when the fit starts; report.json "colourFitBoundGB")
-  --no-ground-fill  --no-facades  --no-stereo  --no-ego-layer  --render-blur PX  --still-rig-density F  --colour gradients|flat  --working-space srgb|linear
+  --no-ground-fill  --no-facades  --no-stereo  --no-ego-layer  --render-blur PX  --render-blur-growth G  --still-rig-density F  --colour gradients|flat  --working-space srgb|linear
   --completion nearest|ip-basic
   --optimize-steps N  --optimize-seconds S  --optimize-poses  --optimize-densify
                        (per-scene optimisation; report.json's "optimize": loss, context

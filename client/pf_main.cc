@@ -58,7 +58,7 @@ commands:
   reconstruct CLIP.json --out SCENE [--model analytic|pixel-aligned] [--ns N --nd N]
         [--fusion softmax|average|no-depth] [--lifespan] [--refine N] [--splat-sigma S]
         [--low-pass PX2] [--order-band B] [--fade-frames F] [--hidden-band PX] [--colour-fit-memory GB]
-        [--no-ground-fill] [--no-facades] [--no-stereo] [--no-ego-layer] [--render-blur PX] [--still-rig-density F] [--device cpu|cuda[:N]]
+        [--no-ground-fill] [--no-facades] [--no-stereo] [--no-ego-layer] [--render-blur PX] [--render-blur-growth G] [--still-rig-density F] [--device cpu|cuda[:N]]
         [--colour gradients|flat] [--working-space srgb|linear] [--completion nearest|ip-basic]
         [--optimize-steps N [--optimize-seconds S] [--optimize-poses] [--optimize-densify]]
         [--allow-outside-paths]
@@ -92,7 +92,7 @@ the token in PF_TOKEN):
          [--device D] [TUNING] --cameras VIEWS.json [--out DIR --wait] [--outputs LIST]
         submit a render job (of a clip: reconstructed first unless cached);
         TUNING: [--refine N] [--splat-sigma S] [--low-pass PX2] [--order-band B] [--fade-frames F] [--hidden-band PX]
-        [--colour-fit-memory GB] [--no-ground-fill] [--no-facades] [--no-stereo] [--no-ego-layer] [--render-blur PX] [--still-rig-density F] [--colour gradients|flat]
+        [--colour-fit-memory GB] [--no-ground-fill] [--no-facades] [--no-stereo] [--no-ego-layer] [--render-blur PX] [--render-blur-growth G] [--still-rig-density F] [--colour gradients|flat]
         [--completion M] [--working-space srgb|linear]
         [--optimize-steps N [--optimize-seconds S] [--optimize-poses] [--optimize-densify]],
         as pf reconstruct's

@@ -37,7 +37,7 @@ constexpr char kReconstructUsage[] =
     "[--ns N --nd N] [--fusion softmax|average|no-depth] [--lifespan] [--refine N] "
     "[--splat-sigma S] [--low-pass PX2] [--order-band B] [--fade-frames F] [--hidden-band PX] "
     "[--colour-fit-memory GB] [--no-ground-fill] [--no-facades] [--no-stereo] [--no-ego-layer] "
-    "[--render-blur PX] [--still-rig-density F] "
+    "[--render-blur PX] [--render-blur-growth G] [--still-rig-density F] "
     "[--device cpu|cuda[:N]] [--colour gradients|flat] [--working-space srgb|linear] "
     "[--completion nearest|ip-basic] "
     "[--optimize-steps N [--optimize-seconds S] [--optimize-poses] [--optimize-densify]] "

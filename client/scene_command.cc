@@ -81,7 +81,12 @@ int Info(const std::string& path) {
               scene.sh_degree < 0 ? "none" : absl::StrCat(scene.sh_degree).c_str());
   std::printf("low-pass:     %g px^2\n", scene.low_pass);
   std::printf("order band:   %g of depth\n", scene.order_band);
-  std::printf("render blur:  %g px\n", scene.render_blur);
+  if (scene.render_blur_growth > 0 && !scene.blur_anchors.empty()) {
+    std::printf("render blur:  %g px, growing by %g mrad/m away from %zu CONTEXT cameras\n",
+                scene.render_blur, scene.render_blur_growth, scene.blur_anchors.size());
+  } else {
+    std::printf("render blur:  %g px\n", scene.render_blur);
+  }
   std::printf("intensity:    %s\n",
               scene.lidar_intensity_channel < 0
                   ? "none"

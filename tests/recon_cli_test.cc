@@ -8,8 +8,10 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <regex>
 #include <sstream>
 #include <string>
@@ -17,6 +19,7 @@
 #include <utility>
 #include <vector>
 
+#include "absl/strings/str_cat.h"
 #include "engine/image/image_io.h"
 #include "engine/recon/gaussian_decoder.h"
 #include "engine/recon/scene_optimizer.h"
@@ -1015,6 +1018,8 @@ TEST_F(ReconCli, TheViewsOfACameraThatStandsStillAreSampledDenser) {
   absl::StatusOr<SceneFile> still_lidar_file = ReadSceneFile(still_lidar_scene);
   ASSERT_TRUE(still_lidar_file.ok()) << still_lidar_file.status();
   EXPECT_EQ(still_lidar_file->scene.render_blur, 0.f);
+  EXPECT_EQ(still_lidar_file->scene.render_blur_growth, 0.f);
+  EXPECT_TRUE(still_lidar_file->scene.blur_anchors.empty());
 }
 
 TEST_F(ReconCli, TheScenesLowPassIsStoredAndReported) {
@@ -1085,6 +1090,81 @@ TEST_F(ReconCli, TheScenesRenderBlurIsStoredAndReported) {
       RunCommand({Pf(), "reconstruct", Clip(), "--out", *dir_ + "/x", "--render-blur", "5"});
   EXPECT_EQ(bad.exit_code, 2);
   EXPECT_NE(bad.err.find("--render-blur: must be in [0, 4] pixels, got 5"), std::string::npos)
+      << bad.err;
+}
+
+// The render blur's growth away from the CONTEXT cameras
+// (GaussianScene::render_blur_growth): 2 mrad/m by default on a moving rig
+// with measured depth (here LiDAR), the CONTEXT cameras stored as its
+// anchors, shown by pf scene info; each TARGET render is blurred by
+// RenderBlurAt of its camera, reported per frame. Out of range is bad input.
+TEST_F(ReconCli, TheRenderBlurGrowsAwayFromTheContextCameras) {
+  nlohmann::json clip = ReadJsonFile(Clip());
+  int context = 0;
+  for (nlohmann::json& frame : clip["frames"]) {
+    if (frame.value("role", "") != "CONTEXT") continue;
+    frame.erase("depth");
+    ++context;
+  }
+  const std::string lidar_clip = *dir_ + "/clip/lidar_growth.json";
+  std::ofstream(lidar_clip) << clip.dump();
+  const std::string scene_path = *dir_ + "/growth.pfscene";
+  CommandResult result =
+      RunCommand({Pf(), "reconstruct", lidar_clip, "--out", scene_path, "--ns", "2000"});
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  absl::StatusOr<SceneFile> file = ReadSceneFile(scene_path);
+  ASSERT_TRUE(file.ok()) << file.status();
+  EXPECT_EQ(file->scene.render_blur, 0.5f);
+  EXPECT_EQ(file->scene.render_blur_growth, 2.f);
+  ASSERT_EQ(file->scene.blur_anchors.size(), size_t(context));
+  // The rig moves: the anchors are not all at one place.
+  const BlurAnchor& first = file->scene.blur_anchors.front();
+  const BlurAnchor& last = file->scene.blur_anchors.back();
+  EXPECT_GT(std::hypot(last.centre[0] - first.centre[0], last.centre[1] - first.centre[1],
+                       last.centre[2] - first.centre[2]),
+            1.0);
+  result = RunCommand({Pf(), "scene", "info", scene_path});
+  EXPECT_NE(result.out.find(absl::StrCat("render blur:  0.5 px, growing by 2 mrad/m away from ",
+                                         context, " CONTEXT cameras")),
+            std::string::npos)
+      << result.out;
+
+  // At 10 mrad/m each TARGET render is blurred in proportion to its distance
+  // from the nearest CONTEXT pose of its camera (the clip's rig moves at one
+  // speed, so to the time between them) wherever that is over 0.5 px.
+  std::map<std::string, std::vector<int64_t>> context_times;
+  for (const nlohmann::json& frame : clip["frames"]) {
+    if (frame.value("role", "") == "CONTEXT") {
+      context_times[frame["camera"]].push_back(std::stoll(frame["timestampUs"].get<std::string>()));
+    }
+  }
+  const std::string out = *dir_ + "/eval_growth";
+  result = RunCommand(
+      {Pf(), "eval", lidar_clip, "--out", out, "--ns", "2000", "--render-blur-growth", "10"});
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  const nlohmann::json grown = ReadJsonFile(out + "/report.json");
+  EXPECT_EQ(grown["renderBlurGrowth"], 10.f);
+  std::optional<double> blur_per_second;
+  int grown_frames = 0;
+  for (const nlohmann::json& frame : grown["frames"]) {
+    const double blur = frame["renderBlur"].get<double>();
+    EXPECT_GE(blur, 0.5);
+    EXPECT_LE(blur, 3.0);
+    const int64_t t = frame["timestampUs"].get<int64_t>();
+    int64_t nearest = std::numeric_limits<int64_t>::max();
+    for (int64_t c : context_times[frame["camera"]]) nearest = std::min(nearest, std::abs(t - c));
+    if (blur <= 0.5 || blur >= 3.0) continue;
+    ++grown_frames;
+    const double per_second = blur / (1e-6 * double(nearest));
+    if (!blur_per_second) blur_per_second = per_second;
+    EXPECT_NEAR(per_second, *blur_per_second, 0.01 * *blur_per_second) << frame.dump();
+  }
+  EXPECT_GE(grown_frames, 6);
+  const CommandResult bad = RunCommand({Pf(), "reconstruct", lidar_clip, "--out",
+                                        *dir_ + "/x.pfscene", "--render-blur-growth", "150"});
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_NE(bad.err.find("--render-blur-growth: must be in [0, 100] mrad/m, got 150"),
+            std::string::npos)
       << bad.err;
 }
 
@@ -1224,8 +1304,11 @@ TEST_F(ReconCli, LidarOnlyDepthGainsFromTheGroundPlaneFacadesAndStereo) {
   // small clip they differ by under 0.01 dB).
   EXPECT_EQ(all["lowPass"], 0.2f);
   EXPECT_EQ(all["renderBlur"], 0.5f);
+  EXPECT_EQ(all["renderBlurGrowth"], 2.f);
   const nlohmann::json sharp = eval("eval_sharp", {"--no-stereo", "--render-blur", "0"});
   EXPECT_EQ(sharp["renderBlur"], 0.f);
+  EXPECT_EQ(sharp["renderBlurGrowth"], 0.f);  // A blur given alone does not grow.
+  for (const nlohmann::json& frame : sharp["frames"]) EXPECT_EQ(frame["renderBlur"], 0.f);
   EXPECT_EQ(sharp["gaussians"], both["gaussians"]);
   EXPECT_NE(sharp["mean"]["psnr"].get<double>(), both["mean"]["psnr"].get<double>());
   EXPECT_NE(sharp["mean"]["ssim"].get<double>(), both["mean"]["ssim"].get<double>());
@@ -1320,6 +1403,8 @@ TEST_F(ReconCli, SparseDepthMapsAreCompletedAsLidarIs) {
   EXPECT_EQ(dense["lowPass"], 0.1f);
   EXPECT_EQ(sparse["renderBlur"], 0.5f);
   EXPECT_EQ(dense["renderBlur"], 0.f);
+  EXPECT_EQ(sparse["renderBlurGrowth"], 2.f);
+  EXPECT_EQ(dense["renderBlurGrowth"], 0.f);
   EXPECT_GT(sparse["groundPixels"].get<int64_t>(), 6 * 192 * 144 / 20);
   // Measured: 24.90 dB against 26.22 with the dense maps, depth RMSE 9.2 m
   // (taken as final, 97 % of the pixels would be on the far layer, hundreds

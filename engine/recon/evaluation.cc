@@ -24,6 +24,7 @@
 #include "engine/render/ego_layer.h"
 #include "engine/render/hole_fill.h"
 #include "engine/render/rasterizer.h"
+#include "engine/render/render_blur.h"
 #include "pointforward/v1/clip.pb.h"
 #include "pointforward/v1/views.pb.h"
 
@@ -494,6 +495,7 @@ std::string EvalReportJson(const EvalReport& report) {
   j["lowPass"] = report.stats.low_pass;
   j["orderBand"] = report.options.decoder.order_band;
   j["renderBlur"] = report.stats.render_blur;
+  j["renderBlurGrowth"] = report.stats.render_blur_growth;
   j["stillInstances"] = report.stats.still_instances;
   j["stillRigViews"] = report.stats.still_rig_views;
   j["stillRigDensity"] = report.options.still_rig_density;
@@ -638,6 +640,7 @@ std::string EvalReportJson(const EvalReport& report) {
     AddFigures(f, &frame);
     frame["dynamicPixels"] = f.dynamic_pixels;
     frame["holeFraction"] = f.hole_fraction;
+    frame["renderBlur"] = f.render_blur;
     frame["contactSheet"] = f.contact_sheet;
     if (baselines) {
       frame["baselines"] = {{"nearest", baseline_json(report.nearest[i])},
@@ -748,6 +751,7 @@ absl::StatusOr<EvalReport> EvaluateClip(const LoadedClip& loaded, const ReconOpt
     FrameMetrics m = Measure(target.rgb, target.depth, buffers, scene.colour_encoding, mask,
                              target.ego, &render);
     m.render_seconds = render_seconds;
+    m.render_blur = RenderBlurAt(scene, target.render_camera());
     report.render_seconds += m.render_seconds;
     m.camera = target.camera_id;
     m.timestamp_us = target.timestamp_us;

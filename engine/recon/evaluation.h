@@ -21,7 +21,7 @@
 //    "frames": [{"camera": "...", "timestampUs": t, "psnr": x, "ssim": x,
 //                "depthRmse": x, "lidarAbsRel": x, "lidarCoverage": x,
 //                "dynamicPsnr": x, "dynamicPixels": n,
-//                "holeFraction": x, "contactSheet": "cam_t.png",
+//                "holeFraction": x, "renderBlur": px, "contactSheet": "cam_t.png",
 //                "baselines": {"nearest": {"psnr": x, ..., "holeFraction": x,
 //                                          "frames": [{"camera": "...",
 //                                                      "timestampUs": t}]},
@@ -35,7 +35,9 @@
 // of an instance that moves (MovingTracks, scene_graph.h) at the frame's
 // time (left out where there are none);
 // holeFraction is the share of pixels the render leaves (nearly) empty,
-// alpha < 0.5, which show black (regions no context view saw). Means
+// alpha < 0.5, which show black (regions no context view saw); renderBlur
+// the blur the frame's render got (render_blur.h RenderBlurAt; the top-level
+// "renderBlur" and "renderBlurGrowth" are the scene's). Means
 // are over the frames that have the figure; a figure no frame has is null.
 // A camera with an ego mask (Camera.ego_mask) has its masked pixels left
 // out of every figure of its frames (SSIM: the windows centred on them;
@@ -150,6 +152,7 @@ struct FrameMetrics {
   double filled_psnr = 0;
   std::string contact_sheet;  // File name inside the output directory.
   double render_seconds = 0;
+  double render_blur = 0;         // The render's blur, pixels (render_blur.h RenderBlurAt).
   std::optional<double> shift_m;  // Lane-shift views: the sideways shift in metres.
   // Baselines: the CONTEXT frames they were made from.
   struct Source {

@@ -272,13 +272,23 @@ void Pipeline::Decode() {
       stats.lidar_views == 0 && stats.sparse_map_views == 0 && stats.views_without_depth == 0;
   if (!decoder.low_pass) decoder.low_pass = DefaultLowPass(all_views_dense_depth);
   stats.low_pass = *decoder.low_pass;
-  if (options_.render_blur) {
-    stats.render_blur = *options_.render_blur;
-  } else {
-    const std::vector<bool> still = StillCameraViews(inputs_.views);
-    const bool rig_stands_still =
-        !still.empty() && std::all_of(still.begin(), still.end(), [](bool s) { return s; });
-    stats.render_blur = DefaultRenderBlur(all_views_dense_depth, rig_stands_still);
+  const std::vector<bool> still_views = StillCameraViews(inputs_.views);
+  const bool rig_stands_still =
+      !still_views.empty() &&
+      std::all_of(still_views.begin(), still_views.end(), [](bool s) { return s; });
+  stats.render_blur =
+      options_.render_blur.value_or(DefaultRenderBlur(all_views_dense_depth, rig_stands_still));
+  // A blur given alone is the blur of every render.
+  stats.render_blur_growth = options_.render_blur_growth.value_or(
+      options_.render_blur ? 0.f
+                           : DefaultRenderBlurGrowth(all_views_dense_depth, rig_stands_still));
+  if (stats.render_blur_growth > 0.f) {
+    for (const ContextView& view : inputs_.views) {
+      const Vec3& c = view.world_from_camera.translation;
+      const Vec3 axis = view.world_from_camera.rotation * Vec3{0, 0, 1};
+      blur_anchors_.push_back(
+          {{float(c.x), float(c.y), float(c.z)}, {float(axis.x), float(axis.y), float(axis.z)}});
+    }
   }
   result_.scene = DecodeGaussians(queries_, fused_, views.times_us, inputs_.time_origin_us,
                                   inputs_.tracks, decoder);
@@ -449,6 +459,8 @@ absl::Status Pipeline::Optimize() {
 ReconResult Pipeline::Finish() {
   result_.scene.ego_layers = std::move(ego_layers_);
   result_.scene.render_blur = result_.stats.render_blur;
+  result_.scene.render_blur_growth = result_.stats.render_blur_growth;
+  result_.scene.blur_anchors = std::move(blur_anchors_);
   result_.stats.colour_gradients = result_.scene.has_colour_gradients();
   result_.stats.total_seconds = Now() - start_;
   return std::move(result_);

@@ -73,6 +73,7 @@ class Pipeline {
   std::vector<std::vector<uint32_t>> owners_;
   std::vector<std::vector<uint8_t>> masks_;
   std::vector<EgoLayer> ego_layers_;
+  std::vector<BlurAnchor> blur_anchors_;     // The CONTEXT views' (GaussianScene::blur_anchors).
   std::vector<InstanceTrack> still_tracks_;  // Tracks that do not move (IsStillTrack).
   QuerySet queries_;
   FusedQueries fused_;

@@ -97,6 +97,8 @@ std::vector<Spec> MakeTable() {
   table.push_back(Switch("no_ego_layer", Key::kOffWhenSet, "ego_layer"));
   table.push_back(Number("render_blur", Kind::kReal, 0, false, kMaxRenderBlur, " pixels",
                          Key::kHexFloatWhenSet));
+  table.push_back(Number("render_blur_growth", Kind::kReal, 0, false, kMaxRenderBlurGrowth,
+                         " mrad/m", Key::kHexFloatWhenSet));
   Spec device{"device", Kind::kDevice};
   device.choices = {"cpu"};
   device.fills_default = true;

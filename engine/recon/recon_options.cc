@@ -34,6 +34,9 @@ absl::StatusOr<ReconOptions> ReconOptionsFromProto(const v1::ReconstructionOptio
   options.completion.stereo = !p.no_stereo();
   options.ego_layer = !p.no_ego_layer();
   if (p.has_render_blur()) options.render_blur = static_cast<float>(p.render_blur());
+  if (p.has_render_blur_growth()) {
+    options.render_blur_growth = static_cast<float>(p.render_blur_growth());
+  }
   options.completion.method = p.completion() == "ip-basic" ? CompletionOptions::Method::kIpBasic
                                                            : CompletionOptions::Method::kNearest;
   if (p.has_refine()) options.refinement.iterations = p.refine();

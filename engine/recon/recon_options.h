@@ -24,7 +24,11 @@
 //   --render-blur PX                 every render of the scene blurred by a Gaussian
 //                                    of std-dev PX pixels (render_blur.h; default 0.5
 //                                    where the rig moves and depth is measured, else
-//                                    0; docs/QUALITY.md, "Render blur")
+//                                    0; docs/QUALITY.md, "Render blur"), alone: that
+//                                    blur whatever the pose
+//   --render-blur-growth G           and more away from the CONTEXT cameras: G mrad
+//                                    per metre, up to 3 px (default 2 where the
+//                                    default blur is over 0, else 0)
 //   --completion nearest|ip-basic    how LiDAR depth is completed (default nearest)
 //   --refine N                       colour-fit iterations (default 20; 0 off)
 //   --splat-sigma S                  Gaussian std-dev per query spacing (default 0.65)

@@ -43,6 +43,17 @@ inline constexpr float kMeasuredDepthRenderBlur = 0.5f;
 inline float DefaultRenderBlur(bool all_views_dense_depth, bool rig_stands_still) {
   return all_views_dense_depth || rig_stands_still ? 0.f : kMeasuredDepthRenderBlur;
 }
+// The growth of the render blur away from the CONTEXT cameras when none is
+// given (GaussianScene::render_blur_growth, mrad/m): kMeasuredDepthRenderBlurGrowth
+// where DefaultRenderBlur is over 0, else none. The further a pose is from
+// the poses the scene was seen from, the more of its detail is off: 2 mrad/m
+// is 2.7 px for DGP scene_02's frames 1.27 m past their CONTEXT poses, and
+// leaves PandaSet's frames between CONTEXT frames (0.1-0.24 m) at 0.5 px
+// (docs/QUALITY.md, "Render blur").
+inline constexpr float kMeasuredDepthRenderBlurGrowth = 2.f;
+inline float DefaultRenderBlurGrowth(bool all_views_dense_depth, bool rig_stands_still) {
+  return all_views_dense_depth || rig_stands_still ? 0.f : kMeasuredDepthRenderBlurGrowth;
+}
 
 struct ReconOptions {
   std::string model = "analytic";  // A name of recon_model.h's registry.
@@ -81,6 +92,10 @@ struct ReconOptions {
   // The scene's render blur (GaussianScene::render_blur), pixels in
   // [0, kMaxRenderBlur]; 0: none; unset: DefaultRenderBlur().
   std::optional<float> render_blur;
+  // The growth of the render blur away from the CONTEXT views
+  // (GaussianScene::render_blur_growth), mrad/m in [0, kMaxRenderBlurGrowth];
+  // unset: DefaultRenderBlurGrowth() without render_blur, 0 with it.
+  std::optional<float> render_blur_growth;
   bool allow_outside_paths = false;
   // The working colour encoding: the context images are decoded to it, and
   // the scene's colours are in it (GaussianScene::colour_encoding). Renders
@@ -121,6 +136,7 @@ struct ReconStats {
   int rolling_shutter_views = 0;  // Frames with a rolling shutter, lifted line by line.
   float low_pass = 0;     // The scene's screen-space low-pass, pixels^2 (DecoderOptions::low_pass).
   float render_blur = 0;  // The scene's render blur, pixels (ReconOptions::render_blur).
+  float render_blur_growth = 0;  // Its growth, mrad/m (ReconOptions::render_blur_growth).
   // Each ego layer's camera and the share of its pixels on the body.
   std::vector<std::pair<std::string, double>> ego_body;
   // The scene's colours carry gradients (the fit ran with them; a fit over

@@ -31,12 +31,20 @@ absl::StatusOr<RenderBuffers> DeviceRenderer::Render(const RenderCamera& camera,
                                                      int64_t timestamp_us,
                                                      const std::vector<ActorEdit>& edits,
                                                      const RenderOptions& options) const {
+  // A blur grown past the scene's leaves the actors at the scene's: that
+  // needs the instance ids.
+  const float sigma = RenderBlurAt(*scene_, camera);
+  const bool actors_apart = sigma > scene_->render_blur && !scene_->instances.empty();
+  RenderOptions with_ids = options;
+  with_ids.instance = options.instance || actors_apart;
   // The CUDA rasterizer has no rolling shutter: such views render on the CPU.
   absl::StatusOr<RenderBuffers> out =
       gpu_ != nullptr && !camera.rolling_shutter.has_value()
-          ? gpu_->Render(camera, timestamp_us, edits, options)
-          : pf::Render(*scene_, camera, timestamp_us, edits, options);
-  if (out.ok()) BlurRender(scene_->render_blur, &*out);
+          ? gpu_->Render(camera, timestamp_us, edits, with_ids)
+          : pf::Render(*scene_, camera, timestamp_us, edits, with_ids);
+  if (!out.ok()) return out;
+  BlurRender(sigma, scene_->render_blur, &*out);
+  if (!options.instance) out->instance.clear();
   return out;
 }
 

@@ -35,6 +35,7 @@
 #define POINTFORWARD_ENGINE_RENDER_GAUSSIAN_SCENE_H_
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -69,6 +70,15 @@ inline constexpr float kMaxLowPass = 4.f;
 inline constexpr float kMaxOrderBand = 0.05f;
 // The largest GaussianScene::render_blur, pixels.
 inline constexpr float kMaxRenderBlur = 4.f;
+// The largest GaussianScene::render_blur_growth, milliradians per metre.
+inline constexpr float kMaxRenderBlurGrowth = 100.f;
+
+// A CONTEXT view's camera as the render blur's growth sees it
+// (GaussianScene::blur_anchors): its centre and optical axis in world space.
+struct BlurAnchor {
+  std::array<float, 3> centre{};
+  std::array<float, 3> axis{0, 0, 1};  // Unit.
+};
 
 // The ego vehicle's body as one rig camera sees it: fixed in that camera's
 // image whatever the pose, so renders of the camera show it on top of the
@@ -137,6 +147,12 @@ struct GaussianScene {
   // colour, features and alpha (render_blur.h), in [0, kMaxRenderBlur]; 0:
   // none (the default, and scene files before version 10).
   float render_blur = 0;
+  // How the render blur grows away from what the CONTEXT views saw
+  // (RenderBlurAt, render_blur.h): milliradians per metre of a render's
+  // distance from the nearest of `blur_anchors`, in [0, kMaxRenderBlurGrowth];
+  // 0: none (the default, and scene files before version 11).
+  float render_blur_growth = 0;
+  std::vector<BlurAnchor> blur_anchors;
   // The feature channel of LiDAR intensity, in [0, num_channels); -1: none.
   int lidar_intensity_channel = -1;
 

@@ -9,6 +9,7 @@
 
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
 #include "absl/strings/str_split.h"
 #include "common/file_util.h"
 #include "common/geometry.h"
@@ -375,11 +376,14 @@ class BodyReader {
 // since version 4, else srgb; order_band since version 5, else 0;
 // lidar_intensity_channel since version 6, else -1), then "fade_begin=B
 // fade_end=E" where the scene's fade span is bounded (else unbounded) and
-// "render_blur=S" where it is over 0 (else 0).
-void ParseOurComment(const std::vector<std::string>& comments, int64_t* time_origin_us,
-                     std::optional<int>* sh_degree, float* low_pass,
-                     ColourEncoding* colour_encoding, float* order_band, int* intensity_channel,
-                     FadeSpan* fade_span, float* render_blur) {
+// "render_blur=S" where it is over 0 (else 0) and "render_blur_growth=G"
+// where that is (else 0); then a comment "pointforward blur_anchor=X,Y,Z,AX,AY,AZ"
+// per blur anchor. INVALID_ARGUMENT for an anchor that is not six numbers.
+absl::Status ParseOurComment(const std::vector<std::string>& comments, int64_t* time_origin_us,
+                             std::optional<int>* sh_degree, float* low_pass,
+                             ColourEncoding* colour_encoding, float* order_band,
+                             int* intensity_channel, FadeSpan* fade_span, float* render_blur,
+                             float* render_blur_growth, std::vector<BlurAnchor>* blur_anchors) {
   for (const std::string& comment : comments) {
     std::vector<std::string> words = absl::StrSplit(comment, ' ', absl::SkipWhitespace());
     if (words.empty() || words[0] != kCommentTag) continue;
@@ -407,6 +411,25 @@ void ParseOurComment(const std::vector<std::string>& comments, int64_t* time_ori
         if (absl::SimpleAtof(kv.second, &s)) *render_blur = s;
         continue;
       }
+      if (kv.first == "render_blur_growth") {
+        float g = 0;
+        if (absl::SimpleAtof(kv.second, &g)) *render_blur_growth = g;
+        continue;
+      }
+      if (kv.first == "blur_anchor") {
+        const std::vector<std::string> numbers = absl::StrSplit(kv.second, ',');
+        BlurAnchor anchor;
+        bool ok = numbers.size() == 6;
+        for (size_t k = 0; ok && k < 6; ++k) {
+          ok = absl::SimpleAtof(numbers[k], k < 3 ? &anchor.centre[k] : &anchor.axis[k - 3]);
+        }
+        if (!ok) {
+          return absl::InvalidArgumentError(absl::StrCat("comment blur_anchor=", kv.second,
+                                                         " is not six numbers X,Y,Z,AX,AY,AZ"));
+        }
+        blur_anchors->push_back(anchor);
+        continue;
+      }
       if (kv.first == "colour_encoding") {
         if (kv.second == "linear") *colour_encoding = ColourEncoding::kLinear;
         continue;
@@ -418,6 +441,7 @@ void ParseOurComment(const std::vector<std::string>& comments, int64_t* time_ori
       if (kv.first == "sh_degree") *sh_degree = static_cast<int>(value);
     }
   }
+  return absl::OkStatus();
 }
 
 }  // namespace
@@ -440,7 +464,16 @@ absl::StatusOr<std::string> EncodePly(const GaussianScene& scene, const PlyExpor
           ? absl::StrCat(" fade_begin=", scene.fade_span.begin, " fade_end=", scene.fade_span.end)
           : std::string(),
       scene.render_blur > 0 ? absl::StrCat(" render_blur=", scene.render_blur) : std::string(),
-      "\nelement vertex ", n, "\n");
+      scene.render_blur_growth > 0 ? absl::StrCat(" render_blur_growth=", scene.render_blur_growth)
+                                   : std::string(),
+      "\n");
+  for (const BlurAnchor& a : scene.blur_anchors) {
+    absl::StrAppend(
+        &header,
+        absl::StrFormat("comment %s blur_anchor=%.9g,%.9g,%.9g,%.9g,%.9g,%.9g\n", kCommentTag,
+                        a.centre[0], a.centre[1], a.centre[2], a.axis[0], a.axis[1], a.axis[2]));
+  }
+  absl::StrAppend(&header, "element vertex ", n, "\n");
   for (const std::string& name : names) absl::StrAppend(&header, "property float ", name, "\n");
   absl::StrAppend(&header, "end_header\n");
 
@@ -599,9 +632,12 @@ absl::StatusOr<GaussianScene> DecodePly(const std::string& bytes, const std::str
 
   GaussianScene scene;
   std::optional<int> stored_degree;
-  ParseOurComment(header.comments, &scene.time_origin_us, &stored_degree, &scene.low_pass,
-                  &scene.colour_encoding, &scene.order_band, &scene.lidar_intensity_channel,
-                  &scene.fade_span, &scene.render_blur);
+  RETURN_IF_ERROR(StatusWithContext(
+      ParseOurComment(header.comments, &scene.time_origin_us, &stored_degree, &scene.low_pass,
+                      &scene.colour_encoding, &scene.order_band, &scene.lidar_intensity_channel,
+                      &scene.fade_span, &scene.render_blur, &scene.render_blur_growth,
+                      &scene.blur_anchors),
+      source));
   // Our export of a scene without SH writes degree-0 f_dc; restore "no SH".
   if (degree == 0 && stored_degree == -1) degree = -1;
   scene.sh_degree = degree;

@@ -246,6 +246,31 @@ TEST(PlyRoundTrip, KeepsTheRenderBlur) {
       << back.status();
 }
 
+TEST(PlyRoundTrip, KeepsTheBlursGrowthAndAnchors) {
+  GaussianScene scene = MakeScene(-1, 3);
+  scene.render_blur = 0.5f;
+  scene.render_blur_growth = 2.f;
+  scene.blur_anchors = {{{1234.5678f, -0.001f, 3.f}, {0.6f, 0.f, 0.8f}},
+                        {{0.1f, 0.2f, 0.3f}, {0.f, 1.f, 0.f}}};
+  absl::StatusOr<GaussianScene> back = DecodePly(*EncodePly(scene), "mem.ply");
+  ASSERT_TRUE(back.ok()) << back.status();
+  EXPECT_EQ(back->render_blur_growth, 2.f);
+  ASSERT_EQ(back->blur_anchors.size(), 2u);
+  for (size_t k = 0; k < 2; ++k) {  // %.9g keeps a float32 to the bit.
+    EXPECT_EQ(back->blur_anchors[k].centre, scene.blur_anchors[k].centre);
+    EXPECT_EQ(back->blur_anchors[k].axis, scene.blur_anchors[k].axis);
+  }
+  // An anchor that is not six numbers: refused, naming the comment.
+  std::string ply = *EncodePly(scene);
+  const size_t at = ply.find("blur_anchor=0.100000001");
+  ASSERT_NE(at, std::string::npos) << ply.substr(0, 600);
+  ply.replace(at, 23, "blur_anchor=x");
+  back = DecodePly(ply, "mem.ply");
+  EXPECT_NE(back.status().message().find("mem.ply: comment blur_anchor=x,"),
+            absl::string_view::npos)
+      << back.status();
+}
+
 TEST(PlyRoundTrip, ExportImportRenderGivesIdenticalImages) {
   const RenderCamera camera = MakeCamera();
   const std::string dir = testing::MakeTempDir("ply_io");

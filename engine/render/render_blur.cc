@@ -3,10 +3,44 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
+#include "absl/strings/str_cat.h"
 #include "common/thread_pool.h"
 
 namespace pf {
+
+absl::Status CheckBlurAnchor(const BlurAnchor& anchor, const std::string& field) {
+  double length2 = 0;
+  for (int i = 0; i < 3; ++i) {
+    if (!std::isfinite(anchor.centre[i]) || !std::isfinite(anchor.axis[i])) {
+      return absl::InvalidArgumentError(absl::StrCat(field, ": a coordinate is not finite"));
+    }
+    length2 += double(anchor.axis[i]) * anchor.axis[i];
+  }
+  if (std::abs(std::sqrt(length2) - 1.0) > 1e-3) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(field, ": axis of length ", std::sqrt(length2), ", not 1"));
+  }
+  return absl::OkStatus();
+}
+
+float RenderBlurAt(const GaussianScene& scene, const RenderCamera& camera) {
+  if (!(scene.render_blur_growth > 0.f) || scene.blur_anchors.empty()) return scene.render_blur;
+  const Vec3& c = camera.world_from_camera.translation;
+  const Vec3 axis = camera.world_from_camera.rotation * Vec3{0, 0, 1};
+  double nearest = std::numeric_limits<double>::infinity();
+  for (const BlurAnchor& a : scene.blur_anchors) {
+    const Vec3 d{c.x - a.centre[0], c.y - a.centre[1], c.z - a.centre[2]};
+    const double cosine = axis.x * a.axis[0] + axis.y * a.axis[1] + axis.z * a.axis[2];
+    const double angle = std::acos(std::clamp(cosine, -1.0, 1.0));
+    nearest = std::min(nearest, Norm(d) + kBlurAnchorMetresPerRadian * angle);
+  }
+  const double focal = std::sqrt(camera.model.fx() * camera.model.fy());
+  const double grown =
+      std::min<double>(kMaxGrownRenderBlur, focal * 1e-3 * scene.render_blur_growth * nearest);
+  return std::max(scene.render_blur, static_cast<float>(grown));
+}
 
 void BlurImage(float sigma, int width, int height, int channels, std::vector<float>* image) {
   if (!(sigma > 0.f) || width <= 0 || height <= 0 || channels <= 0) return;
@@ -59,6 +93,36 @@ void BlurRender(float sigma, RenderBuffers* buffers) {
   if (!buffers->rgb.empty()) BlurImage(sigma, w, h, 3, &buffers->rgb);
   if (!buffers->features.empty()) BlurImage(sigma, w, h, buffers->channels, &buffers->features);
   if (!buffers->alpha.empty()) BlurImage(sigma, w, h, 1, &buffers->alpha);
+}
+
+void BlurRender(float sigma, float actor_sigma, RenderBuffers* buffers) {
+  const int w = buffers->width, h = buffers->height;
+  const std::vector<uint32_t>& instance = buffers->instance;
+  if (!(actor_sigma < sigma) || instance.empty() ||
+      std::none_of(instance.begin(), instance.end(), [](uint32_t o) { return o != 0; })) {
+    BlurRender(sigma, buffers);
+    return;
+  }
+  // share: 1 on the actors, 0 elsewhere, blurred by sigma.
+  std::vector<float> share(instance.size());
+  for (size_t i = 0; i < instance.size(); ++i) share[i] = instance[i] != 0 ? 1.f : 0.f;
+  BlurImage(sigma, w, h, 1, &share);
+  auto mix = [&](int channels, std::vector<float>* image) {
+    if (image->empty()) return;
+    std::vector<float> actors = *image;
+    BlurImage(actor_sigma, w, h, channels, &actors);
+    BlurImage(sigma, w, h, channels, image);
+    std::vector<float>& out = *image;
+    for (size_t i = 0; i < share.size(); ++i) {
+      for (int c = 0; c < channels; ++c) {
+        const size_t k = i * channels + c;
+        out[k] += share[i] * (actors[k] - out[k]);
+      }
+    }
+  };
+  mix(3, &buffers->rgb);
+  mix(buffers->channels, &buffers->features);
+  mix(1, &buffers->alpha);
 }
 
 }  // namespace pf

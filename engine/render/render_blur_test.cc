@@ -76,5 +76,136 @@ TEST(DeviceRenderer, BlursByTheScenesRenderBlurAndLeavesDepth) {
   EXPECT_EQ(plain->rgb, sharp->rgb);
 }
 
+TEST(RenderBlurAt, GrowsWithTheDistanceFromTheNearestAnchorUpToItsBound) {
+  // A camera of focal length 1000 px at the origin looking down +z.
+  RenderCamera camera = testing_scenes::SimpleCamera(64, 48, 1000);
+  camera.world_from_camera = Rigid{};
+  GaussianScene scene;
+  scene.render_blur = 0.5f;
+  EXPECT_EQ(RenderBlurAt(scene, camera), 0.5f);  // No growth.
+  scene.render_blur_growth = 2.f;
+  EXPECT_EQ(RenderBlurAt(scene, camera), 0.5f);  // No anchors.
+  // Anchors 1.25 m behind (same axis) and 0.2 m aside looking sideways
+  // (1 m per radian: 0.2 + pi / 2).
+  scene.blur_anchors = {{{0, 0, -1.25f}, {0, 0, 1}}, {{0.2f, 0, 0}, {1, 0, 0}}};
+  EXPECT_NEAR(RenderBlurAt(scene, camera), 1000 * 2e-3 * 1.25, 1e-5);
+  // The nearest anchor counts: one 0.4 m away gives 0.8 px.
+  scene.blur_anchors.push_back({{0, 0.4f, 0}, {0, 0, 1}});
+  EXPECT_NEAR(RenderBlurAt(scene, camera), 0.8, 1e-5);
+  // Never less than render_blur: 0.1 m gives 0.2 px, so 0.5.
+  scene.blur_anchors.push_back({{0.1f, 0, 0}, {0, 0, 1}});
+  EXPECT_EQ(RenderBlurAt(scene, camera), 0.5f);
+  // Turned away from every anchor by pi at 0.1 m: 1000 x 2e-3 x (0.1 + pi) =
+  // 6.5 px, bounded by kMaxGrownRenderBlur.
+  const Mat3 half_turn{{{{-1, 0, 0}, {0, 1, 0}, {0, 0, -1}}}};
+  camera.world_from_camera.rotation = half_turn;
+  EXPECT_EQ(RenderBlurAt(scene, camera), kMaxGrownRenderBlur);
+  // The focal length scales it: at 100 px the same view gets 0.65 px.
+  camera = testing_scenes::SimpleCamera(64, 48, 100);
+  camera.world_from_camera = Rigid{half_turn, Vec3{0.1, 0, 0}};
+  scene.blur_anchors = {{{0, 0, 0}, {0, 0, 1}}};
+  EXPECT_NEAR(RenderBlurAt(scene, camera), 100 * 2e-3 * (0.1 + M_PI), 1e-4);
+}
+
+TEST(DeviceRenderer, BlursByTheBlurAtItsCamera) {
+  RenderCamera camera = testing_scenes::SimpleCamera(48, 40, 48);
+  GaussianScene scene = testing_scenes::RandomScene({.seed = 5, .count = 60}, camera);
+  const absl::StatusOr<RenderBuffers> sharp = Render(scene, camera, 0, {});
+  ASSERT_TRUE(sharp.ok()) << sharp.status();
+  // The camera 12.5 m from the one anchor along its axis: 48 x 2e-3 x 12.5 = 1.2 px.
+  const Vec3 c = camera.world_from_camera.translation;
+  const Vec3 axis = camera.world_from_camera.rotation * Vec3{0, 0, 1};
+  const Vec3 a = c - 12.5 * axis;
+  scene.render_blur = 0.25f;
+  scene.render_blur_growth = 2.f;
+  scene.blur_anchors = {
+      {{float(a.x), float(a.y), float(a.z)}, {float(axis.x), float(axis.y), float(axis.z)}}};
+  ASSERT_NEAR(RenderBlurAt(scene, camera), 1.2f, 1e-4);
+  absl::StatusOr<std::unique_ptr<DeviceRenderer>> renderer =
+      DeviceRenderer::Create(&scene, ComputeDevice{}, "device");
+  ASSERT_TRUE(renderer.ok()) << renderer.status();
+  const absl::StatusOr<RenderBuffers> blurred = (*renderer)->Render(camera, 0, {});
+  ASSERT_TRUE(blurred.ok()) << blurred.status();
+  // The actors (the scene's two instances) keep the scene's 0.25 px.
+  RenderBuffers want = *sharp, floor = *sharp, uniform = *sharp;
+  BlurRender(RenderBlurAt(scene, camera), 0.25f, &want);
+  BlurRender(0.25f, &floor);
+  BlurRender(RenderBlurAt(scene, camera), &uniform);
+  EXPECT_EQ(blurred->rgb, want.rgb);
+  EXPECT_EQ(blurred->alpha, want.alpha);
+  EXPECT_EQ(blurred->instance, sharp->instance);
+  EXPECT_NE(blurred->rgb, floor.rgb);
+  EXPECT_NE(blurred->rgb, uniform.rgb);
+  // Without instance ids asked for, the same colours and no ids.
+  RenderOptions no_ids;
+  no_ids.instance = false;
+  const absl::StatusOr<RenderBuffers> without = (*renderer)->Render(camera, 0, {}, no_ids);
+  ASSERT_TRUE(without.ok()) << without.status();
+  EXPECT_EQ(without->rgb, want.rgb);
+  EXPECT_TRUE(without->instance.empty());
+}
+
+TEST(BlurRender, KeepsTheActorsAtTheirBlur) {
+  // A 60x40 render of noise whose left half is an actor (instance 2): its
+  // pixels more than 3 sigma from the right half take the actor's blur, the
+  // right half's pixels more than 3 sigma from the left the full blur, and
+  // those between a mix of the two.
+  const int w = 60, h = 40;
+  RenderBuffers sharp;
+  sharp.width = w;
+  sharp.height = h;
+  sharp.channels = 3;
+  sharp.rgb.resize(size_t(w) * h * 3);
+  sharp.alpha.resize(size_t(w) * h);
+  sharp.instance.assign(size_t(w) * h, 0);
+  uint32_t state = 7;
+  auto noise = [&state] {
+    return float((state = state * 1664525u + 1013904223u) >> 8) / 16777216.f;
+  };
+  for (float& v : sharp.rgb) v = noise();
+  for (float& v : sharp.alpha) v = noise();
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w / 2; ++x) sharp.instance[y * w + x] = 2;
+  }
+  RenderBuffers mixed = sharp, wide = sharp, narrow = sharp;
+  BlurRender(2.f, 0.5f, &mixed);
+  BlurRender(2.f, &wide);
+  BlurRender(0.5f, &narrow);
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      const size_t i = size_t(y) * w + x;
+      if (x < w / 2 - 12) {
+        EXPECT_NEAR(mixed.rgb[3 * i], narrow.rgb[3 * i], 1e-6) << x << ", " << y;
+        EXPECT_NEAR(mixed.alpha[i], narrow.alpha[i], 1e-6) << x << ", " << y;
+      } else if (x >= w / 2 + 12) {
+        EXPECT_NEAR(mixed.rgb[3 * i], wide.rgb[3 * i], 1e-6) << x << ", " << y;
+        EXPECT_NEAR(mixed.alpha[i], wide.alpha[i], 1e-6) << x << ", " << y;
+      }
+    }
+  }
+  // At the edge, half of each.
+  const size_t edge = size_t(20) * w + w / 2;
+  EXPECT_NEAR(mixed.rgb[3 * edge], 0.5f * (narrow.rgb[3 * edge] + wide.rgb[3 * edge]), 0.1f);
+  EXPECT_NE(mixed.rgb[3 * edge], narrow.rgb[3 * edge]);
+  EXPECT_NE(mixed.rgb[3 * edge], wide.rgb[3 * edge]);
+  // No actor in view, or no ids: the full blur.
+  RenderBuffers none = sharp;
+  none.instance.assign(none.instance.size(), 0);
+  BlurRender(2.f, 0.5f, &none);
+  EXPECT_EQ(none.rgb, wide.rgb);
+  none = sharp;
+  none.instance.clear();
+  BlurRender(2.f, 0.5f, &none);
+  EXPECT_EQ(none.rgb, wide.rgb);
+}
+
+TEST(CheckBlurAnchor, NamesTheFieldAndTheProblem) {
+  EXPECT_TRUE(CheckBlurAnchor({{1, 2, 3}, {0, 0.6f, 0.8f}}, "a").ok());
+  EXPECT_EQ(CheckBlurAnchor({{1, 2, 3}, {0, 0, 0.5f}}, "anchors[2]").message(),
+            "anchors[2]: axis of length 0.5, not 1");
+  EXPECT_EQ(CheckBlurAnchor({{INFINITY, 2, 3}, {0, 0, 1}}, "a").message(),
+            "a: a coordinate is not finite");
+}
+
 }  // namespace
 }  // namespace pf

@@ -16,6 +16,7 @@
 #include "common/hash.h"
 #include "common/status_macros.h"
 #include "engine/render/ego_layer.h"
+#include "engine/render/render_blur.h"
 
 namespace pf {
 namespace {
@@ -158,6 +159,14 @@ absl::Status ValidateScene(const GaussianScene& scene) {
     return absl::InvalidArgumentError(absl::StrCat("render_blur: ", scene.render_blur,
                                                    " pixels is outside [0, ", kMaxRenderBlur, "]"));
   }
+  if (!(scene.render_blur_growth >= 0 && scene.render_blur_growth <= kMaxRenderBlurGrowth)) {
+    return absl::InvalidArgumentError(absl::StrCat("render_blur_growth: ", scene.render_blur_growth,
+                                                   " mrad/m is outside [0, ", kMaxRenderBlurGrowth,
+                                                   "]"));
+  }
+  for (size_t k = 0; k < scene.blur_anchors.size(); ++k) {
+    RETURN_IF_ERROR(CheckBlurAnchor(scene.blur_anchors[k], absl::StrCat("blur_anchors[", k, "]")));
+  }
   if (scene.lidar_intensity_channel < -1 || scene.lidar_intensity_channel >= scene.num_channels) {
     return absl::InvalidArgumentError(
         absl::StrCat("lidar_intensity_channel: ", scene.lidar_intensity_channel,
@@ -246,6 +255,12 @@ absl::Status SaveScene(const GaussianScene& scene, const std::string& path,
   header.Put<float>(scene.fade_span.begin);
   header.Put<float>(scene.fade_span.end);
   header.Put<float>(scene.render_blur);
+  header.Put<float>(scene.render_blur_growth);
+  header.Put<uint32_t>(static_cast<uint32_t>(scene.blur_anchors.size()));
+  for (const BlurAnchor& anchor : scene.blur_anchors) {
+    for (float v : anchor.centre) header.Put<float>(v);
+    for (float v : anchor.axis) header.Put<float>(v);
+  }
   header.Put<uint32_t>(static_cast<uint32_t>(scene.instances.size()));
   for (const InstanceTrack& track : scene.instances) {
     header.PutString(track.id);
@@ -420,6 +435,28 @@ absl::StatusOr<SceneFile> ReadSceneFile(const std::string& path) {
     if (!(scene.render_blur >= 0 && scene.render_blur <= kMaxRenderBlur)) {
       return invalid("header render_blur ", scene.render_blur, " is outside [0, ", kMaxRenderBlur,
                      "]");
+    }
+  }
+  // Version 11 added its growth and anchors (0 and none before).
+  if (version >= 11) {
+    RETURN_IF_ERROR(header.Get("render_blur_growth", &scene.render_blur_growth));
+    if (!(scene.render_blur_growth >= 0 && scene.render_blur_growth <= kMaxRenderBlurGrowth)) {
+      return invalid("header render_blur_growth ", scene.render_blur_growth, " is outside [0, ",
+                     kMaxRenderBlurGrowth, "]");
+    }
+    uint32_t num_anchors = 0;
+    RETURN_IF_ERROR(header.Get("num_blur_anchors", &num_anchors));
+    if (num_anchors > header.remaining() / 24) {
+      return invalid("header num_blur_anchors ", num_anchors, " does not fit in the header");
+    }
+    scene.blur_anchors.resize(num_anchors);
+    for (size_t k = 0; k < num_anchors; ++k) {
+      BlurAnchor& anchor = scene.blur_anchors[k];
+      for (float& v : anchor.centre) RETURN_IF_ERROR(header.Get("blur_anchor.centre", &v));
+      for (float& v : anchor.axis) RETURN_IF_ERROR(header.Get("blur_anchor.axis", &v));
+      if (absl::Status s = CheckBlurAnchor(anchor, absl::StrCat("blur anchor ", k)); !s.ok()) {
+        return invalid("header ", s.message());
+      }
     }
   }
   if (num_channels < 1 || num_channels > kMaxChannels) {

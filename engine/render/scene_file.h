@@ -39,8 +39,10 @@ inline constexpr char kSceneFileMagic[8] = {'P', 'F', 'S', 'C', 'E', 'N', 'E', '
 // count and times after its body pixel count, their colours after its own
 // (older files: none, the mean colour at every time). Version 10 added the
 // render blur (GaussianScene::render_blur, a float32 after the fade span;
-// older files: 0).
-inline constexpr uint32_t kSceneFileVersion = 10;
+// older files: 0). Version 11 added its growth and anchors after it
+// (GaussianScene::render_blur_growth, a float32; the anchor count, uint32;
+// per anchor its centre and axis, six float32; older files: 0, none).
+inline constexpr uint32_t kSceneFileVersion = 11;
 inline constexpr uint32_t kOldestSceneFileVersion = 1;
 
 // A scene as stored: the Gaussians, free-form metadata (e.g. "model",
@@ -56,6 +58,8 @@ struct SceneFile {
 // Returns INVALID_ARGUMENT naming the array or field when `scene` is not
 // self-consistent: array sizes that do not match size(), num_channels outside
 // [1, 256], sh_degree outside [-1, 3], low_pass outside [0, kMaxLowPass],
+// a render blur or its growth out of range, a blur anchor that is not finite
+// or whose axis is not of unit length,
 // a LiDAR intensity channel other than -1 or one of the channels, an ego
 // layer that fails CheckEgoLayer or repeats a camera,
 // colour gradients with SH or non-finite,

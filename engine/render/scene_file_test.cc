@@ -58,6 +58,12 @@ void ExpectScenesEqual(const GaussianScene& a, const GaussianScene& b) {
   EXPECT_EQ(a.fade_span.begin, b.fade_span.begin);
   EXPECT_EQ(a.fade_span.end, b.fade_span.end);
   EXPECT_EQ(a.render_blur, b.render_blur);
+  EXPECT_EQ(a.render_blur_growth, b.render_blur_growth);
+  ASSERT_EQ(a.blur_anchors.size(), b.blur_anchors.size());
+  for (size_t k = 0; k < a.blur_anchors.size(); ++k) {
+    EXPECT_EQ(a.blur_anchors[k].centre, b.blur_anchors[k].centre);
+    EXPECT_EQ(a.blur_anchors[k].axis, b.blur_anchors[k].axis);
+  }
   EXPECT_EQ(a.colour_encoding, b.colour_encoding);
   EXPECT_EQ(a.lidar_intensity_channel, b.lidar_intensity_channel);
   EXPECT_EQ(a.means, b.means);
@@ -170,12 +176,12 @@ TEST_F(SceneFileTest, RejectsWrongMagic) {
 }
 
 TEST_F(SceneFileTest, RejectsWrongVersion) {
-  for (int version : {0, 11}) {
+  for (int version : {0, 12}) {
     const absl::Status status =
         LoadEdited([version](std::string& b) { b[8] = static_cast<char>(version); });
     EXPECT_EQ(status.code(), absl::StatusCode::kInvalidArgument);
     EXPECT_NE(status.message().find(absl::StrCat("unsupported scene file version ", version,
-                                                 " (this build reads versions 1 to 10)")),
+                                                 " (this build reads versions 1 to 11)")),
               absl::string_view::npos)
         << status;
   }
@@ -187,6 +193,10 @@ void RewriteAsVersion(const std::string& path, uint32_t version, size_t offset, 
   std::string bytes = *ReadFileToString(path);
   uint32_t header_bytes = 0;
   std::memcpy(&header_bytes, bytes.data() + 12, 4);
+  if (version < 11) {  // Nor the blur's growth and anchor count (byte 72; no anchors).
+    bytes.erase(72, 8);
+    header_bytes -= 8;
+  }
   if (version < 10) {  // Nor the render blur (a float32 at byte 68).
     bytes.erase(68, 4);
     header_bytes -= 4;
@@ -302,6 +312,51 @@ TEST_F(SceneFileTest, RoundTripKeepsTheRenderBlurAndVersionNineFilesHaveNone) {
   // Outside [0, 4]: refused on save, by name.
   scene.render_blur = 5.f;
   EXPECT_NE(SaveScene(scene, path_).message().find("render_blur: 5 pixels is outside [0, 4]"),
+            absl::string_view::npos);
+}
+
+TEST_F(SceneFileTest, RoundTripKeepsTheBlursGrowthAndAnchorsAndVersionTenFilesHaveNone) {
+  GaussianScene scene = MakeScene();
+  scene.render_blur = 0.5f;
+  scene.render_blur_growth = 2.5f;
+  scene.blur_anchors = {{{1.5f, -2.f, 0.25f}, {0.f, 0.6f, 0.8f}}, {{-3.f, 4.f, 1.f}, {1.f, 0, 0}}};
+  ASSERT_TRUE(SaveScene(scene, path_).ok());
+  const std::string bytes = *ReadFileToString(path_);
+  float growth = 0, centre_y = 0;
+  uint32_t anchors = 0;
+  std::memcpy(&growth, bytes.data() + 72, 4);
+  std::memcpy(&anchors, bytes.data() + 76, 4);
+  std::memcpy(&centre_y, bytes.data() + 84, 4);
+  EXPECT_EQ(growth, 2.5f);
+  EXPECT_EQ(anchors, 2u);
+  EXPECT_EQ(centre_y, -2.f);
+  absl::StatusOr<SceneFile> loaded = ReadSceneFile(path_);
+  ASSERT_TRUE(loaded.ok()) << loaded.status();
+  EXPECT_EQ(loaded->version, 11u);
+  ExpectScenesEqual(scene, loaded->scene);
+  // A version-10 file is a version-11 file without them: no growth.
+  scene.blur_anchors.clear();
+  ASSERT_TRUE(SaveScene(scene, path_).ok());
+  RewriteAsVersion(path_, 10, 0, 0);
+  loaded = ReadSceneFile(path_);
+  ASSERT_TRUE(loaded.ok()) << loaded.status();
+  EXPECT_EQ(loaded->version, 10u);
+  EXPECT_EQ(loaded->scene.render_blur, 0.5f);
+  EXPECT_EQ(loaded->scene.render_blur_growth, 0.f);
+  EXPECT_TRUE(loaded->scene.blur_anchors.empty());
+  // Refused on save, by name: a growth out of range, an axis not of unit
+  // length, a centre that is not finite.
+  scene.render_blur_growth = 150.f;
+  EXPECT_NE(
+      SaveScene(scene, path_).message().find("render_blur_growth: 150 mrad/m is outside [0, 100]"),
+      absl::string_view::npos);
+  scene.render_blur_growth = 2.f;
+  scene.blur_anchors = {{{0, 0, 0}, {0, 0, 1}}, {{0, 0, 0}, {0, 0, 2}}};
+  EXPECT_NE(SaveScene(scene, path_).message().find("blur_anchors[1]: axis of length 2, not 1"),
+            absl::string_view::npos)
+      << SaveScene(scene, path_);
+  scene.blur_anchors = {{{0, std::nanf(""), 0}, {0, 0, 1}}};
+  EXPECT_NE(SaveScene(scene, path_).message().find("blur_anchors[0]: a coordinate is not finite"),
             absl::string_view::npos);
 }
 
@@ -641,6 +696,22 @@ TEST_F(SceneFileTest, RejectsHostileCountsWithoutAllocating) {
   status = LoadEdited([](std::string& b) {
     const uint32_t huge = 0x7FFFFFFFu;
     std::memcpy(b.data() + 16 + 8 + 4 + 4 + 8 + 4 + 4 + 4 + 4 + 4 + 8 + 4, &huge, 4);
+  });
+  EXPECT_EQ(status.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(status.message().find("header render_blur_growth nan is outside [0, 100]"),
+            absl::string_view::npos)
+      << status;
+  status = LoadEdited([](std::string& b) {
+    const uint32_t huge = 0x7FFFFFFFu;
+    std::memcpy(b.data() + 16 + 8 + 4 + 4 + 8 + 4 + 4 + 4 + 4 + 4 + 8 + 4 + 4, &huge, 4);
+  });
+  EXPECT_EQ(status.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(status.message().find("header num_blur_anchors 2147483647 does not fit in the header"),
+            absl::string_view::npos)
+      << status;
+  status = LoadEdited([](std::string& b) {
+    const uint32_t huge = 0x7FFFFFFFu;
+    std::memcpy(b.data() + 16 + 8 + 4 + 4 + 8 + 4 + 4 + 4 + 4 + 4 + 8 + 4 + 4 + 4, &huge, 4);
   });
   EXPECT_EQ(status.code(), absl::StatusCode::kInvalidArgument);
   EXPECT_NE(status.message().find("num_instances"), absl::string_view::npos) << status;

@@ -25,7 +25,7 @@ TEST(OpenScene, RecognisesOurSceneFileWhateverItsName) {
   ASSERT_TRUE(SaveScene(TwoGaussians(), path, {{"model", "analytic"}}).ok());
   absl::StatusOr<OpenedScene> opened = OpenScene(path);
   ASSERT_TRUE(opened.ok()) << opened.status();
-  EXPECT_EQ(opened->format, "pointforward scene v10");
+  EXPECT_EQ(opened->format, "pointforward scene v11");
   EXPECT_EQ(opened->model, "analytic");
   EXPECT_EQ(opened->scene_id, ReadSceneFile(path)->checksum_hex);
   EXPECT_EQ(opened->scene.means, TwoGaussians().means);
