@@ -279,6 +279,7 @@ absl::Status EvaluateExtraViews(const GaussianScene& scene, const DeviceRenderer
     m.camera = view.camera_id;
     m.timestamp_us = view.timestamp_us;
     m.render_seconds = render_seconds;
+    m.render_blur = RenderBlurAt(scene, view.camera);
     report->render_seconds += render_seconds;
     if (lane_shift.has_value()) {
       const auto shift = lane_shift->shift_of_view.find(view.name);
@@ -659,6 +660,7 @@ std::string EvalReportJson(const EvalReport& report) {
       if (v.shift_m.has_value()) view["shiftM"] = *v.shift_m;
       AddFigures(v, &view);
       view["holeFraction"] = v.hole_fraction;
+      view["renderBlur"] = v.render_blur;
       view["contactSheet"] = v.contact_sheet;
       views.push_back(std::move(view));
     }

@@ -285,7 +285,7 @@ void Pipeline::Decode() {
   if (stats.render_blur_growth > 0.f) {
     for (const ContextView& view : inputs_.views) {
       const Vec3& c = view.world_from_camera.translation;
-      const Vec3 axis = view.world_from_camera.rotation * Vec3{0, 0, 1};
+      const Vec3 axis = Normalized(view.world_from_camera.rotation * Vec3{0, 0, 1});
       blur_anchors_.push_back(
           {{float(c.x), float(c.y), float(c.z)}, {float(axis.x), float(axis.y), float(axis.z)}});
     }

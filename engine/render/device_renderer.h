@@ -1,7 +1,8 @@
 // Renders one scene on the device that --device names: the CPU rasterizer
 // (rasterizer.h), or the CUDA one with the scene uploaded to the GPU once
 // (cuda_rasterizer.h). The same outputs either way, blurred by the scene's
-// render blur (render_blur.h; Render() of rasterizer.h draws them unblurred).
+// render blur at the camera (render_blur.h RenderBlurAt, the actors at the
+// scene's render_blur; Render() of rasterizer.h draws them unblurred).
 //
 //   ASSIGN_OR_RETURN(auto renderer, DeviceRenderer::Create(&scene, device));
 //   ASSIGN_OR_RETURN(RenderBuffers out, renderer->Render(camera, t, edits, options));

@@ -144,8 +144,9 @@ struct GaussianScene {
   // Render outputs convert from it (render_outputs.h).
   ColourEncoding colour_encoding = ColourEncoding::kSrgb;
   // Std-dev in pixels of the blur DeviceRenderer gives every render's
-  // colour, features and alpha (render_blur.h), in [0, kMaxRenderBlur]; 0:
-  // none (the default, and scene files before version 10).
+  // colour, features and alpha at the least, and its actors' pixels where
+  // it grows (render_blur.h RenderBlurAt), in [0, kMaxRenderBlur]; 0: none
+  // (the default, and scene files before version 10).
   float render_blur = 0;
   // How the render blur grows away from what the CONTEXT views saw
   // (RenderBlurAt, render_blur.h): milliradians per metre of a render's

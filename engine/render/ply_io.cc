@@ -464,8 +464,9 @@ absl::StatusOr<std::string> EncodePly(const GaussianScene& scene, const PlyExpor
           ? absl::StrCat(" fade_begin=", scene.fade_span.begin, " fade_end=", scene.fade_span.end)
           : std::string(),
       scene.render_blur > 0 ? absl::StrCat(" render_blur=", scene.render_blur) : std::string(),
-      scene.render_blur_growth > 0 ? absl::StrCat(" render_blur_growth=", scene.render_blur_growth)
-                                   : std::string(),
+      scene.render_blur_growth > 0
+          ? absl::StrFormat(" render_blur_growth=%.9g", scene.render_blur_growth)
+          : std::string(),
       "\n");
   for (const BlurAnchor& a : scene.blur_anchors) {
     absl::StrAppend(

@@ -95,8 +95,8 @@ TEST(RenderBlurAt, GrowsWithTheDistanceFromTheNearestAnchorUpToItsBound) {
   // Never less than render_blur: 0.1 m gives 0.2 px, so 0.5.
   scene.blur_anchors.push_back({{0.1f, 0, 0}, {0, 0, 1}});
   EXPECT_EQ(RenderBlurAt(scene, camera), 0.5f);
-  // Turned away from every anchor by pi at 0.1 m: 1000 x 2e-3 x (0.1 + pi) =
-  // 6.5 px, bounded by kMaxGrownRenderBlur.
+  // Turned around: the nearest anchor is the sideways one, 0.2 m + pi / 2
+  // away: 1000 x 2e-3 x 1.77 = 3.5 px, bounded by kMaxGrownRenderBlur.
   const Mat3 half_turn{{{{-1, 0, 0}, {0, 1, 0}, {0, 0, -1}}}};
   camera.world_from_camera.rotation = half_turn;
   EXPECT_EQ(RenderBlurAt(scene, camera), kMaxGrownRenderBlur);

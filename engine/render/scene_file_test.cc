@@ -334,6 +334,21 @@ TEST_F(SceneFileTest, RoundTripKeepsTheBlursGrowthAndAnchorsAndVersionTenFilesHa
   ASSERT_TRUE(loaded.ok()) << loaded.status();
   EXPECT_EQ(loaded->version, 11u);
   ExpectScenesEqual(scene, loaded->scene);
+  // An anchor whose axis is not of unit length in the file: refused, by name.
+  {
+    std::string edited = bytes;
+    const float two = 2.f;
+    std::memcpy(edited.data() + 80 + 24 + 12, &two, 4);  // The second anchor's axis x.
+    Sha256 hasher;
+    hasher.Update(edited.data(), edited.size() - 32);
+    const std::array<uint8_t, 32> digest = hasher.Finish();
+    std::memcpy(edited.data() + edited.size() - 32, digest.data(), 32);
+    ASSERT_TRUE(WriteFileAtomic(path_, edited).ok());
+    const absl::Status status = ReadSceneFile(path_).status();
+    EXPECT_NE(status.message().find("header blur anchor 1: axis of length 2, not 1"),
+              absl::string_view::npos)
+        << status;
+  }
   // A version-10 file is a version-11 file without them: no growth.
   scene.blur_anchors.clear();
   ASSERT_TRUE(SaveScene(scene, path_).ok());
