@@ -17,6 +17,7 @@
 #include "engine/recon/lidar_intensity.h"
 #include "engine/recon/scene_graph.h"
 #include "engine/recon/sparse_sampling.h"
+#include "engine/render/render_blur.h"
 #include "pointforward/v1/clip.pb.h"
 #if PF_HAVE_TORCH
 #include "engine/recon/tensor_fusion.h"
@@ -284,10 +285,7 @@ void Pipeline::Decode() {
                            : DefaultRenderBlurGrowth(all_views_dense_depth, rig_stands_still));
   if (stats.render_blur_growth > 0.f) {
     for (const ContextView& view : inputs_.views) {
-      const Vec3& c = view.world_from_camera.translation;
-      const Vec3 axis = Normalized(view.world_from_camera.rotation * Vec3{0, 0, 1});
-      blur_anchors_.push_back(
-          {{float(c.x), float(c.y), float(c.z)}, {float(axis.x), float(axis.y), float(axis.z)}});
+      blur_anchors_.push_back(BlurAnchorOf(view.world_from_camera));
     }
   }
   result_.scene = DecodeGaussians(queries_, fused_, views.times_us, inputs_.time_origin_us,

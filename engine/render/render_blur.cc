@@ -9,6 +9,17 @@
 #include "common/thread_pool.h"
 
 namespace pf {
+namespace {
+
+Vec3 ToVec3(const std::array<float, 3>& v) { return {v[0], v[1], v[2]}; }
+
+}  // namespace
+
+BlurAnchor BlurAnchorOf(const Rigid& world_from_camera) {
+  const Vec3& c = world_from_camera.translation;
+  const Vec3 axis = Normalized(world_from_camera.rotation * Vec3{0, 0, 1});
+  return {{float(c.x), float(c.y), float(c.z)}, {float(axis.x), float(axis.y), float(axis.z)}};
+}
 
 absl::Status CheckBlurAnchor(const BlurAnchor& anchor, const std::string& field) {
   double length2 = 0;
@@ -31,10 +42,8 @@ float RenderBlurAt(const GaussianScene& scene, const RenderCamera& camera) {
   const Vec3 axis = camera.world_from_camera.rotation * Vec3{0, 0, 1};
   double nearest = std::numeric_limits<double>::infinity();
   for (const BlurAnchor& a : scene.blur_anchors) {
-    const Vec3 d{c.x - a.centre[0], c.y - a.centre[1], c.z - a.centre[2]};
-    const double cosine = axis.x * a.axis[0] + axis.y * a.axis[1] + axis.z * a.axis[2];
-    const double angle = std::acos(std::clamp(cosine, -1.0, 1.0));
-    nearest = std::min(nearest, Norm(d) + kBlurAnchorMetresPerRadian * angle);
+    const double angle = std::acos(std::clamp(Dot(axis, ToVec3(a.axis)), -1.0, 1.0));
+    nearest = std::min(nearest, Norm(c - ToVec3(a.centre)) + kBlurAnchorMetresPerRadian * angle);
   }
   const double focal = std::sqrt(camera.model.fx() * camera.model.fy());
   const double grown =

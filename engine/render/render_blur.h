@@ -29,6 +29,10 @@ inline constexpr float kMaxGrownRenderBlur = 3.f;
 // actors keep render_blur (DeviceRenderer: BlurRender with actor_sigma).
 float RenderBlurAt(const GaussianScene& scene, const RenderCamera& camera);
 
+// The blur anchor of a camera at `world_from_camera`: its centre and unit
+// optical axis (+z of the camera).
+BlurAnchor BlurAnchorOf(const Rigid& world_from_camera);
+
 // INVALID_ARGUMENT naming `field` for an anchor with a coordinate that is not
 // finite or an axis whose length is not 1 (within 1e-3).
 absl::Status CheckBlurAnchor(const BlurAnchor& anchor, const std::string& field);

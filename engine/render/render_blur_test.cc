@@ -115,11 +115,9 @@ TEST(DeviceRenderer, BlursByTheBlurAtItsCamera) {
   // The camera 12.5 m from the one anchor along its axis: 48 x 2e-3 x 12.5 = 1.2 px.
   const Vec3 c = camera.world_from_camera.translation;
   const Vec3 axis = camera.world_from_camera.rotation * Vec3{0, 0, 1};
-  const Vec3 a = c - 12.5 * axis;
   scene.render_blur = 0.25f;
   scene.render_blur_growth = 2.f;
-  scene.blur_anchors = {
-      {{float(a.x), float(a.y), float(a.z)}, {float(axis.x), float(axis.y), float(axis.z)}}};
+  scene.blur_anchors = {BlurAnchorOf({camera.world_from_camera.rotation, c - 12.5 * axis})};
   ASSERT_NEAR(RenderBlurAt(scene, camera), 1.2f, 1e-4);
   absl::StatusOr<std::unique_ptr<DeviceRenderer>> renderer =
       DeviceRenderer::Create(&scene, ComputeDevice{}, "device");
